@@ -1,0 +1,41 @@
+# Set-up and checks. Every target installs what it needs into .venv first.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: install test lint demo urdf raos clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+install: $(STAMP)
+
+## test: install, lint and run the whole test suite (what CI runs)
+test: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/python -m pytest
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+
+## demo: leg lengths and gangway tip at the working state
+demo: $(STAMP)
+	$(BIN)/python examples/working_state.py
+
+## urdf: regenerate assets/urdf from the code's geometry
+urdf: $(STAMP)
+	$(BIN)/python scripts/build_urdf.py
+
+## raos: recompute assets/vessels/*.nc with Capytaine (slow; needs the hydro extra)
+raos: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[hydro]"
+	$(BIN)/python scripts/compute_raos.py
+
+clean:
+	rm -rf $(VENV) .pytest_cache .ruff_cache

@@ -1,0 +1,161 @@
+"""The 3-DOF slew / luff / telescopic gangway (seed 000 §3.3 and Table 2; seed 004 §2.3).
+
+Joints q = [q1, q2, d3]: slew q1 [rad] about the platform z axis, luff q2 [rad] with q2 = 0
+horizontal and q2 > 0 raising the tip, d3 [m] the absolute gangway length. In Table 2's
+DH terms (SPEC erratum 3) θ1 = q1, θ2 = q2 + 90°, d3(DH) = d3. Frame 0 is the Stewart
+platform frame P; the tip frame E is DH frame 3 (z along the gangway, x up at q = 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from twin.errors import UnreachableError
+from twin.validation import as_array
+
+
+def dh_transform(a: ArrayLike, alpha: ArrayLike, d: ArrayLike, theta: ArrayLike) -> np.ndarray:
+    """ⁱ⁻¹T_i of the modified (Craig) DH convention, seed 000 eq (9); broadcast → (..., 4, 4)."""
+    a, alpha, d, theta = np.broadcast_arrays(*map(np.asarray, (a, alpha, d, theta)))
+    ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+    o, i = np.zeros_like(ct), np.ones_like(ct)
+    return np.stack(
+        [
+            np.stack([ct, -st, o, a], -1),
+            np.stack([st * ca, ct * ca, -sa, -d * sa], -1),
+            np.stack([st * sa, ct * sa, ca, d * ca], -1),
+            np.stack([o, o, o, i], -1),
+        ],
+        -2,
+    )
+
+
+@dataclass(frozen=True)
+class Gangway:
+    """Seed 000 Table 1/2 and seed 004 §2.3 parameters; lengths [m], angles [rad].
+
+    Attributes:
+        d1: height of the gangway plane above the top hinge circle (Table 1).
+        a1: offset between the luffing (swing) axis and the slew axis (Table 1).
+        length_min: retracted gangway length, the DH d3 offset (Table 2).
+        length_max: fully extended length (Table 1: 9.552 + 7 m).
+        q1_limit: slew limit ± (Table 6).
+        q2_limit: luff limit ± (Table 6).
+        la, lb: fixed sides of the luffing-cylinder triangle (seed 004 eq (5)).
+        ld: height of the cylinder's lower pivot (seed 004 Fig. 3; drawing only).
+        phi1: fixed angle ϕ1 of seed 004 eq (5), not given there: 0 puts ϕ2 = 90° at
+            q2 = 0, so q2 ∈ [-30°, 30°] maps to ϕ2 ∈ [60°, 120°], 60° clear of the collinear
+            (dead) positions either way; stroke 1.456-2.289 m (docs/decisions.md).
+    """
+
+    d1: float = 3.106
+    a1: float = 0.230
+    length_min: float = 9.552
+    length_max: float = 16.552
+    q1_limit: float = np.deg2rad(30.0)
+    q2_limit: float = np.deg2rad(30.0)
+    la: float = 0.93
+    lb: float = 1.678
+    ld: float = 0.4
+    phi1: float = 0.0
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Joint lower limits [q1, q2, d3] (Table 6, d3 absolute)."""
+        return np.array([-self.q1_limit, -self.q2_limit, self.length_min])
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Joint upper limits [q1, q2, d3] (Table 6, d3 absolute)."""
+        return np.array([self.q1_limit, self.q2_limit, self.length_max])
+
+    def links(self, q: ArrayLike) -> np.ndarray:
+        """Cumulative ⁰T_1, ⁰T_2, ⁰T_3 (..., 3, 4, 4) from Table 2 and eq (9)."""
+        q = as_array(q, "q", (3,))
+        zero = np.zeros(q.shape[:-1])
+        half_pi = np.pi / 2
+        T01 = dh_transform(0.0, 0.0, self.d1, q[..., 0])
+        T12 = dh_transform(self.a1, half_pi, 0.0, q[..., 1] + half_pi)  # SPEC erratum 3
+        T23 = dh_transform(zero, half_pi, q[..., 2], 0.0)
+        T02 = T01 @ T12
+        return np.stack([T01, T02, T02 @ T23], -3)
+
+    def forward(self, q: ArrayLike) -> np.ndarray:
+        """Tip transform ⁰T_3 = ᴾT_E (..., 4, 4) for joints q (..., 3); eq (10)."""
+        return self.links(q)[..., 2, :, :]
+
+    def jacobian(self, q: ArrayLike) -> np.ndarray:
+        """J_s (..., 6, 3): [ᴾṖ_E; ᴾω_E] = J_s [q̇1, q̇2, ḋ3], in frame 0 = P; eq (11)."""
+        q = as_array(q, "q", (3,))
+        s1, c1 = np.sin(q[..., 0]), np.cos(q[..., 0])
+        theta2 = q[..., 1] + np.pi / 2
+        s2, c2 = np.sin(theta2), np.cos(theta2)
+        d3, a1 = q[..., 2], self.a1
+        o, i = np.zeros_like(s1), np.ones_like(s1)
+        return np.stack(
+            [
+                np.stack([-a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2], -1),
+                np.stack([a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2], -1),
+                np.stack([o, d3 * s2, -c2], -1),
+                np.stack([o, s1, o], -1),
+                np.stack([o, -c1, o], -1),
+                np.stack([i, o, o], -1),
+            ],
+            -2,
+        )
+
+    def inverse(self, position: ArrayLike, *, check: bool = True) -> np.ndarray:
+        """Joints q (..., 3) that put the tip at `position` (..., 3) [m] in frame P.
+
+        Seed 004 eqs (7)-(8): θ1 = atan2(p_y, p_x), θ2 = atan2(p_x/cos θ1 - a1, d1 - p_z).
+        For d3 seed 004 offers (d1 - p_z)/cos θ2 or (p_y - a1 s1)/(s1 s2), both singular
+        at the working pose (θ1 = 0, θ2 = 90°); we use the equivalent, never-singular
+        d3 = hypot(p_x/cos θ1 - a1, d1 - p_z). p_x/cos θ1 is written hypot(p_x, p_y), which
+        equals it for |θ1| < 90°, the only branch the slew limits allow.
+
+        Raises:
+            UnreachableError: with `check`, when the joints leave the Table 6 limits.
+        """
+        p = as_array(position, "position", (3,))
+        rho = np.hypot(p[..., 0], p[..., 1]) - self.a1
+        height = self.d1 - p[..., 2]
+        q = np.stack(
+            [
+                np.arctan2(p[..., 1], p[..., 0]),
+                np.arctan2(rho, height) - np.pi / 2,
+                np.hypot(rho, height),
+            ],
+            -1,
+        )
+        if check:
+            bad = np.any((q < self.lower - 1e-12) | (q > self.upper + 1e-12), axis=-1)
+            if np.any(bad):
+                raise UnreachableError(
+                    f"position {np.round(p[bad], 4).tolist()!r:.120} m needs gangway joints "
+                    f"{np.round(q[bad], 4).tolist()!r:.120}, allowed [q1, q2, d3] in "
+                    f"{np.round(self.lower, 4).tolist()} .. {np.round(self.upper, 4).tolist()}"
+                )
+        return q
+
+    def cylinder_length(self, q2: ArrayLike) -> np.ndarray:
+        """Luffing-cylinder length l_c [m] for luff angle q2 [rad]; seed 004 eq (5).
+
+        ϕ3 = θ2 = q2 + π/2 is the luff joint's geometric angle (ϕ3 = π/2 horizontal).
+        """
+        q2 = as_array(q2, "q2")
+        phi2 = np.pi - self.phi1 - (q2 + np.pi / 2)
+        return np.sqrt(self.lb**2 + self.la**2 - 2 * self.la * self.lb * np.cos(phi2))
+
+    def luff_from_cylinder(self, length: ArrayLike) -> np.ndarray:
+        """Inverse of `cylinder_length`: q2 [rad] for a cylinder length [m] (law of cosines)."""
+        length = as_array(length, "length")
+        cos_phi2 = (self.lb**2 + self.la**2 - length**2) / (2 * self.la * self.lb)
+        if np.any(np.abs(cos_phi2) > 1):
+            raise UnreachableError(
+                f"cylinder length {length.tolist()!r:.80} m impossible; allowed "
+                f"({abs(self.lb - self.la):.3f}, {self.la + self.lb:.3f}) m"
+            )
+        return np.pi / 2 - self.phi1 - np.arccos(cos_phi2)

@@ -1,0 +1,155 @@
+r"""Rigid-body math over a leading batch axis: rotations, poses and their tangents.
+
+One convention for the whole twin (SPEC erratum 12): right-handed frames, z up, a pose is
+`[x, y, z, roll, pitch, yaw]` [m, rad] and its rotation is Z-Y-X,
+:math:`R = R_z(\psi) R_y(\theta) R_x(\phi)` (seed 000 eq (3), SPEC erratum 2).
+Quaternions, where they appear, are `wxyz` (viser's order).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """S(v) with S(v) w = v × w; `v` (..., 3) → (..., 3, 3)."""
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    o = np.zeros_like(x)
+    return np.stack(
+        [np.stack([o, -z, y], -1), np.stack([z, o, -x], -1), np.stack([-y, x, o], -1)], -2
+    )
+
+
+def rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
+    """ᴮR_P = Rz(yaw) Ry(pitch) Rx(roll), seed 000 eq (3); `rpy` (..., 3) [rad] → (..., 3, 3)."""
+    c, s = np.cos(rpy), np.sin(rpy)
+    cf, ct, cp = c[..., 0], c[..., 1], c[..., 2]
+    sf, st, sp = s[..., 0], s[..., 1], s[..., 2]
+    return np.stack(
+        [
+            np.stack([cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf], -1),
+            np.stack([sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf], -1),
+            np.stack([-st, ct * sf, ct * cf], -1),
+        ],
+        -2,
+    )
+
+
+def matrix_to_rpy(R: np.ndarray) -> np.ndarray:
+    """Inverse of `rpy_to_matrix` on pitch ∈ (-π/2, π/2); (..., 3, 3) → (..., 3) [rad]."""
+    roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
+    pitch = np.arctan2(-R[..., 2, 0], np.hypot(R[..., 2, 1], R[..., 2, 2]))
+    yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
+    return np.stack([roll, pitch, yaw], -1)
+
+
+def rpy_rate_matrix(rpy: np.ndarray) -> np.ndarray:
+    """E(rpy) with ω = E · d(rpy)/dt, ω in the parent (base) frame; (..., 3) → (..., 3, 3).
+
+    For R = Rz(ψ)Ry(θ)Rx(φ): ω = ψ̇ e_z + θ̇ Rz e_y + φ̇ Rz Ry e_x.
+    """
+    ct, st = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
+    cp, sp = np.cos(rpy[..., 2]), np.sin(rpy[..., 2])
+    o, i = np.zeros_like(ct), np.ones_like(ct)
+    return np.stack(
+        [np.stack([cp * ct, -sp, o], -1), np.stack([sp * ct, cp, o], -1), np.stack([-st, o, i], -1)],
+        -2,
+    )
+
+
+def so3_exp(w: np.ndarray) -> np.ndarray:
+    """Rodrigues: rotation vector (..., 3) [rad] → rotation matrix (..., 3, 3)."""
+    theta = np.linalg.norm(w, axis=-1)[..., None, None]
+    K = skew(w)
+    small = theta < 1e-8
+    t = np.where(small, 1.0, theta)
+    a = np.where(small, 1.0 - theta**2 / 6.0, np.sin(t) / t)
+    b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(t)) / t**2)
+    return np.eye(3) + a * K + b * (K @ K)
+
+
+def so3_log(R: np.ndarray) -> np.ndarray:
+    """Rotation matrix (..., 3, 3) → rotation vector (..., 3) [rad], angle in [0, π]."""
+    cos = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+    theta = np.arccos(cos)
+    vee = np.stack(
+        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1
+    )
+    sin = np.sin(theta)
+    small = theta < 1e-6
+    scale = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * np.where(small, 1.0, sin)))
+    w = scale[..., None] * vee
+    # Near π the antisymmetric part vanishes; take the axis from the symmetric part instead.
+    near_pi = theta > np.pi - 1e-4
+    if np.any(near_pi):
+        S = (R[near_pi] + np.swapaxes(R[near_pi], -1, -2)) / 2.0 - cos[near_pi, None, None] * np.eye(3)
+        k = np.argmax(np.diagonal(S, axis1=-2, axis2=-1), axis=-1)
+        axis = np.take_along_axis(S, k[:, None, None], axis=-2)[:, 0, :]
+        axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
+        sign = np.where(np.sum(axis * vee[near_pi], -1) < 0, -1.0, 1.0)
+        w[near_pi] = sign[:, None] * axis * theta[near_pi, None]
+    return w
+
+
+def pose_to_transform(pose: np.ndarray) -> np.ndarray:
+    """`[x, y, z, roll, pitch, yaw]` (..., 6) [m, rad] → homogeneous transform (..., 4, 4)."""
+    T = np.zeros(pose.shape[:-1] + (4, 4))
+    T[..., :3, :3] = rpy_to_matrix(pose[..., 3:])
+    T[..., :3, 3] = pose[..., :3]
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def transform_to_pose(T: np.ndarray) -> np.ndarray:
+    """Homogeneous transform (..., 4, 4) → `[x, y, z, roll, pitch, yaw]` (..., 6)."""
+    return np.concatenate([T[..., :3, 3], matrix_to_rpy(T[..., :3, :3])], -1)
+
+
+def invert_transform(T: np.ndarray) -> np.ndarray:
+    """T⁻¹ for rigid transforms (..., 4, 4), using Rᵀ rather than a general inverse."""
+    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
+    out = np.zeros_like(T)
+    out[..., :3, :3] = Rt
+    out[..., :3, 3] = -(Rt @ T[..., :3, 3, None])[..., 0]
+    out[..., 3, 3] = 1.0
+    return out
+
+
+def pose_error(T_target: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """e = x_d - x: position difference and rotation vector log(R_d Rᵀ), both in the parent frame.
+
+    seed 000 eq (34) with SPEC erratum 6 (axis-angle, not Euler differences); (..., 6).
+    """
+    dp = T_target[..., :3, 3] - T[..., :3, 3]
+    dw = so3_log(T_target[..., :3, :3] @ np.swapaxes(T[..., :3, :3], -1, -2))
+    return np.concatenate([dp, dw], -1)
+
+
+def matrix_to_wxyz(R: np.ndarray) -> np.ndarray:
+    """Rotation matrix (..., 3, 3) → unit quaternion (..., 4), w first, w ≥ 0."""
+    w = so3_log(R)
+    theta = np.linalg.norm(w, axis=-1, keepdims=True)
+    axis = np.where(theta > 1e-12, w / np.where(theta > 1e-12, theta, 1.0), 0.0)
+    return np.concatenate([np.cos(theta / 2.0), axis * np.sin(theta / 2.0)], -1)
+
+
+def se3_exp(twist: np.ndarray) -> np.ndarray:
+    """Exponential map of a body twist `[v, ω]` (..., 6) [m, rad] → transform (..., 4, 4).
+
+    T exp(ξ dt) integrates a constant body twist exactly: the rotation is Rodrigues, the
+    translation V(ω) v with V = I + (1-cos θ)/θ² K + (θ-sin θ)/θ³ K² (Lynch & Park, Modern
+    Robotics, eq (3.88)).
+    """
+    v, w = twist[..., :3], twist[..., 3:]
+    theta = np.linalg.norm(w, axis=-1)[..., None, None]
+    K = skew(w)
+    small = theta < 1e-8
+    t = np.where(small, 1.0, theta)
+    b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(t)) / t**2)
+    c = np.where(small, 1.0 / 6.0 - theta**2 / 120.0, (t - np.sin(t)) / t**3)
+    V = np.eye(3) + b * K + c * (K @ K)
+    T = np.zeros(twist.shape[:-1] + (4, 4))
+    T[..., :3, :3] = so3_exp(w)
+    T[..., :3, 3] = (V @ v[..., None])[..., 0]
+    T[..., 3, 3] = 1.0
+    return T

@@ -1,0 +1,47 @@
+"""Input checks shared by every layer: shape, finiteness, range.
+
+Each returns a float64 array (a copy when a conversion was needed) or raises a
+`TwinError` that names the argument and says what is allowed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from twin.errors import TwinError
+
+
+def as_array(value: ArrayLike, name: str, tail: tuple[int, ...] = ()) -> np.ndarray:
+    """`value` as a finite float64 array whose trailing axes equal `tail`.
+
+    Args:
+        value: anything numpy can convert.
+        name: the argument's name, used in the error message.
+        tail: required trailing shape, e.g. `(6,)` for a batch of poses `(..., 6)`.
+
+    Raises:
+        TwinError: not numeric, wrong trailing shape, or a NaN/inf entry.
+    """
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TwinError(f"{name} must be numeric, got {type(value).__name__}") from exc
+    if tail and (array.ndim < len(tail) or array.shape[array.ndim - len(tail) :] != tail):
+        want = "(..., " + ", ".join(map(str, tail)) + ")"
+        raise TwinError(f"{name} must have shape {want}, got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise TwinError(f"{name} must be finite, got NaN or inf in {array.tolist()!r:.200}")
+    return array
+
+
+def check_range(value: np.ndarray, name: str, low: ArrayLike, high: ArrayLike) -> None:
+    """Raise `TwinError` unless `low <= value <= high` element-wise (broadcast)."""
+    low_a, high_a = np.broadcast_arrays(np.asarray(low, float), np.asarray(high, float))
+    bad = (value < low_a) | (value > high_a)
+    if np.any(bad):
+        raise TwinError(
+            f"{name} out of range: got {np.asarray(value)[bad].tolist()!r:.200}, "
+            f"allowed [{np.min(low_a):g}, {np.max(high_a):g}]"
+            + ("" if low_a.size == 1 else f" per component {low_a.ravel().tolist()} .. {high_a.ravel().tolist()}")
+        )
