@@ -9,9 +9,11 @@ from twin.mechanisms.gangway import Gangway
 from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
 from twin.mechanisms.legs import LegLayout, LegState
 from twin.mechanisms.stewart import StewartPlatform
+from twin.mechanisms.upu3up import Upu3Up
 
 MECHANISMS: dict[str, type] = {
     "hybrid": HybridBoardingSystem,
+    "upu3up": Upu3Up,
 }
 
 __all__ = [
@@ -22,4 +24,5 @@ __all__ = [
     "LegLayout",
     "LegState",
     "StewartPlatform",
+    "Upu3Up",
 ]

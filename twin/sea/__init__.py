@@ -3,5 +3,57 @@
 from __future__ import annotations
 
 from twin.sea.components import G, WaveComponents
+from twin.sea.regular import REGULAR_PRESETS, regular_components
+from twin.sea.sea_states import WMO_SEA_STATES, SeaState, sea_state_code, sea_state_hs_tp
+from twin.sea.spectra import (
+    SPECTRA,
+    cos2s_spreading,
+    fully_developed_tp,
+    jonswap,
+    jonswap_normalisation,
+    pierson_moskowitz,
+    pierson_moskowitz_wind,
+    pm_sea_from_wind,
+    spectral_density,
+)
+from twin.sea.surface import gerstner_points, surface_heights
+from twin.sea.synthesis import (
+    WaveChunk,
+    WaveStream,
+    elevation,
+    evaluate_elevation,
+    evaluate_slope,
+    frequency_bins,
+    slope,
+    wave_components,
+)
 
-__all__ = ["G", "WaveComponents"]
+__all__ = [
+    "REGULAR_PRESETS",
+    "SPECTRA",
+    "WMO_SEA_STATES",
+    "G",
+    "SeaState",
+    "WaveChunk",
+    "WaveComponents",
+    "WaveStream",
+    "cos2s_spreading",
+    "elevation",
+    "evaluate_elevation",
+    "evaluate_slope",
+    "frequency_bins",
+    "fully_developed_tp",
+    "gerstner_points",
+    "jonswap",
+    "jonswap_normalisation",
+    "pierson_moskowitz",
+    "pierson_moskowitz_wind",
+    "pm_sea_from_wind",
+    "regular_components",
+    "sea_state_code",
+    "sea_state_hs_tp",
+    "slope",
+    "spectral_density",
+    "surface_heights",
+    "wave_components",
+]

@@ -11,12 +11,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twin.errors import TwinError
+
 G = 9.80665  # [m/s²] standard gravity
 
 
 @dataclass(frozen=True)
 class WaveComponents:
-    """Deep-water wave components, elevation η(x, y, t) = Σ a_i cos(k_i (x cos μ_i + y sin μ_i) - ω_i t + ε_i).
+    """Deep-water waves, η(x, y, t) = Σ a_i cos(k_i (x cos μ_i + y sin μ_i) - ω_i t + ε_i).
 
     Attributes:
         omega: (k,) [rad/s] angular frequencies, > 0.
@@ -32,16 +34,17 @@ class WaveComponents:
     direction: np.ndarray
 
     def __post_init__(self) -> None:
-        arrays = [np.asarray(a, dtype=float) for a in (self.omega, self.amplitude, self.phase, self.direction)]
+        fields = (self.omega, self.amplitude, self.phase, self.direction)
+        arrays = [np.asarray(a, dtype=float) for a in fields]
         shapes = {a.shape for a in arrays}
         if len(shapes) != 1 or arrays[0].ndim != 1:
-            raise ValueError(f"WaveComponents arrays must share one 1-D shape, got {shapes}")
+            raise TwinError(f"WaveComponents arrays must share one 1-D shape, got {shapes}")
         for name, a in zip(("omega", "amplitude", "phase", "direction"), arrays, strict=True):
             if not np.all(np.isfinite(a)):
-                raise ValueError(f"WaveComponents.{name} must be finite")
+                raise TwinError(f"WaveComponents.{name} must be finite")
             object.__setattr__(self, name, a)
         if np.any(arrays[0] <= 0):
-            raise ValueError("WaveComponents.omega must be > 0 rad/s")
+            raise TwinError("WaveComponents.omega must be > 0 rad/s")
 
     @property
     def wavenumber(self) -> np.ndarray:

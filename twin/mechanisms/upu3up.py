@@ -1,0 +1,340 @@
+r"""The 3UPU_UP coupled 3-DOF platform of seed 001 (Hu, Li, Tang, IEEE Access 2020).
+
+Three actuated UPU limbs, 120° apart, and a passive central UP limb whose U joint sits at the
+base centre and whose prismatic joint is fixed normal to the platform (seed 001 §II.B). The
+UP limb makes the platform a rigid body turning about the base centre O: its state is
+`(z, alpha, beta)` and the other three coordinates follow from the coupling constraint
+(eqs (11)-(13)).
+
+Frames (docs/mechanisms/upu3up.md): base O-xyz at the centre of the base hinge triangle
+(also the centre of the UP limb's U joint), z up; platform O1-x1y1z1 at the centre of the
+platform hinge triangle, z1 along the platform normal, x1 towards limb 1. Both hinge
+triangles lie in their frame's xy plane (eq (26)).
+
+Units: mm and rad, like the paper, except `layout` and `platform_pose`, which feed the URDF
+generator in m and rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from twin.errors import ConvergenceError, TwinError, UnreachableError
+from twin.mechanisms.legs import LegLayout, LegState, legs, twist_jacobian
+from twin.spatial import transform_to_pose
+from twin.validation import as_array, check_range
+
+# [mm | rad] a Newton-Raphson solution on a state limit may land this far outside it.
+_STATE_SLACK = 1e-9
+
+
+def coupled_rotation(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """ᴼR_O1 = Rx(α)·Ry(β), the rotation block of seed 001 eq (11).
+
+    Args:
+        alpha: (...) [rad] roll, about the base x axis (the UP U joint's first axis).
+        beta: (...) [rad] pitch, about the once-rotated y axis (its second axis).
+
+    Returns:
+        (..., 3, 3) rotation of the platform frame in the base frame.
+    """
+    ca, sa, cb, sb = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
+    o = np.zeros_like(ca)
+    return np.stack(
+        [
+            np.stack([cb, o, sb], -1),
+            np.stack([sa * sb, ca, -sa * cb], -1),
+            np.stack([-ca * sb, sa, ca * cb], -1),
+        ],
+        -2,
+    )
+
+
+def coupled_transform(z: np.ndarray, alpha: np.ndarray, beta: np.ndarray, l: float) -> np.ndarray:
+    """ᴼT_O1 (..., 4, 4) [mm]: rotation of eq (11), origin of eq (13).
+
+    The platform centre lies on the UP limb, l + z from O along the platform normal:
+    ᴼO1 = (l + z) ᴼR_O1 e_z, which is eq (13) written as a vector.
+
+    Args:
+        z: (...) [mm] UP-limb extension beyond the initial length l.
+        alpha: (...) [rad] roll.
+        beta: (...) [rad] pitch.
+        l: [mm] limb length at the initial pose.
+    """
+    R = coupled_rotation(alpha, beta)
+    T = np.zeros((*R.shape[:-2], 4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = (l + z)[..., None] * R[..., :, 2]  # seed 001 eq (13)
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def coupled_twist_map(T: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """G (..., 6, 3) with [v_O1; ω] = G [ż, α̇, β̇], both velocities in the base frame.
+
+    ω = α̇ e_x + β̇ Rx(α) e_y (U-joint axes); v_O1 = ż ᴼR_O1 e_z + ω × ᴼO1 (the platform turns
+    about O). Composed with the leg twist Jacobian this gives ∂l/∂(z, α, β).
+
+    Args:
+        T: (..., 4, 4) [mm] ᴼT_O1 from `coupled_transform`.
+        alpha: (...) [rad] roll.
+    """
+    centre = T[..., :3, 3]
+    o, i = np.zeros_like(alpha), np.ones_like(alpha)
+    e_x = np.stack([i, o, o], -1)
+    e_y = np.stack([o, np.cos(alpha), np.sin(alpha)], -1)  # Rx(α) e_y
+    G = np.zeros((*T.shape[:-2], 6, 3))
+    G[..., :3, 0] = T[..., :3, 2]
+    G[..., :3, 1] = np.cross(e_x, centre)
+    G[..., 3:, 1] = e_x
+    G[..., :3, 2] = np.cross(e_y, centre)
+    G[..., 3:, 2] = e_y
+    return G
+
+
+@dataclass(frozen=True)
+class Upu3Up:
+    """Seed 001's 3UPU_UP platform: geometry of eq (26) and the limits we chose.
+
+    The state is `(z, alpha, beta)` [mm, rad, rad]: z is the extension of the central UP
+    limb beyond its initial length l, so |O O1| = l + z (eqs (8), (13)) — not the height of
+    O1, which is Z_p = (l + z) cos α cos β. ᴼR_O1 = Rx(α)·Ry(β) (eq (11)), an X-Y order; the
+    twin's Z-Y-X roll/pitch/yaw of the same rotation come from `platform_pose`.
+
+    The paper gives no stroke or workspace. Defaults cover its own simulations: the sine
+    tests (eq (27): 30 mm, 5°) and the Pierson–Moskowitz runs P5-P8 (Table 4: z = 0.05 A(t)
+    reaches ±150 mm and the wave slope a(t) ±17.5° at U = 12 m/s), hence |z| ≤ 150 mm,
+    |α|, |β| ≤ 20°, and the leg range that box needs, 1040 ± 420 mm
+    (docs/mechanisms/upu3up.md).
+
+    Attributes:
+        l: [mm] UPU limb length at the initial pose, also |O O1| there (eq (26)).
+        d: [mm] distance between neighbouring hinges of a triangle (eq (26)).
+        leg_min: [mm] shortest UPU hinge-to-hinge length.
+        leg_max: [mm] longest UPU hinge-to-hinge length.
+        heave_limit: [mm] |z| bound of the workspace.
+        tilt_limit: [rad] |α| and |β| bound of the workspace.
+    """
+
+    l: float = 1040.0
+    d: float = 990.0
+    leg_min: float = 620.0
+    leg_max: float = 1460.0
+    heave_limit: float = 150.0
+    tilt_limit: float = float(np.radians(20.0))
+    state_names: ClassVar[tuple[str, str, str]] = ("z", "alpha", "beta")
+    _layout_mm: LegLayout = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        for name in ("l", "d", "leg_min", "leg_max", "heave_limit", "tilt_limit"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise TwinError(f"Upu3Up.{name} must be a positive finite number, got {value!r}")
+        if not self.leg_min < self.l < self.leg_max:
+            raise TwinError(
+                f"Upu3Up needs leg_min < l < leg_max [mm], got {self.leg_min} < {self.l} < "
+                f"{self.leg_max}"
+            )
+        if self.heave_limit >= self.l:
+            raise TwinError(f"Upu3Up.heave_limit must be below l = {self.l} mm (l + z > 0)")
+        if self.tilt_limit >= np.pi / 2:
+            raise TwinError(f"Upu3Up.tilt_limit must be below π/2 rad, got {self.tilt_limit}")
+        r3, d = np.sqrt(3.0), self.d
+        hinges = np.array(  # seed 001 eq (26): ᴼB_i = ᴼ¹P_i
+            [[r3 / 3 * d, 0.0, 0.0], [-r3 / 6 * d, d / 2, 0.0], [-r3 / 6 * d, -d / 2, 0.0]]
+        )
+        centre = np.zeros((1, 3))  # the UP limb: U joint at O, prismatic ending at O1
+        layout = LegLayout(
+            base_hinges=np.concatenate([hinges, centre]),
+            platform_hinges=np.concatenate([hinges, centre]),
+            # The passive UP limb gets the actuators' range, wider than its l ± heave_limit.
+            length_min=np.full(4, self.leg_min),
+            length_max=np.full(4, self.leg_max),
+            actuated=(True, True, True, False),
+        )
+        object.__setattr__(self, "_layout_mm", layout)
+
+    @property
+    def state_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high), each (3,) [mm, rad, rad], bounds of `(z, alpha, beta)`."""
+        high = np.array([self.heave_limit, self.tilt_limit, self.tilt_limit])
+        return -high, high
+
+    @property
+    def layout(self) -> LegLayout:
+        """Hinges and length limits in metres, for the URDF generator.
+
+        Legs 0-2 are the UPU limbs (actuated), leg 3 the passive UP limb from O to O1.
+        """
+        mm = self._layout_mm
+        return LegLayout(
+            base_hinges=mm.base_hinges * 1e-3,
+            platform_hinges=mm.platform_hinges * 1e-3,
+            length_min=mm.length_min * 1e-3,
+            length_max=mm.length_max * 1e-3,
+            actuated=mm.actuated,
+        )
+
+    def ideal_pose(self, z: ArrayLike, alpha: ArrayLike, beta: ArrayLike) -> np.ndarray:
+        """P_2 = (X_p, Y_p, Z_p, α_p, β_p) (..., 5) [mm, mm, mm, rad, rad] of O1 in O-xyz.
+
+        Seed 001 eqs (13)-(14); the coupling moves O1 but leaves the angles as commanded.
+        The twin's full 6-component pose (yaw included) is `platform_pose`.
+        """
+        z, alpha, beta = self._state(z, alpha, beta)
+        centre = coupled_transform(z, alpha, beta, self.l)[..., :3, 3]
+        return np.concatenate([centre, alpha[..., None], beta[..., None]], -1)
+
+    def coupled_displacement(self, z: ArrayLike, alpha: ArrayLike, beta: ArrayLike) -> np.ndarray:
+        """D_c = (X_p, Y_p, Z_p − (l + z)) (..., 3) [mm], output minus input; eq (15)."""
+        z, alpha, beta = self._state(z, alpha, beta)
+        displacement = coupled_transform(z, alpha, beta, self.l)[..., :3, 3]
+        displacement[..., 2] -= self.l + z  # seed 001 eq (15): the input moves O1 along z only
+        return displacement
+
+    def legs(self, z: ArrayLike, alpha: ArrayLike, beta: ArrayLike) -> LegState:
+        """All four limbs [mm] in O-xyz: the UPU limbs 0-2 (eqs (16)-(18)), the UP limb 3."""
+        z, alpha, beta = self._state(z, alpha, beta)
+        return legs(self._layout_mm, coupled_transform(z, alpha, beta, self.l))
+
+    def leg_lengths(
+        self, z: ArrayLike, alpha: ArrayLike, beta: ArrayLike, *, check: bool = False
+    ) -> np.ndarray:
+        """UPU limb lengths l_1..l_3 (..., 3) [mm]; seed 001 eqs (16)-(18).
+
+        Δl_i of eq (19) is this minus `l`. With `check`, a state outside `state_limits` or
+        needing a length outside [leg_min, leg_max] raises UnreachableError; without, the
+        lengths are returned as they are (a planner counts the violations).
+        """
+        z, alpha, beta = self._state(z, alpha, beta)
+        T = coupled_transform(z, alpha, beta, self.l)
+        lengths = legs(self._layout_mm, T).lengths[..., :3]
+        if check:
+            self._check_state(np.stack([z, alpha, beta], -1), "state", slack=0.0)
+            bad = (lengths < self.leg_min) | (lengths > self.leg_max)
+            if np.any(bad):
+                raise UnreachableError(
+                    f"state needs UPU limb lengths {np.round(lengths[bad], 4).tolist()!r:.120} "
+                    f"mm, allowed [{self.leg_min}, {self.leg_max}] mm"
+                )
+        return lengths
+
+    def jacobian(self, z: ArrayLike, alpha: ArrayLike, beta: ArrayLike) -> np.ndarray:
+        """∂(l_1, l_2, l_3)/∂(z, α, β) (..., 3, 3) [mm/mm, mm/rad]; the matrix of eq (24).
+
+        The leg twist Jacobian (rows [n_iᵀ, (ᴼR_O1 ᴼ¹P_i × n_i)ᵀ]) composed with the
+        coupled twist map G of `coupled_twist_map`. Eq (24) is written for the squared
+        residual of eq (20); its rows are these times 2 l_i.
+        """
+        z, alpha, beta = self._state(z, alpha, beta)
+        T = coupled_transform(z, alpha, beta, self.l)
+        J = twist_jacobian(legs(self._layout_mm, T))[..., :3, :]
+        return J @ coupled_twist_map(T, alpha)
+
+    def forward(
+        self,
+        lengths: ArrayLike,
+        guess: ArrayLike | None = None,
+        *,
+        tol: float = 1e-10,
+        max_iter: int = 30,
+    ) -> np.ndarray:
+        """State `(z, alpha, beta)` (..., 3) [mm, rad, rad] from UPU limb lengths by Newton-Raphson.
+
+        Seed 001 eqs (20)-(24), iterated on the length residual l_i(x) − L_i rather than
+        eq (20)'s squared one: same root, residual in mm. Pass the result to `ideal_pose`
+        for eq (25)'s (X_p, Y_p, Z_p, α_p, β_p).
+
+        Args:
+            lengths: (..., 3) [mm] UPU limb lengths, each within [leg_min, leg_max].
+            guess: (..., 3) starting state, broadcast against `lengths`; default the initial
+                pose (0, 0, 0), whose first Newton step is the linearised solution.
+            tol: [mm] stop when every limb's residual is at most this.
+            max_iter: Newton steps before giving up.
+
+        Raises:
+            TwinError: bad shape, NaN or inf, or a length outside [leg_min, leg_max].
+            ConvergenceError: the residual did not fall below `tol` in `max_iter` steps.
+            UnreachableError: the lengths are met only outside `state_limits`.
+        """
+        lengths = as_array(lengths, "lengths", (3,))
+        check_range(lengths, "lengths [mm]", self.leg_min, self.leg_max)
+        if not (tol > 0 and max_iter >= 0):
+            raise TwinError(f"forward needs tol > 0 and max_iter >= 0, got {tol}, {max_iter}")
+        if guess is None:
+            x = np.zeros(lengths.shape)
+        else:
+            guess = as_array(guess, "guess", (3,))
+            try:
+                x = np.broadcast_to(guess, lengths.shape).copy()
+            except ValueError as exc:
+                raise TwinError(
+                    f"guess of shape {guess.shape} does not broadcast to lengths {lengths.shape}"
+                ) from exc
+        for step in range(max_iter + 1):
+            z, alpha, beta = x[..., 0], x[..., 1], x[..., 2]
+            T = coupled_transform(z, alpha, beta, self.l)
+            state = legs(self._layout_mm, T)
+            residual = state.lengths[..., :3] - lengths  # seed 001 eq (20), in lengths
+            if np.all(np.abs(residual) <= tol):
+                self._check_state(x, "forward solution", slack=_STATE_SLACK)
+                return x
+            if step == max_iter or not np.all(np.isfinite(residual)):
+                break
+            J = twist_jacobian(state)[..., :3, :] @ coupled_twist_map(T, alpha)
+            try:
+                delta = np.linalg.solve(J, residual[..., None])[..., 0]  # seed 001 eq (24)
+            except np.linalg.LinAlgError:
+                break  # singular configuration: no Newton step exists
+            x = x - delta  # seed 001 eq (22)
+        worst = np.max(np.abs(np.nan_to_num(residual, nan=np.inf)))
+        raise ConvergenceError(
+            f"Upu3Up.forward did not converge: stopped after {step} Newton-Raphson steps "
+            f"(max_iter={max_iter}) with worst limb residual {worst:.3g} mm > tol {tol:g} mm; "
+            "the lengths may be unreachable, or give a closer `guess`"
+        )
+
+    def platform_pose(self, state: ArrayLike) -> np.ndarray:
+        """Platform pose `[x, y, z, roll, pitch, yaw]` (..., 6) [m, rad] of O1 in O-xyz.
+
+        R = Rz(yaw)·Ry(pitch)·Rx(roll) (the twin's convention) equals the paper's
+        Rx(α)·Ry(β) (eq (11)), so roll = atan2(sin α, cos α cos β), pitch = asin(cos α sin β)
+        and yaw = atan2(sin α sin β, cos β) ≠ 0 when both tilts are nonzero.
+
+        Args:
+            state: (..., 3) `(z, alpha, beta)` [mm, rad, rad].
+        """
+        state = as_array(state, "state", (3,))
+        z, alpha, beta = state[..., 0], state[..., 1], state[..., 2]
+        pose = transform_to_pose(coupled_transform(z, alpha, beta, self.l))
+        pose[..., :3] *= 1e-3  # mm → m
+        return pose
+
+    def _state(
+        self, z: ArrayLike, alpha: ArrayLike, beta: ArrayLike
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """z, alpha, beta as finite float arrays broadcast together, or TwinError."""
+        arrays = [as_array(v, n) for v, n in ((z, "z"), (alpha, "alpha"), (beta, "beta"))]
+        try:
+            z, alpha, beta = np.broadcast_arrays(*arrays)
+        except ValueError as exc:
+            shapes = ", ".join(str(a.shape) for a in arrays)
+            raise TwinError(f"z, alpha, beta must broadcast together, got shapes {shapes}") from exc
+        return z, alpha, beta
+
+    def _check_state(self, state: np.ndarray, name: str, slack: float) -> None:
+        """UnreachableError unless `state` (..., 3) lies within `state_limits` (± slack)."""
+        low, high = self.state_limits
+        bad = np.any((state < low - slack) | (state > high + slack), axis=-1)
+        if np.any(bad):
+            shown = np.round(state[bad], 6).tolist()
+            raise UnreachableError(
+                f"{name} (z [mm], alpha [rad], beta [rad]) = {shown!r:.160} lies outside "
+                f"state_limits |z| <= {self.heave_limit} mm, |alpha|, |beta| <= "
+                f"{self.tilt_limit:.6g} rad"
+            )
