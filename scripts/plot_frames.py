@@ -1,6 +1,6 @@
 """Draw docs/frames.png: the hybrid boarding system at its working state with its frames.
 
-    python scripts/plot_frames.py   (needs the `docs` extra: matplotlib)
+python scripts/plot_frames.py   (needs the `docs` extra: matplotlib)
 """
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from twin.mechanisms import HybridBoardingSystem  # noqa: E402
-from twin.spatial import pose_to_transform  # noqa: E402
+from twin.mechanisms import HybridBoardingSystem
+from twin.spatial import pose_to_transform
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "frames.png"
 
@@ -36,7 +36,10 @@ def main() -> None:
     links = hybrid.gangway.links(xi[6:])
     fig = plt.figure(figsize=(9, 6))
     ax = fig.add_subplot(projection="3d")
-    base, top = hybrid.layout.base_hinges, (T_P[:3, :3] @ hybrid.layout.platform_hinges.T).T + T_P[:3, 3]
+    base, top = (
+        hybrid.layout.base_hinges,
+        (T_P[:3, :3] @ hybrid.layout.platform_hinges.T).T + T_P[:3, 3],
+    )
     for ring, colour in ((base, "grey"), (top, "tab:orange")):
         closed = np.vstack([ring, ring[:1]])
         ax.plot(*closed.T, color=colour)

@@ -52,7 +52,11 @@ def rpy_rate_matrix(rpy: np.ndarray) -> np.ndarray:
     cp, sp = np.cos(rpy[..., 2]), np.sin(rpy[..., 2])
     o, i = np.zeros_like(ct), np.ones_like(ct)
     return np.stack(
-        [np.stack([cp * ct, -sp, o], -1), np.stack([sp * ct, cp, o], -1), np.stack([-st, o, i], -1)],
+        [
+            np.stack([cp * ct, -sp, o], -1),
+            np.stack([sp * ct, cp, o], -1),
+            np.stack([-st, o, i], -1),
+        ],
         -2,
     )
 
@@ -82,7 +86,9 @@ def so3_log(R: np.ndarray) -> np.ndarray:
     # Near π the antisymmetric part vanishes; take the axis from the symmetric part instead.
     near_pi = theta > np.pi - 1e-4
     if np.any(near_pi):
-        S = (R[near_pi] + np.swapaxes(R[near_pi], -1, -2)) / 2.0 - cos[near_pi, None, None] * np.eye(3)
+        S = (R[near_pi] + np.swapaxes(R[near_pi], -1, -2)) / 2.0 - cos[
+            near_pi, None, None
+        ] * np.eye(3)
         k = np.argmax(np.diagonal(S, axis1=-2, axis2=-1), axis=-1)
         axis = np.take_along_axis(S, k[:, None, None], axis=-2)[:, 0, :]
         axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
@@ -93,7 +99,7 @@ def so3_log(R: np.ndarray) -> np.ndarray:
 
 def pose_to_transform(pose: np.ndarray) -> np.ndarray:
     """`[x, y, z, roll, pitch, yaw]` (..., 6) [m, rad] → homogeneous transform (..., 4, 4)."""
-    T = np.zeros(pose.shape[:-1] + (4, 4))
+    T = np.zeros((*pose.shape[:-1], 4, 4))
     T[..., :3, :3] = rpy_to_matrix(pose[..., 3:])
     T[..., :3, 3] = pose[..., :3]
     T[..., 3, 3] = 1.0
@@ -148,8 +154,25 @@ def se3_exp(twist: np.ndarray) -> np.ndarray:
     b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(t)) / t**2)
     c = np.where(small, 1.0 / 6.0 - theta**2 / 120.0, (t - np.sin(t)) / t**3)
     V = np.eye(3) + b * K + c * (K @ K)
-    T = np.zeros(twist.shape[:-1] + (4, 4))
+    T = np.zeros((*twist.shape[:-1], 4, 4))
     T[..., :3, :3] = so3_exp(w)
     T[..., :3, 3] = (V @ v[..., None])[..., 0]
     T[..., 3, 3] = 1.0
     return T
+
+
+def se3_log(T: np.ndarray) -> np.ndarray:
+    """Inverse of `se3_exp`: transform (..., 4, 4) → body twist `[v, ω]` (..., 6)."""
+    w = so3_log(T[..., :3, :3])
+    theta = np.linalg.norm(w, axis=-1)[..., None, None]
+    K = skew(w)
+    small = theta < 1e-6
+    t = np.where(small, 1.0, theta)
+    # V⁻¹ = I − K/2 + (1/θ²)(1 − θ sin θ / (2(1 − cos θ))) K²  (Lynch & Park eq (3.92))
+    d = np.where(
+        small,
+        1.0 / 12.0 + theta**2 / 720.0,
+        (1.0 - t * np.sin(t) / (2.0 * (1.0 - np.cos(t)))) / t**2,
+    )
+    V_inv = np.eye(3) - 0.5 * K + d * (K @ K)
+    return np.concatenate([(V_inv @ T[..., :3, 3, None])[..., 0], w], -1)

@@ -43,5 +43,9 @@ def check_range(value: np.ndarray, name: str, low: ArrayLike, high: ArrayLike) -
         raise TwinError(
             f"{name} out of range: got {np.asarray(value)[bad].tolist()!r:.200}, "
             f"allowed [{np.min(low_a):g}, {np.max(high_a):g}]"
-            + ("" if low_a.size == 1 else f" per component {low_a.ravel().tolist()} .. {high_a.ravel().tolist()}")
+            + (
+                ""
+                if low_a.size == 1
+                else f" per component {low_a.ravel().tolist()} .. {high_a.ravel().tolist()}"
+            )
         )

@@ -19,13 +19,16 @@ def test_working_state_is_table5() -> None:
 
 def test_working_state_tip_matches_spec() -> None:
     """SPEC: tip at (13.282, 0, 5.581) m in B at the working state."""
-    np.testing.assert_allclose(HYBRID.end_effector(HYBRID.working_state)[:3, 3], [13.282, 0, 5.581], atol=1e-12)
+    np.testing.assert_allclose(
+        HYBRID.end_effector(HYBRID.working_state)[:3, 3], [13.282, 0, 5.581], atol=1e-12
+    )
 
 
 def test_limits_are_table6_about_the_working_state() -> None:
     """Table 6 read relative to Table 5 (SPEC erratum 3): z_p 1.525-3.595 m equals d2 of Table 1."""
     np.testing.assert_allclose(
-        HYBRID.lower, [-1.36, -1.15, 1.525, -30 * DEG, -30 * DEG, -36 * DEG, -30 * DEG, -30 * DEG, 9.552]
+        HYBRID.lower,
+        [-1.36, -1.15, 1.525, -30 * DEG, -30 * DEG, -36 * DEG, -30 * DEG, -30 * DEG, 9.552],
     )
     np.testing.assert_allclose(
         HYBRID.upper, [1.165, 1.15, 3.595, 30 * DEG, 30 * DEG, 36 * DEG, 30 * DEG, 30 * DEG, 16.552]
@@ -51,7 +54,9 @@ def test_task_jacobian_equals_finite_difference(rng: np.random.Generator) -> Non
             Tp = HYBRID.end_effector(HYBRID.integrate(xi, v, h))
             Tm = HYBRID.end_effector(HYBRID.integrate(xi, v, -h))
             np.testing.assert_allclose((Tp[:3, 3] - Tm[:3, 3]) / (2 * h), J[:3, k], atol=2e-6)
-            np.testing.assert_allclose(so3_log(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * h), J[3:, k], atol=2e-6)
+            np.testing.assert_allclose(
+                so3_log(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * h), J[3:, k], atol=2e-6
+            )
 
 
 def test_platform_columns_are_body_velocities() -> None:

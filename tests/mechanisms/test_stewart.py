@@ -15,7 +15,8 @@ STEWART = StewartPlatform()
 
 
 @pytest.mark.parametrize(
-    ("z", "expected"), [(1.525, 2.5799), (2.475, 3.2335)]  # SPEC check values
+    ("z", "expected"),
+    [(1.525, 2.5799), (2.475, 3.2335)],  # SPEC check values
 )
 def test_level_leg_lengths_match_spec(z: float, expected: float) -> None:
     """All six legs equal the SPEC check value for a level, centred platform."""

@@ -77,7 +77,9 @@ def test_legs_close_on_platform_hinges_yourdfpy(loaded, rng: np.random.Generator
             tip = urdf.get_transform(f"leg{i + 1}_rod", "base")[:3, 3]
             np.testing.assert_allclose(tip, target, atol=1e-9)
         platform = urdf.get_transform("platform", "base")
-        np.testing.assert_allclose(platform, pose_to_transform(mechanism.platform_pose(state)), atol=1e-9)
+        np.testing.assert_allclose(
+            platform, pose_to_transform(mechanism.platform_pose(state)), atol=1e-9
+        )
 
 
 def pinocchio_placements(model, cfg: dict[str, float]) -> pin.Data:
@@ -108,7 +110,9 @@ def test_assets_are_reproducible(tmp_path: Path) -> None:
     """scripts/build_urdf.py regenerates the committed URDF and meshes byte for byte."""
     subprocess.run(
         [sys.executable, str(ROOT / "scripts" / "build_urdf.py"), "--out", str(tmp_path)],
-        check=True, capture_output=True, cwd=ROOT,
+        check=True,
+        capture_output=True,
+        cwd=ROOT,
     )
     committed = asset_path("urdf")
     for made in sorted(tmp_path.rglob("*.*")):

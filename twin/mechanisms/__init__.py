@@ -9,11 +9,13 @@ from twin.mechanisms.gangway import Gangway
 from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
 from twin.mechanisms.legs import LegLayout, LegState
 from twin.mechanisms.stewart import StewartPlatform
+from twin.mechanisms.upr4 import Upr4
 from twin.mechanisms.upu3up import Upu3Up
 
 MECHANISMS: dict[str, type] = {
     "hybrid": HybridBoardingSystem,
     "upu3up": Upu3Up,
+    "upr4": Upr4,
 }
 
 __all__ = [
@@ -24,5 +26,6 @@ __all__ = [
     "LegLayout",
     "LegState",
     "StewartPlatform",
+    "Upr4",
     "Upu3Up",
 ]

@@ -107,9 +107,7 @@ class HybridBoardingSystem:
         R = pose_to_transform(xi[..., :6])[..., :3, :3]
         p_E = self.gangway.forward(xi[..., 6:])[..., :3, 3]  # ᴾP_E
         J_s = self.gangway.jacobian(xi[..., 6:])
-        top = np.concatenate(
-            [R, -skew((R @ p_E[..., None])[..., 0]) @ R, R @ J_s[..., :3, :]], -1
-        )
+        top = np.concatenate([R, -skew((R @ p_E[..., None])[..., 0]) @ R, R @ J_s[..., :3, :]], -1)
         bottom = np.concatenate([np.zeros_like(R), R, R @ J_s[..., 3:, :]], -1)
         return np.concatenate([top, bottom], -2)
 
@@ -122,9 +120,7 @@ class HybridBoardingSystem:
         xi = as_array(xi, "xi", (9,))
         velocity = as_array(velocity, "velocity", (9,))
         T = pose_to_transform(xi[..., :6]) @ se3_exp(velocity[..., :6] * dt)
-        return np.concatenate(
-            [transform_to_pose(T), xi[..., 6:] + velocity[..., 6:] * dt], -1
-        )
+        return np.concatenate([transform_to_pose(T), xi[..., 6:] + velocity[..., 6:] * dt], -1)
 
     def within_limits(self, xi: ArrayLike) -> np.ndarray:
         """True where xi (..., 9) is inside the Table 6 limits and every leg inside Table 1."""

@@ -86,12 +86,28 @@ def twist_jacobian(state: LegState) -> np.ndarray:
     return np.concatenate([state.units, np.cross(state.arms, state.units)], -1)
 
 
-def universal_angles(units: np.ndarray) -> np.ndarray:
-    """U-joint angles (a, b) with Rx(a) Ry(b) e_z = n, for unit leg directions (..., 3).
+def universal_frames(home_units: np.ndarray) -> np.ndarray:
+    """U-joint frames (n, 3, 3) centred on the home leg directions (n, 3).
 
-    The URDF legs are revolute-x, revolute-y, prismatic-z chains; this is their inverse.
-    Returns (..., 2) [rad].
+    z along the home direction s⁰, x = s⁰ × e_z (horizontal; e_x for a vertical leg),
+    y = z × x, as seed 002 §2.1 sets its U joints: the angles are then zero at home, and a
+    joint limit reads as a deviation from home.
     """
+    z = home_units / np.linalg.norm(home_units, axis=-1, keepdims=True)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    norm = np.linalg.norm(x, axis=-1, keepdims=True)
+    x = np.where(norm > 1e-9, x / np.where(norm > 1e-9, norm, 1.0), [1.0, 0.0, 0.0])
+    return np.stack([x, np.cross(z, x), z], -1)
+
+
+def universal_angles(units: np.ndarray, frames: np.ndarray | None = None) -> np.ndarray:
+    """U-joint angles (a, b) with F Rx(a) Ry(b) e_z = n for unit leg directions (..., n, 3).
+
+    The URDF legs are revolute-x, revolute-y, prismatic-z chains in the frame F of each leg
+    (`universal_frames`; identity if None); this is their inverse. Returns (..., n, 2) [rad].
+    """
+    if frames is not None:
+        units = (np.swapaxes(frames, -1, -2) @ units[..., None])[..., 0]
     b = np.arcsin(np.clip(units[..., 0], -1.0, 1.0))
     a = np.arctan2(-units[..., 1], units[..., 2])
     return np.stack([a, b], -1)

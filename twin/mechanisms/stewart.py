@@ -22,7 +22,9 @@ from twin.validation import as_array
 LENGTH_TOL = 5e-4
 
 
-def hinge_angles(d: float, r: float, offsets: tuple[float, ...], sign: tuple[int, ...]) -> np.ndarray:
+def hinge_angles(
+    d: float, r: float, offsets: tuple[float, ...], sign: tuple[int, ...]
+) -> np.ndarray:
     """ϑ_i = offset_i ± asin(d / 2r) (seed 000 eqs (1)-(2)); pairs of hinges a chord d apart."""
     half = np.arcsin(d / (2.0 * r))
     return np.asarray(offsets) + np.asarray(sign) * half
@@ -53,12 +55,16 @@ class StewartPlatform:
         pi = np.pi
         # seed 000 eq (1): ϑ_P; SPEC erratum 1: seed 000's ϑ_B, not seed 004's.
         theta_p = hinge_angles(
-            self.d_platform, self.r_platform,
-            (pi / 6, pi / 6, -pi / 2, -pi / 2, 5 * pi / 6, 5 * pi / 6), (1, -1, 1, -1, 1, -1),
+            self.d_platform,
+            self.r_platform,
+            (pi / 6, pi / 6, -pi / 2, -pi / 2, 5 * pi / 6, 5 * pi / 6),
+            (1, -1, 1, -1, 1, -1),
         )
         theta_b = hinge_angles(
-            self.d_base, self.r_base,
-            (pi / 2, -pi / 6, -pi / 6, -5 * pi / 6, -5 * pi / 6, pi / 2), (-1, 1, -1, 1, -1, 1),
+            self.d_base,
+            self.r_base,
+            (pi / 2, -pi / 6, -pi / 6, -5 * pi / 6, -5 * pi / 6, pi / 2),
+            (-1, 1, -1, 1, -1, 1),
         )
 
         def circle(r: float, theta: np.ndarray) -> np.ndarray:

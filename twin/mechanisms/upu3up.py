@@ -160,6 +160,11 @@ class Upu3Up:
         object.__setattr__(self, "_layout_mm", layout)
 
     @property
+    def working_state(self) -> np.ndarray:
+        """(3,) the initial pose (z, alpha, beta) = (0 mm, 0, 0): level, UP limb at length l."""
+        return np.zeros(3)
+
+    @property
     def state_limits(self) -> tuple[np.ndarray, np.ndarray]:
         """(low, high), each (3,) [mm, rad, rad], bounds of `(z, alpha, beta)`."""
         high = np.array([self.heave_limit, self.tilt_limit, self.tilt_limit])
