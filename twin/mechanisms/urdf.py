@@ -8,7 +8,8 @@ chain `leg{i}_u1` (revolute x), `leg{i}_u2` (revolute y), `leg{i}_stroke` (prism
 absolute hinge-to-hinge length), in a U-joint frame whose z is the leg's direction at the
 working state (`home_frames`: U angles are deviations from home), ending in the link
 `leg{i}_rod` at the platform hinge. The hybrid system adds `slew`, `luff` and `telescope`
-on the platform, ending in `gangway_tip`. `joint_configuration` fills every joint so that the drawn legs meet the platform hinges.
+on the platform, ending in `gangway_tip`. `joint_configuration` fills every joint so that
+the drawn legs meet the platform hinges.
 """
 
 from __future__ import annotations
