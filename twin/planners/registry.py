@@ -1,0 +1,143 @@
+"""The planner registry: names every other layer uses, what each fits and which knobs it reads."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from twin.errors import TwinError
+from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.planners.allocation import AllocationPlanner
+from twin.planners.differential import DifferentialPlanner
+from twin.planners.limits import SlewPriority, VelocityLimit
+from twin.planners.parameters import PlannerParameters
+from twin.planners.tasks import JointPostureTask, TipPoseTask
+from twin.planners.weights import BetaSplit, JointLimitWeights, ProductWeights
+
+#: Virtual-joint rate limits of the hybrid system, [m/s] ×3, [rad/s] ×3, q̇1, q̇2 [rad/s],
+#: ḋ3 [m/s]. The papers give none; these are typical of hydraulic W2W gangways and Stewart
+#: motion bases (docs/planners.md) and bind only in the roughest seas.
+HYBRID_RATE_LIMITS = np.array([0.6, 0.6, 0.6, 0.5, 0.5, 0.5, 0.35, 0.35, 0.6])
+
+
+@dataclass(frozen=True)
+class PlannerSpec:
+    """A planner's registry entry.
+
+    Attributes:
+        name: registry key (`"mtmp"`, …).
+        title: human-readable name.
+        mechanisms: registry names of the mechanisms it plans for.
+        parameters: the `PlannerParameters` fields it reads.
+        source: paper and equations.
+        build: (mechanism, parameters, initial state) → planner with `reset` and `step`.
+    """
+
+    name: str
+    title: str
+    mechanisms: tuple[str, ...]
+    parameters: tuple[str, ...]
+    source: str
+    build: Callable[[Any, PlannerParameters, np.ndarray], Any]
+
+
+def _differential(
+    weights: str,
+) -> Callable[[HybridBoardingSystem, PlannerParameters, np.ndarray], DifferentialPlanner]:
+    def build(
+        h: HybridBoardingSystem, p: PlannerParameters, xi0: np.ndarray
+    ) -> DifferentialPlanner:
+        tip = TipPoseTask(h, gain=p.k_e)
+        common = dict(velocity_limit=VelocityLimit(HYBRID_RATE_LIMITS), damping_max=p.damping)
+        if weights == "none":
+            return DifferentialPlanner(tip, **common)
+        split = BetaSplit(p.beta, p.l)
+        if weights == "beta":
+            return DifferentialPlanner(tip, split, **common)
+        scale = np.r_[np.ones(8), p.k_c]  # eq (37): k_c on the telescope
+        return DifferentialPlanner(
+            tip,
+            ProductWeights((split, JointLimitWeights(h.lower, h.upper, scale))),
+            secondary=(JointPostureTask(index=7, setpoint=float(xi0[7]), gain=p.k_a2),),
+            slew_priority=SlewPriority(
+                h.lower[6], h.upper[6], np.deg2rad(p.sigma), np.deg2rad(p.q1_rate_max)
+            ),
+            **common,
+        )
+
+    return build
+
+
+def _allocation(
+    method: str,
+) -> Callable[[HybridBoardingSystem, PlannerParameters, np.ndarray], AllocationPlanner]:
+    def build(h: HybridBoardingSystem, p: PlannerParameters, xi0: np.ndarray) -> AllocationPlanner:
+        del p, xi0  # Unused: seed 004's methods have no knobs.
+        return AllocationPlanner(h, method)
+
+    return build
+
+
+PLANNERS: dict[str, PlannerSpec] = {
+    spec.name: spec
+    for spec in (
+        PlannerSpec(
+            "pi",
+            "pseudo-inverse",
+            ("hybrid",),
+            ("k_e", "damping"),
+            "seed 000 eq (26), closed loop eq (34)",
+            _differential("none"),
+        ),
+        PlannerSpec(
+            "wpi",
+            "weighted pseudo-inverse",
+            ("hybrid",),
+            ("k_e", "beta", "l", "damping"),
+            "seed 000 eqs (27)-(32)",
+            _differential("beta"),
+        ),
+        PlannerSpec(
+            "mtmp",
+            "multi-task motion planning",
+            ("hybrid",),
+            ("k_e", "beta", "l", "k_c", "sigma", "q1_rate_max", "k_a2", "damping"),
+            "seed 000 eqs (33)-(40), Algorithm 1",
+            _differential("mtmp"),
+        ),
+        PlannerSpec(
+            "dwa", "dynamic weight allocation", ("hybrid",), (), "seed 004 §3", _allocation("dwa")
+        ),
+        PlannerSpec(
+            "conv1",
+            "conventional method 1 (platform alone)",
+            ("hybrid",),
+            (),
+            "seed 004 §4 a",
+            _allocation("conv1"),
+        ),
+        PlannerSpec(
+            "conv2",
+            "conventional method 2 (platform orientation, gangway position)",
+            ("hybrid",),
+            (),
+            "seed 004 §4 b",
+            _allocation("conv2"),
+        ),
+    )
+}
+
+
+def get_planner(name: str, mechanism: str) -> PlannerSpec:
+    """The registry entry, or a TwinError listing what is allowed for `mechanism`."""
+    allowed = sorted(n for n, s in PLANNERS.items() if mechanism in s.mechanisms)
+    if name not in PLANNERS:
+        raise TwinError(f"planner: unknown name {name!r}; allowed for {mechanism!r}: {allowed}")
+    if mechanism not in PLANNERS[name].mechanisms:
+        raise TwinError(
+            f"planner: {name!r} does not plan for mechanism {mechanism!r}; allowed: {allowed}"
+        )
+    return PLANNERS[name]

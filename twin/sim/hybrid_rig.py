@@ -1,0 +1,99 @@
+"""The hybrid boarding system in a simulation: planner, integration and what is recorded."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.planners import PlannerParameters, get_planner
+from twin.sim.base_motion import BaseSamples
+from twin.sim.target import held_target, tilt
+from twin.spatial import invert_transform, pose_error, pose_to_transform
+
+
+class HybridRig:
+    """Steps the hybrid system so that its gangway tip holds its inertial pose.
+
+    Args:
+        mechanism: the hybrid system.
+        planner: registry name.
+        parameters: the planner's knobs.
+        initial_state: (9,) xi at t = 0.
+    """
+
+    mechanism_name = "hybrid"
+
+    def __init__(
+        self,
+        mechanism: HybridBoardingSystem,
+        planner: str,
+        parameters: PlannerParameters,
+        initial_state: np.ndarray,
+    ) -> None:
+        self.mechanism = mechanism
+        self.spec = get_planner(planner, "hybrid")
+        self.parameters = parameters
+        self.xi = np.array(initial_state, dtype=float)
+        self.planner = self.spec.build(mechanism, parameters, self.xi)
+        self.held: np.ndarray | None = None  # ᴵT_E*, fixed at reset
+        self._gangway0: np.ndarray | None = None
+        self._landing: np.ndarray | None = None
+        self.faults = 0
+
+    def reset(self, base: BaseSamples) -> dict[str, np.ndarray]:
+        """Fix the held tip pose at the base's first sample; the record at t = 0."""
+        T_E = self.mechanism.end_effector(self.xi)
+        self.held = base.transform[0] @ T_E
+        self.planner.reset(self.xi, held_target(self.held, base, 0))
+        # landing frame: inertial, x along the initial horizontal gangway direction (seed 004)
+        g = self._gangway(base.transform[0])
+        heading = np.arctan2(g[1], g[0])
+        c, s = np.cos(heading), np.sin(heading)
+        self._landing = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        self._gangway0 = self._landing @ g
+        return self.record(base, 0, {})
+
+    def _gangway(self, T_IB: np.ndarray) -> np.ndarray:
+        """Inertial vector from the luff pivot (DH frame 2) to the tip (3,) [m]."""
+        T_IP = T_IB @ pose_to_transform(self.xi[:6])
+        links = self.mechanism.gangway.links(self.xi[6:])
+        return (T_IP @ links[2])[:3, 3] - (T_IP @ links[1])[:3, 3]
+
+    def advance(self, base: BaseSamples, k: int, dt: float) -> dict[str, np.ndarray]:
+        """Plan at sample k, integrate one dt, return the record at sample k + 1."""
+        out = self.planner.step(self.xi, held_target(self.held, base, k), dt)
+        v = out.velocity
+        if not np.all(np.isfinite(v)):
+            # A planner fault holds the mechanism still rather than letting NaN through.
+            self.faults += 1
+            v = np.zeros_like(v)
+        self.xi = self.mechanism.integrate(self.xi, v, dt)
+        return self.record(base, k + 1, out.diagnostics)
+
+    def record(self, base: BaseSamples, k: int, diagnostics: dict) -> dict[str, np.ndarray]:
+        T_IB = base.transform[k]
+        T_E = self.mechanism.end_effector(self.xi)
+        error = pose_error(invert_transform(T_IB) @ self.held, T_E)
+        g = self._landing @ self._gangway(T_IB)
+        g0 = self._gangway0
+        # seed 004 §3.1 a: φe = atan2(y, x), θe = atan2(z, x) of the gangway, from t = 0
+        phi_e = np.arctan2(g[1], g[0]) - np.arctan2(g0[1], g0[0])
+        theta_e = np.arctan2(g[2], g[0]) - np.arctan2(g0[2], g0[0])
+        up0 = self.held[:3, 0]  # the tip's x axis is "up" at q = 0
+        up = (T_IB @ T_E)[:3, 0]
+        rec = {
+            "t": base.t[k],
+            "base_pose": base.pose[k],
+            "xi": self.xi.copy(),
+            "legs": self.mechanism.leg_lengths(self.xi),
+            "tip_error": error,
+            "manipulability": self.mechanism.manipulability(self.xi),
+            "phi_e": phi_e,
+            "theta_e": theta_e,
+            "alpha_top": np.arccos(np.clip(up @ up0, -1.0, 1.0)),
+            "alpha_bottom": tilt(T_IB[:3, :3]),
+        }
+        for name in ("weights", "null_space_share", "damping", "velocity_scale", "position_share"):
+            if name in diagnostics:
+                rec[name] = np.asarray(diagnostics[name], dtype=float)
+        return rec

@@ -1,0 +1,101 @@
+"""What a run is judged by: limits, tracking, drift, manipulability, end attitude, efficacy.
+
+Every metric is a plain float (JSON-ready) and finite. The first `SETTLE` samples are left
+out of min/max and error statistics, as seed 000 §5.3 drops its first 10 points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
+
+#: samples left out at the start (seed 000 §5.3: "the first 10 data points are removed")
+SETTLE = 10
+
+_ANGLES = {"roll", "pitch", "yaw", "q1", "q2"}
+
+
+def _f(x: float | np.floating) -> float:
+    """A finite Python float (metrics are JSON and must never carry NaN)."""
+    x = float(x)
+    return x if np.isfinite(x) else 0.0
+
+
+def _extreme(x: np.ndarray) -> float:
+    """The signed value of largest magnitude (seed 004 reports φe, θe maxima with sign)."""
+    return float(x[np.argmax(np.abs(x))])
+
+
+def drift(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Least-squares trend of x (N, k) over the run, slope × duration, (k,).
+
+    An oscillation around a steady mean has no drift; PI/WPI's divergence (seed 000 §5.3
+    analysis 1) shows as a trend.
+    """
+    tc = t - t.mean()
+    slope = (tc @ (x - x.mean(axis=0))) / max(float(tc @ tc), 1e-300)
+    return slope * (t[-1] - t[0])
+
+
+def efficacy(alpha_top: np.ndarray, alpha_bottom: np.ndarray) -> dict[str, float]:
+    """Seed 002 eq (29) as printed and the integral form of SPEC erratum 11 [%].
+
+    As printed: the time mean of (α_bottom − α_top)/α_bottom, over samples where the base
+    is tilted at all (α_bottom > 1e-9 rad) — it explodes when α_bottom passes near zero.
+    Integral: 1 − ∫|α_top| dt / ∫|α_bottom| dt (uniform dt).
+    """
+    tilted = alpha_bottom > 1e-9
+    printed = (
+        np.mean((alpha_bottom[tilted] - alpha_top[tilted]) / alpha_bottom[tilted])
+        if np.any(tilted)
+        else 0.0
+    )
+    denominator = np.sum(np.abs(alpha_bottom))
+    integral = 1.0 - np.sum(np.abs(alpha_top)) / denominator if denominator > 0 else 0.0
+    return {"eta_printed": _f(100 * printed), "eta": _f(100 * integral)}
+
+
+def hybrid_metrics(series: dict[str, np.ndarray], mechanism: HybridBoardingSystem) -> dict:
+    """Metrics of a hybrid-system run from its series (see `HybridRig.record`)."""
+    xi, legs, t = series["xi"], series["legs"], series["t"]
+    lower, upper = mechanism.lower, mechanism.upper
+    leg_min, leg_max = mechanism.stewart.leg_min, mechanism.stewart.leg_max
+    tol = 5e-4  # Table 1's millimetre precision, as StewartPlatform.check_lengths
+    joint_bad = np.any((xi < lower - 1e-9) | (xi > upper + 1e-9), axis=1)
+    leg_bad = np.any((legs < leg_min - tol) | (legs > leg_max + tol), axis=1)
+    s = slice(min(SETTLE, len(t) - 1), None)
+    err = series["tip_error"][s]
+    pos_err = np.linalg.norm(err[:, :3], axis=1)
+    rot_err = np.degrees(np.linalg.norm(err[:, 3:], axis=1))
+    joints: dict[str, dict[str, float]] = {}
+    for j, name in enumerate(JOINT_NAMES):
+        scale = np.degrees(1.0) if name in _ANGLES else 1.0
+        joints[name] = {
+            "min": _f(xi[s, j].min() * scale),
+            "max": _f(xi[s, j].max() * scale),
+            "margin": _f(min(xi[s, j].min() - lower[j], upper[j] - xi[s, j].max()) * scale),
+            "drift": _f(drift(t, xi[:, j : j + 1])[0] * scale),
+        }
+    return {
+        "violations": int(np.sum(joint_bad | leg_bad)),
+        "joint_violations": int(np.sum(joint_bad)),
+        "leg_violations": int(np.sum(leg_bad)),
+        "table7": {  # seed 000 Table 7's columns: q1, q2 [deg], d3 [m], legs [m]
+            "q1_max": joints["q1"]["max"], "q1_min": joints["q1"]["min"],
+            "q2_max": joints["q2"]["max"], "q2_min": joints["q2"]["min"],
+            "d3_max": joints["d3"]["max"], "d3_min": joints["d3"]["min"],
+            "legs_max": _f(legs[s].max()), "legs_min": _f(legs[s].min()),
+        },
+        "joints": joints,
+        "leg_margin": _f(min(legs[s].min() - leg_min, leg_max - legs[s].max())),
+        "leg_drift": [_f(v) for v in drift(t, legs)],
+        "tip_position_error_rms": _f(np.sqrt(np.mean(pos_err**2))),
+        "tip_position_error_max": _f(pos_err.max()),
+        "tip_orientation_error_rms": _f(np.sqrt(np.mean(rot_err**2))),
+        "tip_orientation_error_max": _f(rot_err.max()),
+        "manipulability_min": _f(series["manipulability"][s].min()),
+        "phi_e_max": _f(np.degrees(_extreme(series["phi_e"][s]))),
+        "theta_e_max": _f(np.degrees(_extreme(series["theta_e"][s]))),
+        **efficacy(series["alpha_top"], series["alpha_bottom"]),
+    }  # fmt: skip

@@ -1,0 +1,125 @@
+"""The scenario: one flat pydantic model shared by Python, REST, CLI and GUI.
+
+A user writes `{"mechanism": "hybrid", "planner": "mtmp", "sea_state": 4, "beta": 0.7}`;
+every unset field takes the papers' default (or ours, documented in the field).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from twin.errors import TwinError
+from twin.mechanisms import MECHANISMS
+from twin.planners import PlannerParameters, get_planner
+from twin.sea.components import WaveComponents
+from twin.sea.regular import REGULAR_PRESETS
+from twin.sea.sea_states import sea_state_hs_tp
+from twin.sea.spectra import fully_developed_tp
+from twin.sea.synthesis import wave_components
+
+#: [s] longest run one scenario may ask for, and most samples (duration / dt).
+MAX_DURATION = 3600.0
+MAX_STEPS = 200_000
+
+#: Planner a mechanism gets when the scenario names none.
+DEFAULT_PLANNER = {"hybrid": "mtmp", "upu3up": "pid", "upr4": "pid"}
+
+
+class Scenario(PlannerParameters):
+    """A run: mechanism, planner and its knobs, sea, vessel, time. Flat on purpose."""
+
+    mechanism: Literal["hybrid", "upu3up", "upr4"] = Field(
+        "hybrid", description="registry name (twin.mechanisms.MECHANISMS)"
+    )
+    planner: str | None = Field(
+        None,
+        description="pi, wpi, mtmp, dwa, conv1, conv2 (hybrid); pid, ik (upu3up, upr4); "
+        "default mtmp for the hybrid system, pid for the small platforms",
+    )
+    sea_state: float = Field(4.0, ge=0.0, le=9.0, description="[-] WMO sea-state code 0-9")
+    hs: float | None = Field(
+        None, ge=0.0, le=20.0, description="[m] significant wave height; overrides sea_state"
+    )
+    tp: float | None = Field(
+        None,
+        ge=1.0,
+        le=30.0,
+        description="[s] peak period; overrides sea_state (default with hs: fully developed)",
+    )
+    heading: float = Field(
+        150.0,
+        ge=-360.0,
+        le=360.0,
+        description="[deg] wave direction relative to the bow, 180 = head seas, 90 = beam seas "
+        "from port (waves travelling to starboard)",
+    )
+    spectrum: Literal["jonswap", "pm"] = Field("jonswap", description="wave spectrum")
+    gamma: float = Field(3.3, ge=1.0, le=10.0, description="[-] JONSWAP peak enhancement")
+    spreading: float | None = Field(
+        None,
+        ge=1.0,
+        le=100.0,
+        description="[-] cos-2s spreading exponent s; None: long-crested",
+    )
+    n_components: int = Field(200, ge=8, le=2048, description="[-] wave components")
+    regular_waves: Literal["state1", "state2", "state3"] | None = Field(
+        None,
+        description="seed 002 Table 2 regular-wave state instead of a spectrum (directions "
+        "relative to the bow; sea_state, hs, tp, heading are then unused)",
+    )
+    vessel: str | None = Field(
+        None, description="RAO table name (assets/vessels); default: the mechanism's mount"
+    )
+    speed: float = Field(0.0, ge=0.0, le=10.0, description="[m/s] forward speed (0: on DP)")
+    duration: float = Field(
+        200.0, gt=0.0, le=MAX_DURATION, description="[s] simulated time (seed 000: 200 s)"
+    )
+    dt: float = Field(0.05, ge=0.005, le=0.2, description="[s] control period (seed 000: 0.05)")
+    seed: int = Field(0, ge=0, le=2**32 - 1, description="random-phase seed of the sea")
+    initial_state: list[float] | None = Field(
+        None,
+        description="mechanism state at t = 0 (hybrid: xi, 9 values [m, rad]); default: the "
+        "working state",
+    )
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Scenario:
+        planner = self.planner or DEFAULT_PLANNER[self.mechanism]
+        get_planner(planner, self.mechanism)  # raises naming the allowed planners
+        if self.planner is None:
+            object.__setattr__(self, "planner", planner)
+        steps = self.duration / self.dt
+        if steps > MAX_STEPS:
+            raise TwinError(
+                f"duration / dt = {steps:.0f} steps; allowed at most {MAX_STEPS} "
+                f"(e.g. duration ≤ {MAX_STEPS * self.dt:g} s at dt = {self.dt} s)"
+            )
+        if self.initial_state is not None:
+            n = MECHANISMS[self.mechanism]().working_state.size
+            if len(self.initial_state) != n:
+                raise TwinError(
+                    f"initial_state: {self.mechanism} has {n} state values, got "
+                    f"{len(self.initial_state)}"
+                )
+        return self
+
+    def components(self) -> WaveComponents:
+        """The sea as wave components: seed 002's regular preset or a seeded spectrum."""
+        if self.regular_waves is not None:
+            return REGULAR_PRESETS[self.regular_waves]
+        hs, tp = self.sea()
+        return wave_components(
+            hs, tp, self.spectrum, heading=np.deg2rad(self.heading), spreading=self.spreading,
+            seed=self.seed, n_components=self.n_components, gamma=self.gamma,
+        )  # fmt: skip
+
+    def sea(self) -> tuple[float, float]:
+        """(hs [m], tp [s]): hs/tp when given, else the WMO sea-state table."""
+        hs_table, tp_table = (float(v) for v in sea_state_hs_tp(self.sea_state))
+        hs = self.hs if self.hs is not None else hs_table
+        if self.tp is not None:
+            return hs, self.tp
+        return hs, float(fully_developed_tp(hs)) if self.hs is not None else tp_table
