@@ -13,11 +13,11 @@ import numpy as np
 
 def skew(v: np.ndarray) -> np.ndarray:
     """S(v) with S(v) w = v × w; `v` (..., 3) → (..., 3, 3)."""
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = np.zeros_like(x)
-    return np.stack(
-        [np.stack([o, -z, y], -1), np.stack([z, o, -x], -1), np.stack([-y, x, o], -1)], -2
-    )
+    S = np.zeros((*v.shape[:-1], 3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
 
 
 def rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
@@ -25,14 +25,11 @@ def rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
     c, s = np.cos(rpy), np.sin(rpy)
     cf, ct, cp = c[..., 0], c[..., 1], c[..., 2]
     sf, st, sp = s[..., 0], s[..., 1], s[..., 2]
-    return np.stack(
-        [
-            np.stack([cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf], -1),
-            np.stack([sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf], -1),
-            np.stack([-st, ct * sf, ct * cf], -1),
-        ],
-        -2,
-    )
+    R = np.empty((*rpy.shape[:-1], 3, 3))
+    R[..., 0, :] = np.stack([cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf], -1)
+    R[..., 1, :] = np.stack([sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf], -1)
+    R[..., 2, :] = np.stack([-st, ct * sf, ct * cf], -1)
+    return R
 
 
 def matrix_to_rpy(R: np.ndarray) -> np.ndarray:

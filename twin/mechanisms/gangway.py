@@ -21,16 +21,12 @@ def dh_transform(a: ArrayLike, alpha: ArrayLike, d: ArrayLike, theta: ArrayLike)
     """ⁱ⁻¹T_i of the modified (Craig) DH convention, seed 000 eq (9); broadcast → (..., 4, 4)."""
     a, alpha, d, theta = np.broadcast_arrays(*map(np.asarray, (a, alpha, d, theta)))
     ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
-    o, i = np.zeros_like(ct), np.ones_like(ct)
-    return np.stack(
-        [
-            np.stack([ct, -st, o, a], -1),
-            np.stack([st * ca, ct * ca, -sa, -d * sa], -1),
-            np.stack([st * sa, ct * sa, ca, d * ca], -1),
-            np.stack([o, o, o, i], -1),
-        ],
-        -2,
-    )
+    T = np.zeros((*ct.shape, 4, 4))
+    T[..., 0, 0], T[..., 0, 1], T[..., 0, 3] = ct, -st, a
+    T[..., 1, 0], T[..., 1, 1], T[..., 1, 2], T[..., 1, 3] = st * ca, ct * ca, -sa, -d * sa
+    T[..., 2, 0], T[..., 2, 1], T[..., 2, 2], T[..., 2, 3] = st * sa, ct * sa, ca, d * ca
+    T[..., 3, 3] = 1.0
+    return T
 
 
 @dataclass(frozen=True)

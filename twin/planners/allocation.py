@@ -34,43 +34,30 @@ from twin.spatial import (
 )
 
 
-def reachable_range(
-    mechanism: HybridBoardingSystem,
-    pose: np.ndarray,
-    *,
-    reach: float = 2.5,
-    samples: int = 101,
-    refine: int = 30,
-) -> np.ndarray:
+def reachable_range(mechanism: HybridBoardingSystem, pose: np.ndarray) -> np.ndarray:
     r"""Δx_p, Δy_p, Δz_p (..., 3) [m]: for each position axis, the length of the interval of
-    offsets s around the current pose (other five coordinates held) whose six legs stay inside
-    their limits (seed 004 §3.1 c, the "space search"). Grid search over ±`reach`, then
-    bisection of both ends. Zero if the pose itself is outside.
+    offsets s around the pose (other five coordinates held) whose six legs stay inside their
+    limits — seed 004 §3.1 c's "space search", solved in closed form.
+
+    Moving the platform by s along axis k changes leg i to |v_i + s e_k|² = s² + 2 b s + c with
+    b = v_i,k and c = |v_i|², so l_max bounds s to −b ± sqrt(b² − c + l_max²) and l_min cuts out
+    −b ± sqrt(b² − c + l_min²), which lies wholly on one side of s = 0 when the pose is
+    feasible. Zero if the pose itself is outside.
     """
     stewart = mechanism.stewart
-    s = np.linspace(-reach, reach, samples)
-    offsets = np.einsum("s,kj->ksj", s, np.eye(6)[:3])  # (3, S, 6)
-    lengths = stewart.leg_lengths(pose[..., None, None, :] + offsets)
-    ok = stewart.within_limits(lengths)  # (..., 3, S)
-    centre = samples // 2
-    # the contiguous feasible run through s = 0: walk out from the centre
-    upper_ok = np.cumprod(ok[..., centre:], axis=-1).astype(bool)
-    lower_ok = np.cumprod(ok[..., centre::-1], axis=-1).astype(bool)
-    step = s[1] - s[0]
-    hi_in, lo_in = (upper_ok.sum(-1) - 1) * step, -(lower_ok.sum(-1) - 1) * step
-    hi_out, lo_out = hi_in + step, lo_in - step
-
-    def feasible(offset: np.ndarray) -> np.ndarray:
-        shifted = pose[..., None, :] + offset[..., None] * np.eye(6)[:3]
-        return stewart.within_limits(stewart.leg_lengths(shifted))
-
-    for _ in range(refine):  # bisection on both ends at once
-        mid_hi, mid_lo = (hi_in + hi_out) / 2, (lo_in + lo_out) / 2
-        f_hi, f_lo = feasible(mid_hi), feasible(mid_lo)
-        hi_in, hi_out = np.where(f_hi, mid_hi, hi_in), np.where(f_hi, hi_out, mid_hi)
-        lo_in, lo_out = np.where(f_lo, mid_lo, lo_in), np.where(f_lo, lo_out, mid_lo)
-    inside = ok[..., centre]
-    return np.where(inside, hi_in - lo_in, 0.0)
+    state = stewart.legs(pose)
+    b = state.vectors  # (..., 6, 3): leg i's component along axis k
+    c = state.lengths[..., None] ** 2
+    reach = np.sqrt(np.maximum(b**2 - c + stewart.leg_max**2, 0.0))
+    upper, lower = -b + reach, -b - reach
+    hole = b**2 - c + stewart.leg_min**2
+    half = np.sqrt(np.maximum(hole, 0.0))
+    has_hole = hole > 0
+    upper = np.where(has_hole & (-b > 0), np.minimum(upper, -b - half), upper)
+    lower = np.where(has_hole & (-b <= 0), np.maximum(lower, -b + half), lower)
+    span = np.min(upper, axis=-2) - np.max(lower, axis=-2)
+    inside = stewart.within_limits(state.lengths)
+    return np.where(inside[..., None], np.maximum(span, 0.0), 0.0)
 
 
 @dataclass

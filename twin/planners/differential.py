@@ -40,7 +40,7 @@ class DifferentialPlanner:
     secondary_weight: float = 1.0
     slew_priority: SlewPriority | None = None
     velocity_limit: VelocityLimit | None = None
-    epsilon: float = 0.05
+    epsilon: float = 0.01
     damping_max: float = 0.1
 
     def reset(self, xi: np.ndarray, target: TipTarget) -> None:

@@ -6,7 +6,7 @@ import numpy as np
 
 
 def weighted_pinv(
-    J: np.ndarray, w: np.ndarray, *, epsilon: float = 0.05, damping_max: float = 0.1
+    J: np.ndarray, w: np.ndarray, *, epsilon: float = 0.01, damping_max: float = 0.05
 ) -> tuple[np.ndarray, np.ndarray]:
     r"""J_W⁺ = W⁻¹ Jᵀ (J W⁻¹ Jᵀ + λ² I)⁻¹ (seed 000 eq (31), damped).
 
