@@ -11,6 +11,7 @@ from twin.planners.differential import DifferentialPlanner
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.linalg import weighted_pinv
 from twin.planners.parameters import PlannerParameters
+from twin.planners.platform import PlatformModel, PlatformPlanner, advance_target
 from twin.planners.registry import HYBRID_RATE_LIMITS, PLANNERS, PlannerSpec, get_planner
 from twin.planners.target import PlannerOutput, TipTarget
 from twin.planners.tasks import JointPostureTask, TipPoseTask
@@ -27,11 +28,14 @@ __all__ = [
     "PlannerOutput",
     "PlannerParameters",
     "PlannerSpec",
+    "PlatformModel",
+    "PlatformPlanner",
     "ProductWeights",
     "SlewPriority",
     "TipPoseTask",
     "TipTarget",
     "VelocityLimit",
+    "advance_target",
     "get_planner",
     "reachable_range",
     "weighted_pinv",

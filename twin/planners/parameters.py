@@ -59,14 +59,17 @@ class PlannerParameters(BaseModel):
         le=1.0,
         description="[-] damped-least-squares λ_max at a singularity (docs/planners.md)",
     )
+    # Seed 002 §5 tunes an effort PID in Gazebo (kp = 5000, ki = 0.5, kd = 10); ours commands
+    # velocity, so its gains are those over 625 N·s/m (same kp:ki:kd), with kp·dt < 2 (a stable
+    # loop) for every allowed dt (docs/planners_platforms.md).
     kp: float = Field(
         8.0, ge=0.0, le=200.0, description="[1/s] proportional gain of the actuator position loop"
     )
     ki: float = Field(
-        0.0, ge=0.0, le=200.0, description="[1/s²] integral gain of the actuator position loop"
+        8e-4, ge=0.0, le=200.0, description="[1/s²] integral gain of the actuator position loop"
     )
     kd: float = Field(
-        0.0, ge=0.0, le=10.0, description="[-] derivative gain of the actuator position loop"
+        0.016, ge=0.0, le=10.0, description="[-] derivative gain of the actuator position loop"
     )
     actuator_speed: float = Field(
         0.1,

@@ -14,13 +14,14 @@ from twin.planners.allocation import AllocationPlanner
 from twin.planners.differential import DifferentialPlanner
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.parameters import PlannerParameters
+from twin.planners.platform import platform_builder
 from twin.planners.tasks import JointPostureTask, TipPoseTask
 from twin.planners.weights import BetaSplit, JointLimitWeights, ProductWeights
 
 #: Virtual-joint rate limits of the hybrid system, [m/s] ×3, [rad/s] ×3, q̇1, q̇2 [rad/s],
 #: ḋ3 [m/s]. The papers give none; these are typical of hydraulic W2W gangways and Stewart
 #: motion bases (docs/planners.md) and bind only in the roughest seas.
-HYBRID_RATE_LIMITS = np.array([0.6, 0.6, 0.6, 0.5, 0.5, 0.5, 0.35, 0.35, 0.6])
+HYBRID_RATE_LIMITS = np.array([1.0, 1.0, 1.0, 0.5, 0.5, 0.5, 0.35, 0.35, 1.0])
 
 
 @dataclass(frozen=True)
@@ -126,6 +127,22 @@ PLANNERS: dict[str, PlannerSpec] = {
             (),
             "seed 004 §4 b",
             _allocation("conv2"),
+        ),
+        PlannerSpec(
+            "pid",
+            "actuator PID position loop",
+            ("upu3up", "upr4"),
+            ("kp", "ki", "kd", "actuator_speed"),
+            "seed 002 §5, Fig. 11",
+            platform_builder("pid"),
+        ),
+        PlannerSpec(
+            "ik",
+            "ideal position servo (inverse kinematics)",
+            ("upu3up", "upr4"),
+            ("actuator_speed",),
+            "seed 001 eqs (16)-(19), seed 002 eqs (15)-(18)",
+            platform_builder("ik"),
         ),
     )
 }

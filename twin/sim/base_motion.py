@@ -1,8 +1,4 @@
-"""The mechanism base's inertial motion for a scenario: sea → vessel RAOs → mount.
-
-Samples come with their time derivative (central differences of the analytic motion, which
-can be evaluated at any time), as planners need the desired twist, not just the pose.
-"""
+"""The mechanism base's inertial motion for a scenario: sea → vessel RAOs → mount."""
 
 from __future__ import annotations
 
@@ -11,13 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.sea.components import WaveComponents
-from twin.spatial import pose_to_transform, so3_log
+from twin.spatial import pose_to_transform
 from twin.vessel import MOUNTS, Mount, load_raos, vessel_motion
-
-#: [s] half-step of the central difference for the base twist; the motion is smooth on this
-#: scale (wave periods ≥ 1 s), so the truncation error is ~(h ω)² ≈ 1e-5 of the rate.
-TWIST_STEP = 1e-3
-
 
 @dataclass(frozen=True)
 class BaseSamples:
@@ -27,15 +18,11 @@ class BaseSamples:
         t: (N,) [s].
         pose: (N, 6) [m, rad] `[x, y, z, roll, pitch, yaw]`, z up, R = Rz·Ry·Rx.
         transform: (N, 4, 4) ᴵT_B.
-        velocity: (N, 3) [m/s] ᴵṗ_B.
-        angular_velocity: (N, 3) [rad/s] ᴵω_B (spatial, in the inertial frame).
     """
 
     t: np.ndarray
     pose: np.ndarray
     transform: np.ndarray
-    velocity: np.ndarray
-    angular_velocity: np.ndarray
 
 
 class BaseMotion:
@@ -67,14 +54,10 @@ class BaseMotion:
         return self.mount.pose(motion)
 
     def sample(self, t: np.ndarray) -> BaseSamples:
-        """Poses and central-difference rates at times t (N,) [s]."""
+        """Poses and transforms at times t (N,) [s]."""
         t = np.asarray(t, dtype=float)
-        poses = self.poses(np.concatenate([t, t - TWIST_STEP, t + TWIST_STEP]))
-        T, T_minus, T_plus = np.split(pose_to_transform(poses), 3)
-        velocity = (T_plus[:, :3, 3] - T_minus[:, :3, 3]) / (2 * TWIST_STEP)
-        rotation = T_plus[:, :3, :3] @ np.swapaxes(T_minus[:, :3, :3], -1, -2)
-        omega = so3_log(rotation) / (2 * TWIST_STEP)
-        return BaseSamples(t, poses[: t.size], T, velocity, omega)
+        poses = self.poses(t)
+        return BaseSamples(t, poses, pose_to_transform(poses))
 
 
 def mount_for(mechanism: str) -> Mount:

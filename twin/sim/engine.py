@@ -17,6 +17,7 @@ from twin.planners import PlannerParameters
 from twin.sim.base_motion import BaseMotion, BaseSamples, mount_for
 from twin.sim.hybrid_rig import HybridRig
 from twin.sim.metrics import hybrid_metrics
+from twin.sim.platform_rig import PlatformRig, platform_metrics
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import Scenario
 
@@ -25,12 +26,19 @@ CHUNK = 256
 
 
 def _hybrid(scenario: Scenario, mechanism: Any, parameters: PlannerParameters, state: np.ndarray):
-    rig = HybridRig(mechanism, scenario.planner, parameters, state)
+    rig = HybridRig(mechanism, scenario.planner, parameters, state, scenario.dt)
     return rig, lambda series: hybrid_metrics(series, mechanism)
 
 
+def _platform(
+    scenario: Scenario, mechanism: Any, parameters: PlannerParameters, state: np.ndarray
+):
+    rig = PlatformRig(mechanism, scenario.planner, parameters, state, scenario.dt)
+    return rig, lambda series: platform_metrics(series, rig.model)
+
+
 #: mechanism name → builder of (rig, metrics function)
-RIGS: dict[str, Callable] = {"hybrid": _hybrid}
+RIGS: dict[str, Callable] = {"hybrid": _hybrid, "upu3up": _platform, "upr4": _platform}
 
 
 class Simulation:
@@ -86,17 +94,12 @@ class Simulation:
         return record
 
     def series(self) -> dict[str, np.ndarray]:
-        """The history stacked per key, (N + 1, ...); a planner diagnostic missing at t = 0
-        (no step taken yet) is zero there."""
-        keys = list(self.history[-1])
-        first = self.history[0]
-        return {
-            key: np.stack(
-                [first.get(key, np.zeros_like(self.history[-1][key]))]
-                + [rec[key] for rec in self.history[1:]]
-            )
-            for key in keys
-        }
+        """The history stacked per key, (N + 1, ...). Planner diagnostics do not exist at t = 0
+        (no step taken yet); there they repeat the first step's values."""
+        history = self.history
+        if len(history) > 1:
+            history = [{**history[1], **history[0]}, *history[1:]]
+        return {key: np.stack([rec[key] for rec in history]) for key in history[-1]}
 
     def result(self) -> SimulationResult:
         series = self.series()

@@ -19,6 +19,7 @@ class HybridRig:
         planner: registry name.
         parameters: the planner's knobs.
         initial_state: (9,) xi at t = 0.
+        dt: [s] control period.
     """
 
     mechanism_name = "hybrid"
@@ -29,8 +30,10 @@ class HybridRig:
         planner: str,
         parameters: PlannerParameters,
         initial_state: np.ndarray,
+        dt: float,
     ) -> None:
         self.mechanism = mechanism
+        self.dt = dt
         self.spec = get_planner(planner, "hybrid")
         self.parameters = parameters
         self.xi = np.array(initial_state, dtype=float)
@@ -44,7 +47,7 @@ class HybridRig:
         """Fix the held tip pose at the base's first sample; the record at t = 0."""
         T_E = self.mechanism.end_effector(self.xi)
         self.held = base.transform[0] @ T_E
-        self.planner.reset(self.xi, held_target(self.held, base, 0))
+        self.planner.reset(self.xi, held_target(self.held, base, 0, self.dt))
         # landing frame: inertial, x along the initial horizontal gangway direction (seed 004)
         g = self._gangway(base.transform[0])
         heading = np.arctan2(g[1], g[0])
@@ -61,7 +64,7 @@ class HybridRig:
 
     def advance(self, base: BaseSamples, k: int, dt: float) -> dict[str, np.ndarray]:
         """Plan at sample k, integrate one dt, return the record at sample k + 1."""
-        out = self.planner.step(self.xi, held_target(self.held, base, k), dt)
+        out = self.planner.step(self.xi, held_target(self.held, base, k, dt), dt)
         v = out.velocity
         if not np.all(np.isfinite(v)):
             # A planner fault holds the mechanism still rather than letting NaN through.

@@ -1,8 +1,13 @@
 """The compensation task: a body that holds its inertial pose while the base moves.
 
 Seed 000 §5.1: the desired base-frame motion is the inverse of the measured base motion. With
-the held pose ᴵT* fixed at t = 0, the desired pose in the base frame is ᴮT_d = ᴵT_B⁻¹ ᴵT*, and
-its rates in B follow from the base's: ᴮω_d = −Rᵀ ᴵω_B, ᴮṗ_d = −Rᵀ (ᴵṗ_B + ᴵω_B × (p* − p_B)).
+the held pose ᴵT* fixed at t = 0, the desired pose in the base frame is ᴮT_d = ᴵT_B⁻¹ ᴵT*.
+
+Both papers plan on a *predicted* base trajectory (seed 000 §5.1: the hydraulics' delay is
+covered by predicting the sensor's motion; seed 004 §1: short-term wave-motion prediction).
+We give the planner a one-step prediction: the twist is the mean rate that carries ᴮT_d(t_k)
+to ᴮT_d(t_k+1) over dt, so a velocity held for one control period lands on the next target
+(docs/planners.md).
 """
 
 from __future__ import annotations
@@ -11,16 +16,17 @@ import numpy as np
 
 from twin.planners.target import TipTarget
 from twin.sim.base_motion import BaseSamples
-from twin.spatial import invert_transform
+from twin.spatial import invert_transform, so3_log
 
 
-def held_target(held: np.ndarray, base: BaseSamples, k: int) -> TipTarget:
-    """Desired pose and twist in B at sample k for the inertial pose `held` (4, 4)."""
-    T_B = base.transform[k]
-    Rt = T_B[:3, :3].T
-    w = base.angular_velocity[k]
-    v = -Rt @ (base.velocity[k] + np.cross(w, held[:3, 3] - T_B[:3, 3]))
-    return TipTarget(transform=invert_transform(T_B) @ held, twist=np.r_[v, -Rt @ w])
+def held_target(held: np.ndarray, base: BaseSamples, k: int, dt: float) -> TipTarget:
+    """Desired pose in B at sample k and its mean twist to sample k + 1, for the inertial pose
+    `held` (4, 4); the twist is [ᴮṗ; ᴮω] in B [m/s, rad/s]."""
+    T0 = invert_transform(base.transform[k]) @ held
+    T1 = invert_transform(base.transform[k + 1]) @ held
+    v = (T1[:3, 3] - T0[:3, 3]) / dt
+    w = so3_log(T1[:3, :3] @ T0[:3, :3].T) / dt
+    return TipTarget(transform=T0, twist=np.r_[v, w])
 
 
 def tilt(R: np.ndarray, axis: int = 2) -> np.ndarray:
