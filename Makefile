@@ -10,8 +10,11 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
+# netsse (the closed-form RAO peer of tests/vessel/test_netsse.py) declares Python >= 3.12 and
+# drags in cartopy; the part we call needs only numpy, so it is installed on its own.
 $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet --no-deps --ignore-requires-python "netsse>=2.2,<3"
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -10,6 +10,7 @@ from twin.sea.components import WaveComponents
 from twin.spatial import pose_to_transform
 from twin.vessel import MOUNTS, Mount, load_raos, vessel_motion
 
+
 @dataclass(frozen=True)
 class BaseSamples:
     """Inertial base motion at a batch of times.
