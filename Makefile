@@ -13,7 +13,7 @@ $(BIN)/python:
 # netsse (the closed-form RAO peer of tests/vessel/test_netsse.py) declares Python >= 3.12 and
 # drags in cartopy; the part we call needs only numpy, so it is installed on its own.
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet -e ".[test,hydro]"
 	$(BIN)/python -m pip install --quiet --no-deps --ignore-requires-python "netsse>=2.2,<3"
 	touch $(STAMP)
 
@@ -35,9 +35,8 @@ demo: $(STAMP)
 urdf: $(STAMP)
 	$(BIN)/python scripts/build_urdf.py
 
-## raos: recompute assets/vessels/*.nc with Capytaine (slow; needs the hydro extra)
+## raos: recompute assets/vessels/*.nc with Capytaine (about a minute)
 raos: $(STAMP)
-	$(BIN)/python -m pip install --quiet -e ".[hydro]"
 	$(BIN)/python scripts/compute_raos.py
 
 clean:

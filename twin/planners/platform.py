@@ -36,8 +36,10 @@ from twin.spatial import pose_to_transform, so3_exp
 from twin.validation import as_array
 
 LAWS = ("ik", "pid")
-#: [m | rad] Gauss-Newton step below which the Upr4's best-fit pose has converged.
-FIT_TOL = 1e-12
+#: [m | rad] Gauss-Newton step after which the Upr4's best-fit pose is taken as converged:
+#: convergence is quadratic (linear with a tiny rate for slightly inconsistent lengths), so
+#: the pose is then within ~1e-12 of the limit, and one Jacobian is saved per step.
+FIT_TOL = 1e-8
 FIT_MAX_ITER = 30
 #: [mm, rad] the Upu3Up's limit checks allow seed 001's own forward-kinematics accuracy (§IV:
 #: about 1e-2 mm and 1e-4°), so a state servoed onto a limit does not count as beyond it.
@@ -51,12 +53,13 @@ class PlatformModel:
     Attributes:
         mechanism: the `Upu3Up` (state (z [mm], α, β [rad])) or `Upr4` (state (z [m], roll,
             pitch [rad])).
-        z_hold: [m] the Upr4's held platform height; seed 002 §4 needs no height control,
-            so z stays where it starts. Unused by the Upu3Up, which compensates heave.
+        z_hold: [m] the Upr4's held platform height (default its home height z0); seed 002
+            §4 needs no height control, so z stays where it starts. Unused by the Upu3Up,
+            which compensates heave.
     """
 
     mechanism: Upu3Up | Upr4
-    z_hold: float = 0.0
+    z_hold: float | None = None
     _envelope: Upu3Up | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -75,6 +78,9 @@ class PlatformModel:
                 heave_limit=min(m.l - m.leg_min, m.leg_max - m.l),
                 tilt_limit=float(np.radians(85.0)),
             )
+        else:
+            z_hold = self.mechanism.z0 if self.z_hold is None else float(self.z_hold)
+            object.__setattr__(self, "z_hold", z_hold)
         object.__setattr__(self, "_envelope", envelope)
 
     @property

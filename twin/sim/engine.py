@@ -30,9 +30,7 @@ def _hybrid(scenario: Scenario, mechanism: Any, parameters: PlannerParameters, s
     return rig, lambda series: hybrid_metrics(series, mechanism)
 
 
-def _platform(
-    scenario: Scenario, mechanism: Any, parameters: PlannerParameters, state: np.ndarray
-):
+def _platform(scenario: Scenario, mechanism: Any, parameters: PlannerParameters, state: np.ndarray):
     rig = PlatformRig(mechanism, scenario.planner, parameters, state, scenario.dt)
     return rig, lambda series: platform_metrics(series, rig.model)
 

@@ -93,7 +93,7 @@ class HybridRig:
             "manipulability": self.mechanism.manipulability(self.xi),
             "phi_e": phi_e,
             "theta_e": theta_e,
-            "alpha_top": np.arccos(np.clip(up @ up0, -1.0, 1.0)),
+            "alpha_top": np.arctan2(np.linalg.norm(np.cross(up, up0)), up @ up0),
             "alpha_bottom": tilt(T_IB[:3, :3]),
         }
         for name in ("weights", "null_space_share", "damping", "velocity_scale", "position_share"):

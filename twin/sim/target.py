@@ -31,4 +31,5 @@ def held_target(held: np.ndarray, base: BaseSamples, k: int, dt: float) -> TipTa
 
 def tilt(R: np.ndarray, axis: int = 2) -> np.ndarray:
     """Angle [rad] between a body axis (column `axis` of R (..., 3, 3)) and inertial z up."""
-    return np.arccos(np.clip(R[..., 2, axis], -1.0, 1.0))
+    # atan2 of the horizontal and vertical parts resolves small angles that arccos cannot
+    return np.arctan2(np.hypot(R[..., 0, axis], R[..., 1, axis]), R[..., 2, axis])
