@@ -213,17 +213,9 @@ def elevation(
     the sea is `wave_components` of the same arguments (see there for each).
     """
     components = wave_components(
-        hs,
-        tp,
-        spectrum,
-        heading,
-        spreading,
-        seed,
-        n_components,
-        gamma=gamma,
-        omega_range=omega_range,
-        jitter=jitter,
-    )
+        hs, tp, spectrum, heading, spreading, seed, n_components,
+        gamma=gamma, omega_range=omega_range, jitter=jitter,
+    )  # fmt: skip
     return evaluate_elevation(components, t, x, y)
 
 
@@ -245,17 +237,9 @@ def slope(
 ) -> np.ndarray:
     """Slope (∂η/∂x, ∂η/∂y) (..., 2) [m/m] of the sea `elevation` gives for the same args."""
     components = wave_components(
-        hs,
-        tp,
-        spectrum,
-        heading,
-        spreading,
-        seed,
-        n_components,
-        gamma=gamma,
-        omega_range=omega_range,
-        jitter=jitter,
-    )
+        hs, tp, spectrum, heading, spreading, seed, n_components,
+        gamma=gamma, omega_range=omega_range, jitter=jitter,
+    )  # fmt: skip
     return evaluate_slope(components, t, x, y)
 
 
