@@ -14,6 +14,7 @@ from numpy.typing import ArrayLike
 
 from twin.errors import ConvergenceError, UnreachableError
 from twin.mechanisms.legs import LegLayout, LegState, legs, twist_jacobian
+from twin.mechanisms.newton import newton, start
 from twin.spatial import pose_to_transform, rpy_rate_matrix
 from twin.validation import as_array
 
@@ -146,24 +147,19 @@ class StewartPlatform:
         """
         lengths = as_array(lengths, "lengths", (6,))
         self.check_lengths(lengths, "lengths")
-        if guess is None:
-            x = np.zeros(lengths.shape)
-            x[..., 2] = self.height_for_length(lengths.mean(axis=-1))
-        else:
-            x = np.broadcast_to(as_array(guess, "guess", (6,)), lengths.shape).copy()
-        for _ in range(max_iter):
-            residual = self.leg_lengths(x) - lengths
-            if np.all(np.abs(residual) < tol):
-                return x
-            step = np.linalg.solve(self.pose_jacobian(x), residual[..., None])[..., 0]
-            x = x - step
-            if not np.all(np.isfinite(x)):
-                break
-        worst = np.nanmax(np.abs(self.leg_lengths(np.nan_to_num(x)) - lengths))
-        raise ConvergenceError(
-            f"Stewart forward kinematics did not converge in {max_iter} Newton steps "
-            f"(worst leg residual {worst:.3g} m > tol {tol:g} m); give a closer `guess`"
-        )
+        level = np.zeros(lengths.shape)
+        level[..., 2] = self.height_for_length(lengths.mean(axis=-1))
+
+        def equations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return self.leg_lengths(x) - lengths, self.pose_jacobian(x)
+
+        result = newton(equations, start(guess, level, lengths.shape), tol=tol, max_iter=max_iter)
+        if not result.converged:
+            raise ConvergenceError(
+                f"Stewart forward kinematics did not converge in {max_iter} Newton steps "
+                f"(worst leg residual {result.worst:.3g} m > tol {tol:g} m); give a closer `guess`"
+            )
+        return result.x
 
     def height_for_length(self, length: ArrayLike) -> np.ndarray:
         """Height z [m] of the level, centred platform whose six legs all have `length` [m]."""

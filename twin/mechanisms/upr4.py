@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike
 
 from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms.legs import LegLayout, LegState, legs, twist_jacobian
+from twin.mechanisms.newton import newton, start
 from twin.spatial import pose_to_transform, rpy_rate_matrix
 from twin.validation import as_array, check_range
 
@@ -388,53 +389,33 @@ class Upr4:
         """
         lengths = as_array(lengths, "lengths", (4,))
         check_range(lengths, "lengths [m]", self.stroke_min, self.stroke_max)
-        if not (tol > 0 and max_iter >= 0):
-            raise TwinError(f"forward needs tol > 0 and max_iter >= 0, got {tol}, {max_iter}")
-        batch = (*lengths.shape[:-1], 3)
-        if guess is None:
-            x = np.broadcast_to(np.array([self.z0, 0.0, 0.0]), batch).copy()
-        else:
-            guess = as_array(guess, "guess", (3,))
-            try:
-                x = np.broadcast_to(guess, batch).copy()
-            except ValueError as exc:
-                raise TwinError(
-                    f"guess of shape {guess.shape} does not broadcast to the batch {batch}"
-                ) from exc
-        step = np.full(batch, np.inf)
-        for iteration in range(max_iter + 1):
-            residual = self.legs(x[..., 0], x[..., 1], x[..., 2]).lengths - lengths
-            if not np.all(np.isfinite(residual)):
-                break
-            J = self.jacobian(x[..., 0], x[..., 1], x[..., 2])
-            Jt = np.swapaxes(J, -1, -2)
-            try:
-                step = np.linalg.solve(Jt @ J, Jt @ residual[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                break  # singular configuration: no Newton step exists
-            # A small residual alone is not enough: ∂l/∂roll is only ~0.06 m/rad (small top
-            # square), so a 1e-10 m residual can hide a 2e-9 rad error; the step must be small too.
-            if np.all(np.abs(residual) <= tol) and np.all(np.abs(step) <= tol):
-                return x - step
-            if iteration == max_iter:
-                break
-            x = x - step
-        worst = np.max(np.abs(np.nan_to_num(residual, nan=np.inf)))
+
+        def equations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            z, roll, pitch = x[..., 0], x[..., 1], x[..., 2]
+            return self.legs(z, roll, pitch).lengths - lengths, self.jacobian(z, roll, pitch)
+
+        x0 = start(guess, np.array([self.z0, 0.0, 0.0]), (*lengths.shape[:-1], 3))
+        # A small residual alone is not enough: ∂l/∂roll is only ~0.06 m/rad (small top
+        # square), so a 1e-10 m residual can hide a 2e-9 rad error; the step must be small too.
+        result = newton(equations, x0, tol=tol, max_iter=max_iter, step_tol=tol)
+        if result.converged:
+            return result.x
+        residual = result.residual
         unsolved = np.any(np.abs(residual) > tol, axis=-1)
         if (
             np.all(np.isfinite(residual))
             and np.any(unsolved)
-            and np.all(np.abs(step[unsolved]) < _STALL_STEP)
+            and np.all(np.abs(result.step[unsolved]) < _STALL_STEP)
         ):
             raise UnreachableError(
                 f"Upr4.forward: lengths {np.round(lengths[unsolved], 6).tolist()!r:.160} m fit no "
                 f"(z, roll, pitch) state: Newton-Raphson settled at a least-squares residual of "
-                f"{worst:.3g} m > tol {tol:g} m (the four lengths are inconsistent)"
+                f"{result.worst:.3g} m > tol {tol:g} m (the four lengths are inconsistent)"
             )
         raise ConvergenceError(
-            f"Upr4.forward did not converge: stopped after {iteration} Newton-Raphson steps "
-            f"(max_iter={max_iter}) with worst limb residual {worst:.3g} m (tol {tol:g} m); "
-            "the lengths may fit no state, or give a closer `guess`"
+            f"Upr4.forward did not converge: stopped after {result.iterations} Newton-Raphson "
+            f"steps (max_iter={max_iter}) with worst limb residual {result.worst:.3g} m (tol "
+            f"{tol:g} m); the lengths may fit no state, or give a closer `guess`"
         )
 
     def platform_pose(self, state: ArrayLike) -> np.ndarray:

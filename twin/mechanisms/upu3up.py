@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike
 
 from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms.legs import LegLayout, LegState, legs, twist_jacobian
+from twin.mechanisms.newton import newton, start
 from twin.spatial import transform_to_pose
 from twin.validation import as_array, check_range
 
@@ -269,39 +270,23 @@ class Upu3Up:
         """
         lengths = as_array(lengths, "lengths", (3,))
         check_range(lengths, "lengths [mm]", self.leg_min, self.leg_max)
-        if not (tol > 0 and max_iter >= 0):
-            raise TwinError(f"forward needs tol > 0 and max_iter >= 0, got {tol}, {max_iter}")
-        if guess is None:
-            x = np.zeros(lengths.shape)
-        else:
-            guess = as_array(guess, "guess", (3,))
-            try:
-                x = np.broadcast_to(guess, lengths.shape).copy()
-            except ValueError as exc:
-                raise TwinError(
-                    f"guess of shape {guess.shape} does not broadcast to lengths {lengths.shape}"
-                ) from exc
-        for step in range(max_iter + 1):
-            z, alpha, beta = x[..., 0], x[..., 1], x[..., 2]
-            T = coupled_transform(z, alpha, beta, self.l)
+
+        def equations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            alpha = x[..., 1]
+            T = coupled_transform(x[..., 0], alpha, x[..., 2], self.l)
             state = legs(self._layout_mm, T)
-            residual = state.lengths[..., :3] - lengths  # seed 001 eq (20), in lengths
-            if np.all(np.abs(residual) <= tol):
-                self._check_state(x, "forward solution", slack=_STATE_SLACK)
-                return x
-            if step == max_iter or not np.all(np.isfinite(residual)):
-                break
-            J = twist_jacobian(state)[..., :3, :] @ coupled_twist_map(T, alpha)
-            try:
-                delta = np.linalg.solve(J, residual[..., None])[..., 0]  # seed 001 eq (24)
-            except np.linalg.LinAlgError:
-                break  # singular configuration: no Newton step exists
-            x = x - delta  # seed 001 eq (22)
-        worst = np.max(np.abs(np.nan_to_num(residual, nan=np.inf)))
+            J = twist_jacobian(state)[..., :3, :] @ coupled_twist_map(T, alpha)  # seed 001 eq (24)
+            return state.lengths[..., :3] - lengths, J  # seed 001 eq (20), in lengths
+
+        x0 = start(guess, np.zeros(3), lengths.shape)
+        result = newton(equations, x0, tol=tol, max_iter=max_iter)  # seed 001 eq (22)
+        if result.converged:
+            self._check_state(result.x, "forward solution", slack=_STATE_SLACK)
+            return result.x
         raise ConvergenceError(
-            f"Upu3Up.forward did not converge: stopped after {step} Newton-Raphson steps "
-            f"(max_iter={max_iter}) with worst limb residual {worst:.3g} mm > tol {tol:g} mm; "
-            "the lengths may be unreachable, or give a closer `guess`"
+            f"Upu3Up.forward did not converge: stopped after {result.iterations} Newton-Raphson "
+            f"steps (max_iter={max_iter}) with worst limb residual {result.worst:.3g} mm > tol "
+            f"{tol:g} mm; the lengths may be unreachable, or give a closer `guess`"
         )
 
     def platform_pose(self, state: ArrayLike) -> np.ndarray:

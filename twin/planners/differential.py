@@ -41,7 +41,7 @@ class DifferentialPlanner:
     slew_priority: SlewPriority | None = None
     velocity_limit: VelocityLimit | None = None
     epsilon: float = 0.01
-    damping_max: float = 0.1
+    damping_max: float = 0.05
 
     def reset(self, xi: np.ndarray, target: TipTarget) -> None:
         """Velocity-level planners keep no state between steps."""
