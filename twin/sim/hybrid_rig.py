@@ -37,7 +37,8 @@ class HybridRig:
         self.spec = get_planner(planner, "hybrid")
         self.parameters = parameters
         self.xi = np.array(initial_state, dtype=float)
-        self.planner = self.spec.build(mechanism, parameters, self.xi)
+        self.xi0 = self.xi.copy()  # set-points such as q̃2 (seed 000 eq (40)) stay at the start
+        self.planner = self.spec.build(mechanism, parameters, self.xi0)
         self.held: np.ndarray | None = None  # ᴵT_E*, fixed at reset
         self._gangway0: np.ndarray | None = None
         self._landing: np.ndarray | None = None
@@ -55,6 +56,15 @@ class HybridRig:
         self._landing = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
         self._gangway0 = self._landing @ g
         return self.record(base, 0, {})
+
+    def replan(
+        self, planner: str, parameters: PlannerParameters, base: BaseSamples, k: int
+    ) -> None:
+        """Switch planner or parameters at sample k, keeping the state and the held pose."""
+        self.spec = get_planner(planner, "hybrid")
+        self.parameters = parameters
+        self.planner = self.spec.build(self.mechanism, parameters, self.xi0)
+        self.planner.reset(self.xi, held_target(self.held, base, k, self.dt))
 
     def _gangway(self, T_IB: np.ndarray) -> np.ndarray:
         """Inertial vector from the luff pivot (DH frame 2) to the tip (3,) [m]."""

@@ -66,6 +66,15 @@ class PlatformRig:
         self.planner.reset(self.legs, held_target(self.held, base, 0, self.dt))
         return self.record(base, 0, {})
 
+    def replan(
+        self, planner: str, parameters: PlannerParameters, base: BaseSamples, k: int
+    ) -> None:
+        """Switch planner or parameters at sample k, keeping the state and the held pose."""
+        self.spec = get_planner(planner, self.mechanism_name)
+        self.parameters = parameters
+        self.planner = self.spec.build(self.model.mechanism, parameters, self.state)
+        self.planner.reset(self.legs, held_target(self.held, base, k, self.dt))
+
     def advance(self, base: BaseSamples, k: int, dt: float) -> dict[str, np.ndarray]:
         """Servo at sample k, move the actuators one dt, return the record at sample k + 1."""
         out = self.planner.step(self.legs, held_target(self.held, base, k, dt), dt)
