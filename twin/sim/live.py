@@ -1,0 +1,174 @@
+"""The live session: one simulation stepped in real time, shared by every browser and client.
+
+A background thread steps the simulation at dt of simulated time, paced to wall time × speed.
+Readers (the 3D scene, REST) take `latest()` / `snapshot()` under a lock and never block the
+loop for longer than a copy; writers (`patch`, `reset`, …) validate first and apply between
+two steps, so a bad value changes nothing and a good one acts on the next step.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from twin.sim.engine import RESTART_FIELDS, Simulation
+from twin.sim.scenario import Scenario
+
+#: samples the live session keeps (a ring buffer: 100 s at dt = 0.05 s)
+HISTORY = 2000
+#: most steps one wall-clock tick may take; a stalled machine drops simulated time instead of
+#: spiralling (the loop never tries to catch up more than this)
+MAX_CATCH_UP = 40
+
+
+class LiveControls(BaseModel):
+    """Knobs of the live session that are not part of a scenario."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_assignment=True)
+
+    speed: float = Field(1.0, ge=0.25, le=8.0, description="[-] simulated / wall time")
+    playing: bool = Field(True, description="whether the loop advances")
+
+
+class LiveSession:
+    """A running `Simulation` with real-time pacing, pause/play/step/reset and live patches.
+
+    Args:
+        scenario: the starting scenario (default: the papers' hybrid MTMP run). Its
+            `duration` is ignored: a live session runs until stopped.
+        tick: [s] wall-clock period of the loop (default 1/60 s).
+    """
+
+    def __init__(self, scenario: Scenario | dict | None = None, tick: float = 1 / 60) -> None:
+        base = scenario if isinstance(scenario, Scenario) else Scenario(**(scenario or {}))
+        self._lock = threading.RLock()
+        self.controls = LiveControls()
+        self.tick = tick
+        self._sim = Simulation(base, history_limit=HISTORY)
+        self._debt = 0.0  # [s] simulated time owed to the wall clock
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self.version = 0  # bumps on every reset, so viewers can clear trails
+
+    # -- readers -----------------------------------------------------------------------------
+    @property
+    def scenario(self) -> Scenario:
+        with self._lock:
+            return self._sim.scenario
+
+    @property
+    def mechanism(self) -> Any:
+        with self._lock:
+            return self._sim.mechanism
+
+    def latest(self) -> dict[str, np.ndarray]:
+        """The newest sample's record (arrays are copies)."""
+        with self._lock:
+            return {k: np.array(v) for k, v in self._sim.history[-1].items()}
+
+    def series(self) -> dict[str, np.ndarray]:
+        """The ring buffer stacked per key."""
+        with self._lock:
+            return self._sim.series()
+
+    def snapshot(self) -> dict[str, Any]:
+        """Flat scenario fields, sim time, speed, playing and the metrics over the buffer."""
+        with self._lock:
+            result = self._sim.result()
+            return {
+                **self._sim.scenario.model_dump(exclude={"duration"}),
+                "t": self._sim.t,
+                **self.controls.model_dump(),
+                "metrics": result.metrics,
+            }
+
+    # -- writers -----------------------------------------------------------------------------
+    def patch(self, changes: dict[str, Any]) -> set[str]:
+        """Change scenario fields and/or `speed`, `playing`; all validated before any applies.
+
+        Raises:
+            ValueError: an unknown field or a bad value (nothing changes).
+        """
+        changes = dict(changes)
+        controls = {k: changes.pop(k) for k in list(changes) if k in LiveControls.model_fields}
+        new_controls = LiveControls(**{**self.controls.model_dump(), **controls})
+        with self._lock:
+            current = self._sim.scenario
+            new = Scenario(**{**current.model_dump(), **changes})  # validates everything
+            changed = {k for k in changes if getattr(new, k) != getattr(current, k)}
+            if changed & RESTART_FIELDS:
+                self._sim = Simulation(new, history_limit=HISTORY)
+                self.version += 1
+            elif changed:
+                self._sim.update(changes)
+            self.controls = new_controls
+        return changed | {k for k in controls}
+
+    def reset(self) -> None:
+        """Start the current scenario again from t = 0."""
+        with self._lock:
+            self._sim = Simulation(self._sim.scenario, history_limit=HISTORY)
+            self._debt = 0.0
+            self.version += 1
+
+    def pause(self) -> None:
+        self.patch({"playing": False})
+
+    def play(self) -> None:
+        self.patch({"playing": True})
+
+    def step(self, n: int = 1) -> dict[str, np.ndarray]:
+        """Advance n steps now (also while paused); returns the newest record."""
+        with self._lock:
+            for _ in range(n):
+                self._advance_one()
+            return self.latest()
+
+    def _advance_one(self) -> None:
+        # a live session runs past the scenario's duration: extend it instead of stopping
+        if self._sim.done:
+            self._sim.n_steps += self._sim.n_steps or 1
+        self._sim.step()
+
+    # -- the real-time loop ----------------------------------------------------------------
+    def advance(self, wall_dt: float) -> int:
+        """Step as many dt as `wall_dt` × speed of simulated time owes; returns steps taken."""
+        with self._lock:
+            if not self.controls.playing:
+                self._debt = 0.0
+                return 0
+            self._debt += wall_dt * self.controls.speed
+            dt = self._sim.dt
+            n = int(self._debt / dt + 1e-9)
+            if n > MAX_CATCH_UP:  # a stall drops simulated time; it is not owed
+                n, self._debt = MAX_CATCH_UP, 0.0
+            else:
+                self._debt -= n * dt
+            for _ in range(n):
+                self._advance_one()
+            return n
+
+    def start(self) -> None:
+        """Run the loop in a daemon thread (idempotent)."""
+        if self._thread is not None and self._thread.is_alive():
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name="twin-live", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+
+    def _run(self) -> None:
+        last = time.perf_counter()
+        while not self._stop.is_set():
+            now = time.perf_counter()
+            self.advance(now - last)
+            last = now
+            self._stop.wait(max(0.0, self.tick - (time.perf_counter() - now)))
