@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from twin.sea.components import G, WaveComponents
+from twin.sea.presets import SEED001_TRAJECTORIES, seed001_inputs, seed001_sea
 from twin.sea.regular import REGULAR_PRESETS, regular_components
 from twin.sea.sea_states import WMO_SEA_STATES, SeaState, sea_state_code, sea_state_hs_tp
 from twin.sea.spectra import (
@@ -30,6 +31,7 @@ from twin.sea.synthesis import (
 
 __all__ = [
     "REGULAR_PRESETS",
+    "SEED001_TRAJECTORIES",
     "SPECTRA",
     "WMO_SEA_STATES",
     "G",
@@ -52,6 +54,8 @@ __all__ = [
     "regular_components",
     "sea_state_code",
     "sea_state_hs_tp",
+    "seed001_inputs",
+    "seed001_sea",
     "slope",
     "spectral_density",
     "surface_heights",
