@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install test lint demo urdf raos clean
+.PHONY: install serve test lint demo urdf raos clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,10 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $(STAMP)
 
 install: $(STAMP)
+
+## serve: the live twin — 3D viewer :8080, REST API and landing page :8000
+serve: $(STAMP)
+	$(BIN)/twin serve --host 127.0.0.1 --port 8000 --viser-port 8080 --data-dir data
 
 ## test: install, lint and run the whole test suite (what CI runs)
 test: $(STAMP)

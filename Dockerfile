@@ -1,0 +1,29 @@
+# The live twin for demos: landing page and REST API on 8000, the 3D viewer on 8080.
+#   docker build -t wave-twin .
+#   docker run --rm -p 8000:8000 -p 8080:8080 -e TWIN_TOKEN=... wave-twin
+# Runs are stored in /home/twin/data (a volume: mount it to keep them).
+FROM python:3.11-slim
+
+ENV PYTHONDONTWRITEBYTECODE=1 \
+    PYTHONUNBUFFERED=1 \
+    PIP_NO_CACHE_DIR=1 \
+    PIP_DISABLE_PIP_VERSION_CHECK=1
+
+WORKDIR /src
+COPY pyproject.toml README.md ./
+COPY twin ./twin
+COPY assets ./assets
+COPY static ./static
+RUN pip install . && rm -rf /src
+
+RUN useradd --create-home --uid 10001 twin
+USER twin
+WORKDIR /home/twin
+# Created as the user so a fresh named volume inherits its ownership.
+RUN mkdir data
+VOLUME ["/home/twin/data"]
+
+EXPOSE 8000 8080
+HEALTHCHECK --interval=30s --timeout=5s --start-period=30s --retries=3 \
+    CMD ["python", "-c", "import urllib.request; urllib.request.urlopen('http://127.0.0.1:8000/api/health', timeout=4)"]
+CMD ["twin", "serve", "--host", "0.0.0.0"]

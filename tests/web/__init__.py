@@ -1,0 +1,1 @@
+"""Web layer: REST API, run store, jobs, CLI (and the 3D scene)."""

@@ -1,0 +1,388 @@
+"""REST API through httpx: contracts, runs equal simulate(), persistence, live patches, auth."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from fastapi.testclient import TestClient
+
+from twin.mechanisms import MECHANISMS
+from twin.planners import PLANNERS, PlannerParameters
+from twin.sea.sea_states import WMO_SEA_STATES
+from twin.sim import Scenario, simulate
+from twin.sim.live import LiveSession
+from twin.sim.result import flat_columns
+from twin.web import JobRunner, RunStore, create_app
+
+SHORT = {"mechanism": "hybrid", "planner": "mtmp", "sea_state": 3, "duration": 2.0}
+#: synchronous cap of the test app: 100 steps (5 s at dt 0.05), so a 10 s run becomes a job
+SYNC_STEPS = 100
+TOKEN = "s3cret-token"
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunStore]:
+    with RunStore(tmp_path_factory.mktemp("data") / "runs.sqlite") as store:
+        yield store
+
+
+@pytest.fixture(scope="module")
+def client(store: RunStore) -> Iterator[TestClient]:
+    """An app with its worker pool running (the lifespan), shared by the run tests."""
+    jobs = JobRunner(store, workers=1, sync_max_steps=SYNC_STEPS)
+    app = create_app(LiveSession({"sea_state": 3}), store, jobs=jobs, viewer_port=8080)
+    with TestClient(app) as client:
+        yield client
+
+
+@pytest.fixture(scope="module")
+def done_run(client: TestClient) -> dict[str, Any]:
+    response = client.post("/api/runs", json=SHORT)
+    assert response.status_code == 201, response.text
+    return response.json()
+
+
+@pytest.fixture
+def live() -> LiveSession:
+    """A session that is not started: only requests move it, so snapshots are comparable."""
+    return LiveSession({"sea_state": 3})
+
+
+def live_client(live: LiveSession, tmp_path: Path, token: str | None = None) -> TestClient:
+    # No `with`: the lifespan (worker pool) is not needed by the live endpoints.
+    return TestClient(create_app(live, RunStore(tmp_path / "runs.sqlite"), token=token))
+
+
+def wait_done(client: TestClient, run_id: str, timeout: float = 60.0) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        run = client.get(f"/api/runs/{run_id}").json()
+        if run["status"] in ("done", "failed"):
+            return run
+        time.sleep(0.1)
+    raise AssertionError(f"run {run_id} not done after {timeout} s: {run}")
+
+
+# -- registries ---------------------------------------------------------------------------------
+
+
+def test_openapi_lists_exactly_the_api_paths(client: TestClient) -> None:
+    paths = client.get("/openapi.json").json()["paths"]
+    assert set(paths) == {
+        "/api/health", "/api/mechanisms", "/api/planners", "/api/sea-states", "/api/runs",
+        "/api/runs/{run_id}", "/api/runs/{run_id}/series", "/api/live", "/api/live/reset",
+        "/api/live/pause", "/api/live/play", "/api/live/step",
+    }  # fmt: skip
+    assert client.get("/docs").status_code == 200
+
+
+def test_health(client: TestClient) -> None:
+    assert client.get("/api/health").json() == {
+        "status": "ok",
+        "version": "0.1.0",
+        "viewer_port": 8080,
+    }
+
+
+def test_landing_page_links_viewer_docs_and_live(client: TestClient) -> None:
+    response = client.get("/")
+    assert response.status_code == 200 and response.headers["content-type"].startswith("text/html")
+    for needle in ('href="/docs"', "/api/live", "/api/runs", "viewer_port"):
+        assert needle in response.text
+
+
+def test_mechanisms_name_their_planners(client: TestClient) -> None:
+    mechanisms = {m["name"]: m for m in client.get("/api/mechanisms").json()}
+    assert list(mechanisms) == list(MECHANISMS)
+    assert mechanisms["hybrid"]["state_size"] == 9
+    for name, m in mechanisms.items():
+        assert m["planners"] == [p for p, s in PLANNERS.items() if name in s.mechanisms]
+        assert m["default_planner"] in m["planners"]
+
+
+def test_planners_carry_ranges_and_defaults_of_planner_parameters(client: TestClient) -> None:
+    planners = {p["name"]: p for p in client.get("/api/planners").json()}
+    assert list(planners) == list(PLANNERS)
+    mtmp = planners["mtmp"]
+    assert mtmp["mechanisms"] == ["hybrid"] and mtmp["default_for"] == ["hybrid"]
+    assert list(mtmp["parameters"]) == list(PLANNERS["mtmp"].parameters)
+    beta = mtmp["parameters"]["beta"]
+    assert (beta["minimum"], beta["maximum"], beta["default"]) == (0.0, 1.0, 0.7)
+    assert mtmp["parameters"]["sigma"]["exclusiveMinimum"] == 0.0
+    defaults = PlannerParameters()
+    for planner in planners.values():
+        assert planner["source"] and planner["title"]
+        for name, schema in planner["parameters"].items():
+            assert schema["default"] == getattr(defaults, name)
+
+
+def test_sea_states_are_the_wmo_table(client: TestClient) -> None:
+    states = client.get("/api/sea-states").json()
+    assert [s["code"] for s in states] == list(range(10))
+    for got, want in zip(states, WMO_SEA_STATES, strict=True):
+        assert (got["hs"], got["tp"], got["description"]) == (want.hs, want.tp, want.description)
+    assert states[9]["hs_max"] is None  # "over 14 m": open, and JSON has no inf
+
+
+# -- runs ---------------------------------------------------------------------------------------
+
+
+def test_a_short_run_answers_when_done_with_simulates_metrics(
+    client: TestClient, done_run: dict[str, Any]
+) -> None:
+    assert done_run["status"] == "done" and done_run["progress"] == 1.0
+    assert done_run["metrics"] == simulate(SHORT).metrics
+    assert done_run["scenario"] == Scenario(**SHORT).model_dump()
+    assert client.get(f"/api/runs/{done_run['id']}").json() == done_run
+
+
+def test_runs_list_newest_first(client: TestClient, done_run: dict[str, Any]) -> None:
+    second = client.post("/api/runs", json={**SHORT, "duration": 1.0}).json()
+    ids = [r["id"] for r in client.get("/api/runs", params={"limit": 500}).json()]
+    assert ids.index(second["id"]) < ids.index(done_run["id"])
+    assert len(client.get("/api/runs", params={"limit": 1}).json()) == 1
+    assert client.get("/api/runs", params={"limit": 0}).status_code == 422
+
+
+def test_series_in_json_csv_and_parquet_match_simulate(
+    client: TestClient, done_run: dict[str, Any]
+) -> None:
+    expected = flat_columns(simulate(SHORT).series)
+    url = f"/api/runs/{done_run['id']}/series"
+
+    body = client.get(url, params={"format": "json"}).json()
+    assert body["metrics"] == done_run["metrics"]
+    assert flat_columns({k: np.array(v) for k, v in body["series"].items()}).keys() == (
+        expected.keys()
+    )
+    np.testing.assert_array_equal(body["series"]["legs"], simulate(SHORT).series["legs"])
+
+    response = client.get(url, params={"format": "csv"})
+    assert response.headers["content-type"].startswith("text/csv")
+    rows = list(csv.reader(io.StringIO(response.text)))
+    assert rows[0] == list(expected)
+    np.testing.assert_array_equal(
+        np.array(rows[1:], dtype=float), np.column_stack(list(expected.values()))
+    )
+
+    response = client.get(url, params={"format": "parquet"})
+    table = pq.read_table(io.BytesIO(response.content))
+    assert table.column_names == list(expected)
+    for name, values in expected.items():
+        np.testing.assert_array_equal(table.column(name).to_numpy(), values)
+    assert json.loads(table.schema.metadata[b"metrics"]) == done_run["metrics"]
+
+    assert client.get(url, params={"format": "xml"}).status_code == 422
+
+
+def test_unknown_run_is_404_and_unfinished_run_has_no_series(
+    client: TestClient, store: RunStore
+) -> None:
+    for path in ("/api/runs/nope", "/api/runs/nope/series"):
+        response = client.get(path)
+        assert response.status_code == 404 and "nope" in response.json()["detail"]
+    queued = store.create(Scenario(**SHORT))  # stored, never submitted
+    assert client.get(f"/api/runs/{queued.id}/series").status_code == 409
+
+
+def test_a_long_run_becomes_a_job_that_completes_and_is_stored(client: TestClient) -> None:
+    scenario = {**SHORT, "duration": 10.0}  # 200 steps > SYNC_STEPS
+    response = client.post("/api/runs", json=scenario)
+    assert response.status_code == 202
+    run = response.json()
+    assert run["status"] in ("queued", "running") and run["metrics"] is None
+    assert response.headers["location"] == f"/api/runs/{run['id']}"
+    run = wait_done(client, run["id"])
+    assert run["status"] == "done" and run["progress"] == 1.0
+    assert run["metrics"] == simulate(scenario).metrics
+    series = client.get(f"/api/runs/{run['id']}/series").json()["series"]
+    assert len(series["t"]) == 201
+
+
+@pytest.mark.parametrize(
+    ("body", "field", "allowed"),
+    [
+        ({"beta": 2.0}, "beta", "0 ≤ beta ≤ 1"),
+        ({"sigma": 0.0}, "sigma", "0 < sigma ≤ 15"),
+        ({"spectrum": "flat"}, "spectrum", "one of 'jonswap', 'pm'"),
+        ({"duration": 5000.0}, "duration", "0 < duration ≤ 3600"),
+        ({"bogus": 1}, "bogus", None),
+    ],
+)
+def test_bad_run_bodies_are_422_naming_field_and_range(
+    client: TestClient, body: dict[str, Any], field: str, allowed: str | None
+) -> None:
+    before = len(client.get("/api/runs", params={"limit": 500}).json())
+    response = client.post("/api/runs", json=body)
+    assert response.status_code == 422
+    error = response.json()["detail"][0]
+    assert error["loc"] == ["body", field] and error.get("allowed") == allowed
+    assert response.json()["message"].startswith(f"{field}: ")
+    assert len(client.get("/api/runs", params={"limit": 500}).json()) == before  # none stored
+
+
+def test_cross_field_and_non_finite_bodies_are_422(client: TestClient) -> None:
+    response = client.post("/api/runs", json={"planner": "pid"})
+    assert response.status_code == 422 and "allowed: ['conv1'" in response.json()["message"]
+    response = client.post(
+        "/api/runs", content=b'{"beta": NaN}', headers={"Content-Type": "application/json"}
+    )
+    assert response.status_code == 422 and "finite" in response.json()["message"]
+
+
+def test_a_run_failing_on_late_checked_input_is_422_and_stored_as_failed(
+    client: TestClient,
+) -> None:
+    """The vessel name is checked when the sea is built, in the worker: still a 422."""
+    response = client.post("/api/runs", json={**SHORT, "vessel": "nope"})
+    assert response.status_code == 422
+    assert "shipped RAO tables" in response.json()["message"]
+    run = client.get(f"/api/runs/{response.json()['id']}").json()
+    assert run["status"] == "failed" and "nope" in run["error"]
+
+
+def test_runs_survive_a_restart_and_interrupted_jobs_rerun(tmp_path: Path) -> None:
+    """A new RunStore and app on the same file serve the old runs; a job a dead server left
+    `running` is queued again at start-up and completes."""
+    path = tmp_path / "runs.sqlite"
+    with RunStore(path) as store:
+        app = create_app(LiveSession(), store, jobs=JobRunner(store, workers=1))
+        with TestClient(app) as first:
+            done = first.post("/api/runs", json=SHORT).json()
+            csv_before = first.get(f"/api/runs/{done['id']}/series?format=csv").text
+        interrupted = store.create(Scenario(**SHORT)).id
+        store.mark_running(interrupted)  # as if the server died mid-run
+
+    with RunStore(path) as store:
+        app = create_app(LiveSession(), store, jobs=JobRunner(store, workers=1))
+        with TestClient(app) as second:
+            assert second.get(f"/api/runs/{done['id']}").json() == done
+            assert second.get(f"/api/runs/{done['id']}/series?format=csv").text == csv_before
+            rerun = wait_done(second, interrupted)
+    assert rerun["status"] == "done" and rerun["metrics"] == done["metrics"]
+
+
+# -- the live session ---------------------------------------------------------------------------
+
+
+def test_live_is_flat_scenario_fields_with_time_controls_and_metrics(
+    live: LiveSession, tmp_path: Path
+) -> None:
+    state = live_client(live, tmp_path).get("/api/live").json()
+    for key in ("mechanism", "planner", "sea_state", "beta", "k_e", "k_c", "heading", "dt"):
+        assert state[key] == live.snapshot()[key]
+    assert (state["t"], state["speed"], state["playing"]) == (0.0, 1.0, True)
+    assert "duration" not in state and "violations" in state["metrics"]
+
+
+def test_patch_changes_the_session_on_the_next_step(live: LiveSession, tmp_path: Path) -> None:
+    client = live_client(live, tmp_path)
+    client.post("/api/live/step", params={"n": 10})
+    response = client.patch(
+        "/api/live", json={"beta": 0.3, "planner": "wpi", "sea_state": 5, "speed": 2.0}
+    )
+    assert response.status_code == 200
+    state = response.json()
+    assert (state["beta"], state["planner"], state["sea_state"], state["speed"]) == (
+        0.3, "wpi", 5.0, 2.0,
+    )  # fmt: skip
+    assert live.scenario.beta == 0.3 and live.scenario.planner == "wpi"
+    assert live.controls.speed == 2.0
+    stepped = client.post("/api/live/step").json()
+    assert stepped["t"] == pytest.approx(0.55)  # no reset: time runs on
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ({"beta": 2.0}, "beta"),
+        ({"speed": 100.0}, "speed"),
+        ({"k_e": 0.1, "k_c": -1.0}, "k_c"),  # one bad field: the good one is not applied either
+        ({"bogus": 1}, "bogus"),
+        ({"duration": 10.0}, "duration"),  # not a live field
+        ({"playing": "maybe"}, "playing"),
+        ({"planner": "pid"}, "planner"),  # exists, but not for the hybrid system
+        ({"mechanism": "upr4"}, "planner"),  # mtmp does not plan for the 4-UPR
+    ],
+)
+def test_a_bad_patch_is_422_and_changes_nothing(
+    live: LiveSession, tmp_path: Path, body: dict[str, Any], field: str
+) -> None:
+    client = live_client(live, tmp_path)
+    before = live.snapshot()
+    response = client.patch("/api/live", json=body)
+    assert response.status_code == 422
+    assert field in response.json()["message"]
+    assert live.snapshot() == before
+
+
+def test_patch_reports_the_live_speed_range(live: LiveSession, tmp_path: Path) -> None:
+    error = live_client(live, tmp_path).patch("/api/live", json={"speed": 0.1}).json()
+    assert error["detail"][0]["allowed"] == "0.25 ≤ speed ≤ 8"
+
+
+def test_pause_step_play_reset(live: LiveSession, tmp_path: Path) -> None:
+    client = live_client(live, tmp_path)
+    assert client.post("/api/live/pause").json()["playing"] is False
+    assert live.controls.playing is False
+    assert client.post("/api/live/step", params={"n": 3}).json()["t"] == pytest.approx(0.15)
+    assert client.post("/api/live/play").json()["playing"] is True
+    assert client.post("/api/live/reset").json()["t"] == 0.0
+    assert live.snapshot()["t"] == 0.0
+    assert client.post("/api/live/step", params={"n": 0}).status_code == 422
+
+
+def test_a_mechanism_change_with_its_planner_restarts_the_session(
+    live: LiveSession, tmp_path: Path
+) -> None:
+    client = live_client(live, tmp_path)
+    client.post("/api/live/step", params={"n": 5})
+    state = client.patch("/api/live", json={"mechanism": "upr4", "planner": "pid"}).json()
+    assert (state["mechanism"], state["planner"], state["t"]) == ("upr4", "pid", 0.0)
+
+
+# -- security -----------------------------------------------------------------------------------
+
+
+def test_with_a_token_mutations_need_the_bearer_token(live: LiveSession, tmp_path: Path) -> None:
+    client = live_client(live, tmp_path, token=TOKEN)
+    assert client.get("/api/live").status_code == 200  # reading stays open
+    for headers in ({}, {"Authorization": "Bearer wrong"}, {"Authorization": f"Basic {TOKEN}"}):
+        response = client.patch("/api/live", json={"beta": 0.2}, headers=headers)
+        assert response.status_code == 401 and response.headers["www-authenticate"] == "Bearer"
+        assert client.post("/api/live/reset", headers=headers).status_code == 401
+        assert client.post("/api/runs", json=SHORT, headers=headers).status_code == 401
+    assert live.scenario.beta == 0.7
+    assert client.get("/api/runs").json() == []  # nothing was submitted
+
+    good = {"Authorization": f"Bearer {TOKEN}"}
+    assert client.patch("/api/live", json={"beta": 0.2}, headers=good).status_code == 200
+    assert live.scenario.beta == 0.2
+    assert client.post("/api/runs", json={"beta": 9}, headers=good).status_code == 422
+
+
+def test_cross_origin_mutations_are_refused_and_cors_is_closed(
+    live: LiveSession, tmp_path: Path
+) -> None:
+    client = live_client(live, tmp_path)
+    evil = {"Origin": "http://evil.example"}
+    assert client.post("/api/live/pause", headers=evil).status_code == 403
+    assert client.patch("/api/live", json={"beta": 0.1}, headers=evil).status_code == 403
+    assert live.controls.playing and live.scenario.beta == 0.7
+    same = {"Origin": "http://testserver"}  # the landing page's own origin
+    assert client.post("/api/live/pause", headers=same).status_code == 200
+    response = client.get("/api/live", headers=evil)
+    assert "access-control-allow-origin" not in response.headers
+    preflight = client.options(
+        "/api/live", headers={**evil, "Access-Control-Request-Method": "PATCH"}
+    )
+    assert "access-control-allow-origin" not in preflight.headers

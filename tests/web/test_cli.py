@@ -1,0 +1,143 @@
+"""The `twin` command: help, one-off runs to a file, `serve` answering and stopping, Dockerfile."""
+
+from __future__ import annotations
+
+import json
+import shlex
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from twin.cli import build_parser, main
+from twin.sim import PAPER_PRESETS, simulate
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def twin(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    """`twin ARGS` as a user runs it (the module the `twin` entry point calls)."""
+    return subprocess.run(
+        [sys.executable, "-m", "twin.cli", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_help_lists_the_commands_and_serve_defaults() -> None:
+    result = twin("--help")
+    assert result.returncode == 0 and "serve" in result.stdout and "run" in result.stdout
+    result = twin("serve", "--help")
+    assert result.returncode == 0
+    for default in ("127.0.0.1", "8000", "8080", "data", "TWIN_TOKEN"):
+        assert default in result.stdout
+    args = build_parser().parse_args(["serve"])
+    assert (args.host, args.port, args.viser_port, str(args.data_dir)) == (
+        "127.0.0.1", 8000, 8080, "data",
+    )  # fmt: skip
+
+
+def test_run_writes_csv_and_prints_simulates_metrics(tmp_path: Path) -> None:
+    scenario = {"mechanism": "upr4", "sea_state": 3, "duration": 2.0}
+    (tmp_path / "scenario.json").write_text(json.dumps(scenario))
+    result = twin("run", "scenario.json", "--out", "run.csv", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout) == simulate(scenario).metrics
+    assert "100%" in result.stderr  # the tqdm bar ran to the end
+    lines = (tmp_path / "run.csv").read_text().splitlines()
+    assert lines[0].startswith("t,") and len(lines) == 1 + 41
+
+
+def test_run_accepts_a_preset_and_writes_parquet(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["run", "seed002_state1", "--out", str(tmp_path / "run.parquet")]) == 0
+    table = pq.read_table(tmp_path / "run.parquet")
+    assert table.num_rows == round(PAPER_PRESETS["seed002_state1"].duration / 0.05) + 1
+    assert json.loads(capsys.readouterr().out) == json.loads(table.schema.metadata[b"metrics"])
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("run", "bad.json"), "less than or equal to 1"),
+        (("run", "missing.json"), "presets: ['seed000'"),
+        (("run", "seed000", "--out", "run.xlsx"), "suffix must be one of"),
+        (("serve", "--port", "70000"), "a port is 1-65535"),
+    ],
+)
+def test_bad_arguments_exit_2_saying_what_is_allowed(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    args: tuple[str, ...],
+    message: str,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bad.json").write_text('{"beta": 2}')
+    with pytest.raises(SystemExit) as exit_:
+        main(list(args))
+    assert exit_.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "run.xlsx").exists()
+
+
+def test_serve_answers_prints_its_urls_and_stops_cleanly(tmp_path: Path) -> None:
+    port = free_port()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "twin.cli", "serve", "--port", str(port), "--no-viewer"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline, health = time.monotonic() + 30, None
+        while health is None and time.monotonic() < deadline:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health") as r:
+                    health = json.load(r)
+            except OSError:
+                time.sleep(0.2)
+        assert health is not None and health["status"] == "ok"
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/live") as r:
+            assert json.load(r)["mechanism"] == "hybrid"
+    finally:
+        process.send_signal(signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=20)
+    assert process.returncode == 0, stderr
+    assert f"http://127.0.0.1:{port}/" in stdout
+    assert (tmp_path / "data" / "runs.sqlite").is_file()
+
+
+def test_dockerfile_runs_twin_serve_as_a_user_on_both_ports() -> None:
+    """No Docker engine here: check the image's instructions against the CLI and the API."""
+    lines = (ROOT / "Dockerfile").read_text().replace("\\\n", " ").splitlines()
+    instructions = [line.split(None, 1) for line in lines if line and not line.startswith("#")]
+    by_name: dict[str, list[str]] = {}
+    for name, rest in instructions:
+        by_name.setdefault(name, []).append(rest)
+    assert by_name["FROM"] == ["python:3.11-slim"]
+    assert any("pip install ." in run for run in by_name["RUN"])
+    assert by_name["USER"] and by_name["USER"][-1] not in ("root", "0")
+    assert set(by_name["EXPOSE"][0].split()) == {"8000", "8080"}
+    assert "/api/health" in by_name["HEALTHCHECK"][0]
+    command = json.loads(by_name["CMD"][-1])
+    assert command[:2] == ["twin", "serve"]
+    args = build_parser().parse_args(command[1:])
+    assert (args.host, args.port, args.viser_port) == ("0.0.0.0", 8000, 8080)
+    copied = {shlex.split(c)[0] for c in by_name["COPY"]}
+    assert {"twin", "assets", "static", "pyproject.toml"} <= copied

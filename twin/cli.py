@@ -1,0 +1,118 @@
+"""The `twin` command: `twin serve` runs the live twin, `twin run` one scenario to a file."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+#: formats `twin run --out` writes, by file suffix
+OUTPUTS = (".csv", ".parquet", ".json")
+
+
+def port(text: str) -> int:
+    """A TCP port number, 1-65535 (argparse type)."""
+    value = int(text)
+    if not 1 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"{value}: a port is 1-65535")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="twin",
+        description="Digital twin of offshore wave-motion compensation (hybrid boarding "
+        "gangway, 3UPU_UP and 4-UPR platforms).",
+    )
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    serve = commands.add_parser(
+        "serve",
+        help="run the live twin: 3D viewer, REST API and landing page",
+        description="Run the live twin until Ctrl-C. POST and PATCH require the bearer token "
+        "in the TWIN_TOKEN environment variable when it is set.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    serve.add_argument("--host", default="127.0.0.1", help="interface to bind (0.0.0.0: all)")
+    serve.add_argument("--port", type=port, default=8000, help="REST API and landing page")
+    serve.add_argument("--viser-port", type=port, default=8080, help="3D viewer")
+    serve.add_argument("--data-dir", type=Path, default=Path("data"), help="run store folder")
+    serve.add_argument("--no-viewer", action="store_true", help="serve REST only, no 3D viewer")
+    serve.set_defaults(handler=_serve)
+
+    run = commands.add_parser(
+        "run",
+        help="run one scenario to the end and print its metrics",
+        description="Run one scenario to the end with a progress bar, print its metrics as "
+        "JSON and optionally write its series.",
+    )
+    run.add_argument(
+        "scenario",
+        metavar="SCENARIO",
+        help="a JSON file of Scenario fields, or a preset name from twin.sim.PAPER_PRESETS",
+    )
+    run.add_argument(
+        "--out", type=Path, help=f"write the series here; format by suffix: {', '.join(OUTPUTS)}"
+    )
+    run.set_defaults(handler=_run)
+    return parser
+
+
+def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    del parser  # Unused.
+    from twin.web.server import serve
+
+    try:
+        serve(
+            args.host,
+            args.port,
+            args.viser_port,
+            args.data_dir,
+            token=os.environ.get("TWIN_TOKEN") or None,  # not an option: argv is visible to all
+            viewer=not args.no_viewer,
+        )
+    except KeyboardInterrupt:  # Ctrl-C is how a server is stopped; serve has cleaned up
+        pass
+    return 0
+
+
+def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from pydantic import ValidationError
+
+    from twin.sim import PAPER_PRESETS, Scenario, simulate
+
+    if args.out is not None and args.out.suffix not in OUTPUTS:
+        parser.error(f"--out {args.out}: suffix must be one of {', '.join(OUTPUTS)}")
+    source = Path(args.scenario)
+    if source.is_file():
+        try:
+            scenario = Scenario.model_validate_json(source.read_bytes())
+        except ValidationError as exc:
+            parser.error(f"{source}: {exc}")
+    elif args.scenario in PAPER_PRESETS:
+        scenario = PAPER_PRESETS[args.scenario]
+    else:
+        parser.error(
+            f"{args.scenario}: no such file and no such preset; presets: {sorted(PAPER_PRESETS)}"
+        )
+    result = simulate(scenario, progress=True)
+    if args.out is not None:
+        write = {".csv": result.to_csv, ".parquet": result.to_parquet, ".json": result.to_json}
+        write[args.out.suffix](args.out)
+        print(f"twin: wrote {len(result.series['t'])} samples to {args.out}", file=sys.stderr)
+    print(json.dumps(result.metrics, indent=2))
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `twin` command."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    return args.handler(args, parser)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

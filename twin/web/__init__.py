@@ -1,0 +1,22 @@
+"""Web layer: the REST API, the run store and its jobs, and `serve`, which runs them with the
+live session and the 3D viewer (`twin.web.scene`) in one process.
+
+It calls only the simulation layer (`twin.sim`) and reads the registries.
+"""
+
+from __future__ import annotations
+
+from twin.web.api import create_app
+from twin.web.jobs import SYNC_MAX_STEPS, JobRunner
+from twin.web.server import serve
+from twin.web.store import Run, RunNotFound, RunStore
+
+__all__ = [
+    "SYNC_MAX_STEPS",
+    "JobRunner",
+    "Run",
+    "RunNotFound",
+    "RunStore",
+    "create_app",
+    "serve",
+]

@@ -1,0 +1,268 @@
+"""The run store: every scripted run, its status, metrics and series, in one SQLite file.
+
+One table, one row per run. SQLite in WAL mode lets the web process read while a worker
+process writes; every change is one transaction, so a process killed mid-write leaves the
+previous state and the file reopens consistent. Series are a compressed npz blob (float64,
+exact), written once when the run is done.
+
+Status goes queued → running → done | failed; `progress` is the fraction of steps taken.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import sqlite3
+import threading
+import time
+import uuid
+from datetime import UTC, datetime
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, Field
+
+from twin.errors import TwinError
+from twin.sim import Scenario, SimulationResult
+
+Status = Literal["queued", "running", "done", "failed"]
+
+#: bumped when the table changes; a newer file is refused rather than misread
+SCHEMA_VERSION = 1
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS runs (
+    id        TEXT PRIMARY KEY,
+    created   REAL NOT NULL,
+    finished  REAL,
+    status    TEXT NOT NULL CHECK (status IN ('queued', 'running', 'done', 'failed')),
+    progress  REAL NOT NULL DEFAULT 0 CHECK (progress BETWEEN 0 AND 1),
+    scenario  TEXT NOT NULL,
+    metrics   TEXT,
+    error     TEXT,
+    series    BLOB
+);
+CREATE INDEX IF NOT EXISTS runs_by_created ON runs (created);
+"""
+# `series` is the last column so listing runs never reads a blob's overflow pages.
+_COLUMNS = "id, created, finished, status, progress, scenario, metrics, error"
+
+
+class RunNotFound(TwinError):
+    """No run has this id."""
+
+
+class Run(BaseModel):
+    """A stored run without its series (`RunStore.result` has those)."""
+
+    id: str = Field(description="run id (32 hex digits)")
+    created: datetime = Field(description="when the run was submitted (UTC)")
+    finished: datetime | None = Field(None, description="when it finished (UTC)")
+    status: Status = Field(description="queued → running → done | failed")
+    progress: float = Field(description="[-] fraction of the steps taken, 0-1")
+    scenario: dict[str, Any] = Field(description="the validated scenario, every field")
+    metrics: dict[str, Any] | None = Field(None, description="once done (docs/simulation.md)")
+    error: str | None = Field(None, description="why it failed")
+
+
+def _utc(t: float | None) -> datetime | None:
+    return None if t is None else datetime.fromtimestamp(t, UTC)
+
+
+def _run(row: sqlite3.Row) -> Run:
+    return Run(
+        id=row["id"],
+        created=_utc(row["created"]),
+        finished=_utc(row["finished"]),
+        status=row["status"],
+        progress=row["progress"],
+        scenario=json.loads(row["scenario"]),
+        metrics=None if row["metrics"] is None else json.loads(row["metrics"]),
+        error=row["error"],
+    )
+
+
+def pack_series(series: dict[str, np.ndarray]) -> bytes:
+    """Series as a compressed npz (no pickles, so loading it runs no code)."""
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **{k: np.asarray(v) for k, v in series.items()})
+    return buffer.getvalue()
+
+
+def unpack_series(blob: bytes) -> dict[str, np.ndarray]:
+    """Inverse of `pack_series`, keys in their original order."""
+    with np.load(io.BytesIO(blob), allow_pickle=False) as npz:
+        return {k: npz[k] for k in npz.files}
+
+
+class RunStore:
+    """Runs persisted in an SQLite file; safe to share between threads and processes.
+
+    Args:
+        path: the database file; created (with its folder) if missing.
+
+    Raises:
+        TwinError: the file was written by a newer schema.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        # One connection guarded by a lock: FastAPI calls from its thread pool; autocommit
+        # mode (isolation_level=None) so each `_write` is exactly one explicit transaction.
+        self._conn = sqlite3.connect(
+            self.path, timeout=10.0, isolation_level=None, check_same_thread=False
+        )
+        self._conn.row_factory = sqlite3.Row
+        self._lock = threading.Lock()
+        with self._lock:
+            self._conn.execute("PRAGMA journal_mode = WAL")  # readers never block the writer
+            self._conn.execute("PRAGMA synchronous = FULL")  # a committed run survives power loss
+            version = self._conn.execute("PRAGMA user_version").fetchone()[0]
+            if version > SCHEMA_VERSION:
+                self._conn.close()
+                raise TwinError(
+                    f"{self.path}: run store schema {version} is newer than this twin's "
+                    f"({SCHEMA_VERSION}); upgrade wave-twin or use another data directory"
+                )
+            self._conn.executescript(
+                f"BEGIN IMMEDIATE; {_SCHEMA} PRAGMA user_version = {SCHEMA_VERSION}; COMMIT;"
+            )
+
+    # -- writers -----------------------------------------------------------------------------
+    def _write(self, sql: str, parameters: tuple[Any, ...]) -> int:
+        """One statement in one transaction; returns the number of rows changed."""
+        with self._lock:
+            self._conn.execute("BEGIN IMMEDIATE")
+            try:
+                changed = self._conn.execute(sql, parameters).rowcount
+            except BaseException:
+                self._conn.execute("ROLLBACK")
+                raise
+            self._conn.execute("COMMIT")
+            return changed
+
+    def create(self, scenario: Scenario) -> Run:
+        """Store a new run of `scenario` as queued."""
+        run_id = uuid.uuid4().hex
+        self._write(
+            "INSERT INTO runs (id, created, status, scenario) VALUES (?, ?, 'queued', ?)",
+            (run_id, time.time(), scenario.model_dump_json()),
+        )
+        return self.get(run_id)
+
+    def mark_running(self, run_id: str) -> None:
+        self._changed(
+            run_id, "UPDATE runs SET status = 'running', progress = 0 WHERE id = ?", (run_id,)
+        )
+
+    def set_progress(self, run_id: str, progress: float) -> None:
+        """Progress of a running run, clipped to [0, 1]."""
+        self._changed(
+            run_id,
+            "UPDATE runs SET progress = ? WHERE id = ?",
+            (min(max(float(progress), 0.0), 1.0), run_id),
+        )
+
+    def finish(self, run_id: str, result: SimulationResult) -> Run:
+        """Store a finished run's metrics and series (status done).
+
+        Raises:
+            ValueError: metrics that are not finite JSON (nothing is written).
+        """
+        metrics = json.dumps(result.metrics, allow_nan=False)
+        self._changed(
+            run_id,
+            "UPDATE runs SET status = 'done', progress = 1, finished = ?, metrics = ?, "
+            "series = ?, error = NULL WHERE id = ?",
+            (time.time(), metrics, pack_series(result.series), run_id),
+        )
+        return self.get(run_id)
+
+    def fail(self, run_id: str, error: str) -> None:
+        self._changed(
+            run_id,
+            "UPDATE runs SET status = 'failed', finished = ?, error = ? WHERE id = ?",
+            (time.time(), error, run_id),
+        )
+
+    def requeue_unfinished(self) -> list[str]:
+        """Runs a stopped server left queued or running, set back to queued, oldest first."""
+        with self._lock:
+            self._conn.execute("BEGIN IMMEDIATE")
+            rows = self._conn.execute(
+                "SELECT id FROM runs WHERE status IN ('queued', 'running') ORDER BY created, rowid"
+            ).fetchall()
+            self._conn.execute(
+                "UPDATE runs SET status = 'queued', progress = 0 WHERE status = 'running'"
+            )
+            self._conn.execute("COMMIT")
+        return [row["id"] for row in rows]
+
+    def _changed(self, run_id: str, sql: str, parameters: tuple[Any, ...]) -> None:
+        if self._write(sql, parameters) == 0:
+            raise RunNotFound(f"unknown run id {run_id!r}")
+
+    # -- readers -----------------------------------------------------------------------------
+    def _row(self, run_id: str, columns: str) -> sqlite3.Row:
+        with self._lock:
+            row = self._conn.execute(
+                f"SELECT {columns} FROM runs WHERE id = ?", (run_id,)
+            ).fetchone()
+        if row is None:
+            raise RunNotFound(f"unknown run id {run_id!r}")
+        return row
+
+    def get(self, run_id: str) -> Run:
+        """The run without its series.
+
+        Raises:
+            RunNotFound: no run has this id.
+        """
+        return _run(self._row(run_id, _COLUMNS))
+
+    def list_runs(self, limit: int = 50) -> list[Run]:
+        """The newest `limit` runs, newest first."""
+        with self._lock:
+            rows = self._conn.execute(
+                f"SELECT {_COLUMNS} FROM runs ORDER BY created DESC, rowid DESC LIMIT ?",
+                (limit,),
+            ).fetchall()
+        return [_run(row) for row in rows]
+
+    def scenario(self, run_id: str) -> Scenario:
+        """The run's scenario, validated again."""
+        return Scenario.model_validate_json(self._row(run_id, "scenario")["scenario"])
+
+    def result(self, run_id: str) -> SimulationResult:
+        """A done run as the `SimulationResult` it was stored from (series bit-identical).
+
+        Raises:
+            RunNotFound: no run has this id.
+            TwinError: the run is not done, so it has no series.
+        """
+        row = self._row(run_id, "status, scenario, metrics, series")
+        if row["status"] != "done":
+            raise TwinError(f"run {run_id} is {row['status']}; series exist once it is done")
+        # Stored scenarios were validated when submitted; constructing without re-validation
+        # keeps old runs readable if a later version tightens a range.
+        scenario = Scenario.model_construct(**json.loads(row["scenario"]))
+        return SimulationResult(scenario, unpack_series(row["series"]), json.loads(row["metrics"]))
+
+    # -- lifetime ----------------------------------------------------------------------------
+    def close(self) -> None:
+        with self._lock:
+            self._conn.close()
+
+    def __enter__(self) -> RunStore:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
