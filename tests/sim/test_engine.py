@@ -71,6 +71,7 @@ def test_base_pose_is_the_mount_on_the_vessel() -> None:
         ("sea_state", float("nan"), "sea_state"),
         ("hs", -1.0, "hs"),
         ("initial_state", [0.0] * 5, "initial_state"),
+        ("vessel", "titanic", "vessel"),
     ],
 )
 def test_bad_scenarios_name_the_field(field: str, value, message: str) -> None:

@@ -6,6 +6,7 @@ every unset field takes the papers' default (or ours, documented in the field).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -19,6 +20,7 @@ from twin.sea.regular import REGULAR_PRESETS
 from twin.sea.sea_states import sea_state_hs_tp
 from twin.sea.spectra import fully_developed_tp
 from twin.sea.synthesis import wave_components
+from twin.vessel.rao import available_raos
 
 #: [s] longest run one scenario may ask for, and most samples (duration / dt).
 MAX_DURATION = 3600.0
@@ -97,6 +99,13 @@ class Scenario(PlannerParameters):
                 f"duration / dt = {steps:.0f} steps; allowed at most {MAX_STEPS} "
                 f"(e.g. duration ≤ {MAX_STEPS * self.dt:g} s at dt = {self.dt} s)"
             )
+        if self.vessel is not None:
+            known = available_raos()
+            if self.vessel not in known and not Path(self.vessel).suffix == ".nc":
+                raise TwinError(
+                    f"vessel: unknown {self.vessel!r}; shipped RAO tables: {known}, or a path "
+                    "to your own .nc file in the same layout (docs/vessel.md)"
+                )
         if self.initial_state is not None:
             n = MECHANISMS[self.mechanism]().working_state.size
             if len(self.initial_state) != n:
