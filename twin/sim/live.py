@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from twin.sea.components import WaveComponents
 from twin.sim.engine import RESTART_FIELDS, Simulation
 from twin.sim.scenario import Scenario
 
@@ -64,6 +65,18 @@ class LiveSession:
     def mechanism(self) -> Any:
         with self._lock:
             return self._sim.mechanism
+
+    @property
+    def sea(self) -> WaveComponents:
+        """The sea being simulated (a new object after a sea patch), e.g. to draw its surface."""
+        with self._lock:
+            return self._sim.base_motion.components
+
+    @property
+    def held_transform(self) -> np.ndarray:
+        """ᴵT* (4, 4): the inertial pose the mechanism holds, fixed at each (re)start."""
+        with self._lock:
+            return np.array(self._sim.rig.held)
 
     def latest(self) -> dict[str, np.ndarray]:
         """The newest sample's record (arrays are copies)."""

@@ -1,0 +1,251 @@
+"""The viser scene and GUI of a real viewer on a real live session (no browser)."""
+
+from __future__ import annotations
+
+import dataclasses
+import socket
+import time
+from collections.abc import Callable, Iterator
+
+import numpy as np
+import pytest
+import viser.transforms as tf
+import yourdfpy
+
+from twin.assets import asset_path
+from twin.mechanisms.urdf import joint_configuration
+from twin.planners import PlannerParameters
+from twin.sim.live import LiveSession
+from twin.spatial import matrix_to_wxyz, pose_to_transform
+from twin.web.frame import read_frame
+from twin.web.gui import PLANNER_KNOBS, knob, limit_violations
+from twin.web.scene import VIEWS, Viewer, margin_colours, mount_transform, start_viewer
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_for(condition: Callable[[], bool], timeout: float = 3.0) -> bool:
+    """Poll `condition` until it holds or `timeout` [s] passes; its last value."""
+    end = time.monotonic() + timeout
+    while not condition() and time.monotonic() < end:
+        time.sleep(0.01)
+    return condition()
+
+
+@pytest.fixture
+def session() -> Iterator[LiveSession]:
+    """A paused session: the tests step it, the viewer's render loop only reads it."""
+    live = LiveSession({"sea_state": 3})
+    live.pause()
+    yield live
+    live.stop()
+
+
+@pytest.fixture
+def viewer(session: LiveSession) -> Iterator[Viewer]:
+    handle = start_viewer(session, port=free_port())
+    yield handle
+    handle.stop()
+
+
+def caught_up(viewer: Viewer, session: LiveSession) -> Callable[[], bool]:
+    """The scene shows the session's newest sample."""
+    t = float(session.latest()["t"])
+    return lambda: viewer.scene.last is not None and viewer.scene.last.t == t
+
+
+def test_scene_has_its_nodes(viewer: Viewer) -> None:
+    """Sea, vessel, base with URDF and legs, transition piece, trail: all added at start."""
+    scene = viewer.server.scene
+    for name in ("/ocean", "/vessel/hull", "/vessel/pedestal", "/base", "/base/legs",
+                 "/base/robot/visual/leg1_cross/leg1_barrel/leg1_rod", "/target/transition_piece",
+                 "/target/access_platform", "/target/tower", "/target/held_tip", "/trail",
+                 "/trail_label"):  # fmt: skip
+        assert scene.get_handle_by_name(name) is not None, name
+    assert viewer.port == viewer.server.get_port()
+
+
+def test_urdf_frames_follow_the_session(viewer: Viewer, session: LiveSession) -> None:
+    """After steps, every URDF joint frame equals yourdfpy's forward kinematics of
+    `joint_configuration` of the newest state, and the base frame the base pose."""
+    urdf = yourdfpy.URDF.load(asset_path("urdf", "hybrid.urdf"), load_meshes=False)
+    parent = {j.child: j.parent for j in urdf.joint_map.values()}
+    before = dict(viewer.scene.joint_values)
+    for _ in range(2):  # the second pass exercises LiveUrdf's per-joint update
+        session.step(20)
+        assert wait_for(caught_up(viewer, session))
+        record = session.latest()
+        cfg = joint_configuration(session.mechanism, record["xi"])
+        assert viewer.scene.joint_values == pytest.approx({k: float(v) for k, v in cfg.items()})
+        urdf.update_cfg({k: float(v) for k, v in cfg.items()})
+        for joint in urdf.joint_map.values():
+            path, link = [], joint.child
+            while link != urdf.base_link:
+                path.append(link)
+                link = parent[link]
+            handle = viewer.server.scene.get_handle_by_name(
+                "/base/robot/visual/" + "/".join(reversed(path))
+            )
+            T = urdf.get_transform(joint.child, joint.parent)
+            np.testing.assert_allclose(handle.position, T[:3, 3], atol=1e-6)
+            q = matrix_to_wxyz(T[:3, :3])
+            assert min(np.abs(handle.wxyz - q).max(), np.abs(handle.wxyz + q).max()) < 1e-6
+    assert viewer.scene.joint_values != before  # the session moved, so did the robot
+    base = viewer.server.scene.get_handle_by_name("/base")
+    np.testing.assert_allclose(base.position, record["base_pose"][:3], atol=1e-9)
+
+
+def test_vessel_is_the_base_pose_without_the_mount(viewer: Viewer, session: LiveSession) -> None:
+    """ᴵT_V · ᵛT_B = ᴵT_B: the hull moves with the base it carries."""
+    session.step(10)
+    assert wait_for(caught_up(viewer, session))
+    vessel = viewer.server.scene.get_handle_by_name("/vessel")
+    T_IV = np.eye(4)
+    T_IV[:3, :3], T_IV[:3, 3] = tf.SO3(vessel.wxyz).as_matrix(), vessel.position
+    T_IB = pose_to_transform(session.latest()["base_pose"])
+    np.testing.assert_allclose(T_IV @ mount_transform("hybrid"), T_IB, atol=1e-9)
+
+
+def test_sea_and_trail_animate(viewer: Viewer, session: LiveSession) -> None:
+    """The sea mesh's vertices and the trail move with simulated time (same nodes)."""
+    ocean = viewer.server.scene.get_handle_by_name("/ocean")
+    before, trail = np.array(ocean.vertices), np.array(viewer.scene.trail.points)
+    session.step(10)
+    assert wait_for(caught_up(viewer, session))
+    assert viewer.server.scene.get_handle_by_name("/ocean") is ocean
+    assert np.abs(ocean.vertices - before).max() > 1e-3
+    assert np.abs(viewer.scene.trail.points - trail).max() > 0.0
+
+
+def test_slider_patches_the_session(viewer: Viewer, session: LiveSession) -> None:
+    """A GUI edit goes through `session.patch`, and the session's value is what shows."""
+    viewer.gui.inputs["beta"].value = 0.3
+    assert session.scenario.beta == 0.3
+    viewer.gui.inputs["speed"].value = 2.0
+    assert session.controls.speed == 2.0
+    viewer.gui.inputs["planner"].value = "wpi"
+    assert session.scenario.planner == "wpi"
+
+
+def test_rest_patch_moves_the_widgets_without_feedback(
+    viewer: Viewer, session: LiveSession, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A patch from elsewhere (REST) moves sliders and dropdowns within a few frames, and
+    showing it sends nothing back to the session."""
+    calls: list[dict] = []
+    patch = session.patch
+    monkeypatch.setattr(session, "patch", lambda changes: calls.append(changes) or patch(changes))
+    session.patch({"beta": 0.45, "sea_state": 5.0, "planner": "wpi", "speed": 4.0})
+    inputs = viewer.gui.inputs
+    assert wait_for(
+        lambda: (inputs["beta"].value, inputs["sea_state"].value, inputs["planner"].value,
+                 inputs["speed"].value) == (0.45, 5.0, "wpi", 4.0)
+    )  # fmt: skip
+    frames = viewer.frames
+    assert wait_for(lambda: viewer.frames >= frames + 3)
+    assert len(calls) == 1  # the GUI did not echo the values back
+    assert inputs["k_c"].visible and inputs["k_c"].disabled  # WPI does not read k_c
+    assert not inputs["sigma"].visible and not inputs["beta"].disabled
+
+
+def test_bad_value_notifies_and_reverts(viewer: Viewer, session: LiveSession) -> None:
+    """A value the session refuses changes nothing and the widget shows the value in force."""
+    viewer.gui.inputs["beta"].value = 5.0
+    assert session.scenario.beta == 0.7
+    assert viewer.gui.inputs["beta"].value == 0.7
+    assert "beta" in (viewer.gui.last_error or "")
+
+
+def test_buttons_drive_the_session(viewer: Viewer, session: LiveSession) -> None:
+    """Play, pause, step and reset call the session (sync callbacks run in viser's pool)."""
+    buttons = viewer.gui.buttons
+    buttons["Step"].value = True
+    assert wait_for(lambda: float(session.latest()["t"]) == pytest.approx(0.05))
+    buttons["Play"].value = True
+    assert wait_for(lambda: session.controls.playing)
+    buttons["Pause"].value = True
+    assert wait_for(lambda: not session.controls.playing)
+    version = session.version
+    buttons["Reset"].value = True
+    assert wait_for(lambda: session.version == version + 1)
+
+
+def test_mechanism_switch_swaps_urdf_target_and_planners(
+    viewer: Viewer, session: LiveSession
+) -> None:
+    """Choosing the 4-UPR in the GUI restarts the session; the scene and the planner list
+    follow, and the joints follow the new state."""
+    viewer.gui.inputs["mechanism"].value = "upr4"
+    assert (session.scenario.mechanism, session.scenario.planner) == ("upr4", "pid")
+    assert wait_for(lambda: viewer.scene.mechanism_name == "upr4")
+    scene = viewer.server.scene
+    assert scene.get_handle_by_name("/target/tower") is None
+    for name in ("/target/body", "/target/held_pad", "/base/top/pad", "/vessel/float_port"):
+        assert scene.get_handle_by_name(name) is not None, name
+    assert wait_for(lambda: viewer.gui.inputs["planner"].options == ("pid", "ik"))
+    assert viewer.gui.inputs["planner"].value == "pid"
+    assert not viewer.gui.inputs["kp"].disabled and not viewer.gui.inputs["sigma"].visible
+    session.step(5)
+    assert wait_for(caught_up(viewer, session))
+    cfg = joint_configuration(session.mechanism, session.latest()["state"])
+    assert viewer.scene.joint_values == pytest.approx({k: float(v) for k, v in cfg.items()})
+
+
+def test_render_loop_runs_at_30_fps(viewer: Viewer, session: LiveSession) -> None:
+    """The loop counts its own frames: ≥ 25 in 1 s.
+
+    It is paced to FPS = 40 and measured 39-40 frames/s on an idle 2-core machine with the
+    session playing; 25 leaves room for a loaded test machine while still failing a loop
+    that renders far below the 30 fps the issue asks for (e.g. one blocked on a client).
+    """
+    session.play()
+    frames = viewer.frames
+    time.sleep(1.0)
+    assert viewer.frames - frames >= 25
+
+
+def test_camera_presets_look_at_the_target(viewer: Viewer, session: LiveSession) -> None:
+    """Each preset view looks at or near the held pose from a distinct, finite position."""
+    fs = read_frame(session)
+    assert fs is not None
+    poses = [viewer.scene.camera_pose(view, fs) for view in VIEWS]
+    held = fs.held[:3, 3]
+    for position, look_at in poses:
+        assert np.all(np.isfinite(position)) and np.linalg.norm(position - look_at) > 1.0
+        assert np.linalg.norm(look_at - held) < 0.6 * np.linalg.norm(
+            held - fs.transform_base[:3, 3]
+        )
+    assert len({tuple(np.round(p, 3)) for p, _ in poses}) == len(VIEWS)
+
+
+def test_limit_readout_names_the_violation(session: LiveSession) -> None:
+    """A leg beyond its stroke and a state outside its limits are reported by name."""
+    fs = read_frame(session)
+    assert fs is not None and limit_violations(fs) == []
+    lengths = fs.leg_lengths.copy()
+    lengths[2] = fs.leg_max[2] + 0.1
+    record = {**fs.record, "xi": np.r_[fs.state[:8], 99.0]}
+    bad = dataclasses.replace(fs, leg_lengths=lengths, record=record)
+    text = "; ".join(limit_violations(bad))
+    assert "leg 3" in text and "d3" in text
+
+
+def test_leg_colours_go_green_to_red() -> None:
+    """Mid-stroke legs are green, legs at or beyond a limit red."""
+    green, red, beyond = margin_colours(np.array([1.0, 0.0, -0.5]))
+    assert green[1] > green[0] and red[0] > red[1] and np.array_equal(beyond, red)
+
+
+def test_knob_ranges_come_from_the_fields() -> None:
+    """Slider ranges and defaults are the pydantic constraints (a strict bound moves a step)."""
+    beta = knob(PlannerParameters, "beta", "β")
+    assert (beta.min, beta.max, beta.default, beta.slider) == (0.0, 1.0, 0.7, True)
+    sigma = knob(PlannerParameters, "sigma", "σ")
+    assert sigma.min == pytest.approx(sigma.step) and sigma.max == 15.0
+    assert {k.name for k in PLANNER_KNOBS} == set(PlannerParameters.model_fields)
+    ki = next(k for k in PLANNER_KNOBS if k.name == "ki")
+    assert not ki.slider  # 8e-4 is off a 0-200 slider's grid: a number box keeps it

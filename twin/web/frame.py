@@ -1,0 +1,107 @@
+"""One reading of the live session per render frame, shared by the scene and the GUI."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from twin.mechanisms.urdf import joint_configuration, leg_joint_names
+from twin.sea.components import WaveComponents
+from twin.sim.live import LiveSession
+from twin.sim.scenario import Scenario
+from twin.spatial import pose_to_transform
+
+#: record key of the mechanism state, when not "state"
+STATE_KEY = {"hybrid": "xi"}
+#: camera presets
+VIEWS = ("overview", "walkway", "close-up")
+View = Literal["overview", "walkway", "close-up"]
+
+
+@dataclass(frozen=True)
+class FrameState:
+    """One consistent reading of the live session and what scene and GUI derive from it.
+
+    Attributes:
+        version: the session's version when read (bumps on reset and restart).
+        scenario: the session's scenario.
+        mechanism: the session's mechanism object (only read).
+        record: the newest record (`LiveSession.latest`).
+        sea: the simulated sea.
+        held: (4, 4) ᴵT*, the inertial pose the mechanism holds.
+        playing: whether the session advances.
+        speed: [-] simulated / wall time.
+        cfg: URDF joint name → value [m | rad].
+        transform_base: (4, 4) ᴵT_B, the base in the inertial frame.
+        transform_platform: (4, 4) ᴮT_P, the platform in the base frame [m].
+        leg_lengths: (n,) [m] hinge to hinge, every leg of the URDF.
+        leg_min: (n,) [m] shortest leg lengths.
+        leg_max: (n,) [m] longest leg lengths.
+    """
+
+    version: int
+    scenario: Scenario
+    mechanism: Any
+    record: dict[str, np.ndarray]
+    sea: WaveComponents
+    held: np.ndarray
+    playing: bool
+    speed: float
+    cfg: dict[str, float]
+    transform_base: np.ndarray
+    transform_platform: np.ndarray
+    leg_lengths: np.ndarray
+    leg_min: np.ndarray
+    leg_max: np.ndarray
+
+    @property
+    def t(self) -> float:
+        """[s] simulated time of the record."""
+        return float(self.record["t"])
+
+    @property
+    def state(self) -> np.ndarray:
+        """The mechanism's own state (xi for the hybrid system)."""
+        return self.record[STATE_KEY.get(self.scenario.mechanism, "state")]
+
+    @property
+    def leg_margin(self) -> np.ndarray:
+        """(n,) [-] distance to the nearer stroke end over half the stroke: 1 at mid-stroke,
+        0 at a limit, negative beyond it."""
+        half = 0.5 * (self.leg_max - self.leg_min)
+        return np.minimum(self.leg_lengths - self.leg_min, self.leg_max - self.leg_lengths) / half
+
+
+def read_frame(session: LiveSession) -> FrameState | None:
+    """Read the session once for a frame; None if a restart raced the reads (try again)."""
+    version = session.version
+    record = session.latest()
+    scenario = session.scenario
+    mechanism = session.mechanism
+    sea = session.sea
+    held = session.held_transform
+    controls = session.controls
+    if session.version != version:
+        return None
+    state = record[STATE_KEY.get(scenario.mechanism, "state")]
+    cfg = {name: float(v) for name, v in joint_configuration(mechanism, state).items()}
+    layout = mechanism.layout
+    strokes = [leg_joint_names(i + 1)[2] for i in range(layout.n_legs)]
+    return FrameState(
+        version=version,
+        scenario=scenario,
+        mechanism=mechanism,
+        record=record,
+        sea=sea,
+        held=held,
+        playing=controls.playing,
+        speed=controls.speed,
+        cfg=cfg,
+        transform_base=pose_to_transform(record["base_pose"]),
+        transform_platform=pose_to_transform(np.asarray(mechanism.platform_pose(state))),
+        leg_lengths=np.array([cfg[name] for name in strokes]),
+        leg_min=np.array(layout.length_min),
+        leg_max=np.array(layout.length_max),
+    )
