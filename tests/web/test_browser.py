@@ -13,12 +13,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fastapi.testclient import TestClient
 from PIL import Image
+from playwright.sync_api import sync_playwright
 
 from twin.sim.live import LiveSession
+from twin.web.api import create_app
+from twin.web.jobs import JobRunner
 from twin.web.scene import Viewer, start_viewer
-
-playwright = pytest.importorskip("playwright.sync_api")
+from twin.web.store import RunStore
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARGS = [
@@ -64,7 +67,7 @@ def test_browser_shows_the_twin_and_controls_the_session(
     """The page renders the 3D canvas and the GUI (planner dropdown, β slider); Pause and the
     β number box act on the live session; the screenshot is not blank."""
     session, viewer = live
-    with playwright.sync_playwright() as p:
+    with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
         try:
             # Software WebGL (SwiftShader) renders on the CPU: a modest viewport keeps the
@@ -89,6 +92,11 @@ def test_browser_shows_the_twin_and_controls_the_session(
             box.fill("0.35", force=True)
             box.press("Enter")
             assert wait_for(lambda: session.scenario.beta == pytest.approx(0.35))
+            # …and the REST view of the same live session reports it
+            with RunStore(tmp_path / "runs.sqlite") as store:
+                app = create_app(session, store, jobs=JobRunner(store, workers=1))
+                with TestClient(app) as client:
+                    assert client.get("/api/live").json()["beta"] == pytest.approx(0.35)
 
             time.sleep(1.0)  # a few rendered frames of the scene
             shot = tmp_path / "twin.png"
