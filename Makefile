@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install serve test lint demo urdf raos clean
+.PHONY: install serve test lint demo urdf raos bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -42,6 +42,10 @@ urdf: $(STAMP)
 ## raos: recompute assets/vessels/*.nc with Capytaine (about a minute)
 raos: $(STAMP)
 	$(BIN)/python scripts/compute_raos.py
+
+## bench: benchmarks against the Pinocchio peer; rewrites docs/performance.md (~3 min)
+bench: $(STAMP)
+	$(BIN)/python benchmarks/run.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache

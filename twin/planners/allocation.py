@@ -128,7 +128,8 @@ class AllocationPlanner:
         diagnostics = {
             "task_error": pose_error(ahead, self.mechanism.end_effector(new)),
             "position_share": np.broadcast_to(
-                self._share if self.method == "dwa" else float(self.method == "conv1"), (3,)
+                self._share if self.method == "dwa" else float(self.method == "conv1"),
+                (*xi.shape[:-1], 3),
             ).copy(),
         }
         if self.method == "dwa":

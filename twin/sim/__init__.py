@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from twin.sim.batch import simulate_many
 from twin.sim.engine import Simulation, simulate
 from twin.sim.presets import PAPER_PRESETS
 from twin.sim.result import SimulationResult
@@ -15,4 +16,5 @@ __all__ = [
     "Simulation",
     "SimulationResult",
     "simulate",
+    "simulate_many",
 ]

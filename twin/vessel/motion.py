@@ -48,6 +48,30 @@ def encounter_frequency(omega: ArrayLike, wave_direction: ArrayLike, speed: floa
     return omega - omega**2 / G * speed * np.cos(wave_direction)
 
 
+def response_amplitudes(
+    components: WaveComponents, raos: RaoTable, heading: float = 0.0, speed: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each component's encounter frequency and complex response, the terms `vessel_motion` sums.
+
+    Args:
+        components: the sea, directions in the world frame.
+        raos: the vessel's RAO table.
+        heading: [rad] ψ as in `vessel_motion`.
+        speed: [m/s] U as in `vessel_motion`.
+
+    Returns:
+        omega_e (K,) [rad/s] and amplitude (K, 6) complex [m, rad] with
+        x_j(t) = Σ_i Re(amplitude_ij e^{-i ω_e,i t}).
+    """
+    heading = float(as_array(heading, "heading"))
+    speed = float(as_array(speed, "speed"))
+    beta = components.direction - heading
+    omega_e = encounter_frequency(components.omega, beta, speed)
+    H = interpolate_raos(raos, np.abs(omega_e), beta)  # (K, 6)
+    H = np.where((omega_e < 0)[:, None], np.conj(H), H)
+    return omega_e, (components.amplitude * np.exp(1j * components.phase))[:, None] * H
+
+
 def vessel_motion(
     components: WaveComponents,
     raos: RaoTable,
@@ -76,13 +100,7 @@ def vessel_motion(
     t = as_array(t, "t")
     if t.ndim != 1:
         raise TwinError(f"t must be 1-D (N,) [s], got shape {t.shape}")
-    heading = float(as_array(heading, "heading"))
-    speed = float(as_array(speed, "speed"))
-    beta = components.direction - heading
-    omega_e = encounter_frequency(components.omega, beta, speed)
-    H = interpolate_raos(raos, np.abs(omega_e), beta)  # (K, 6)
-    H = np.where((omega_e < 0)[:, None], np.conj(H), H)
-    amplitude = (components.amplitude * np.exp(1j * components.phase))[:, None] * H  # (K, 6)
+    omega_e, amplitude = response_amplitudes(components, raos, heading, speed)
     rows = max(1, _BLOCK // max(1, omega_e.size))
     blocks = [
         (np.exp(-1j * np.outer(t[s : s + rows], omega_e)) @ amplitude).real

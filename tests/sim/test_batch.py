@@ -1,0 +1,115 @@
+"""simulate_many: the same results as simulate, scenario by scenario, on both engines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.mechanisms import HybridBoardingSystem
+from twin.sim import simulate
+from twin.sim.batch import base_poses, numba_available, simulate_many, uniform_motion
+from twin.sim.scenario import Scenario
+from twin.vessel import MOUNTS, load_raos, vessel_motion
+from twin.vessel.motion import response_amplitudes
+
+ENGINES = ["numpy", pytest.param("numba", marks=pytest.mark.skipif(
+    not numba_available(), reason="numba not installed"))]  # fmt: skip
+
+#: one group per planner, two seas and a start off the working state; 4 s = 80 steps
+SCENARIOS = [
+    {"planner": planner, "sea_state": sea, "seed": seed, "duration": 4.0}
+    for planner in ("mtmp", "pi", "wpi", "dwa", "conv1", "conv2")
+    for sea, seed in ((3, 0), (5, 1))
+] + [
+    {"planner": "mtmp", "hs": 3.0, "tp": 8.0, "beta": 0.4, "k_c": 3.0, "duration": 4.0},
+    {"planner": "mtmp", "sea_state": 4, "duration": 4.0,
+     "initial_state": [0.1, -0.1, 2.6, 0.02, -0.03, 0.05, 0.1, 0.05, 12.0]},
+    {"mechanism": "upr4", "duration": 2.0},  # not batched: runs through simulate
+]  # fmt: skip
+
+
+def assert_same(expected, actual) -> None:
+    """Series to 1e-9 (relative, or absolute near zero), metrics equal likewise."""
+    assert list(actual.series) == list(expected.series)
+    for key, value in expected.series.items():
+        assert actual.series[key].shape == value.shape, key
+        np.testing.assert_allclose(actual.series[key], value, rtol=1e-9, atol=1e-9, err_msg=key)
+    assert actual.metrics.keys() == expected.metrics.keys()
+    for key, value in expected.metrics.items():
+        if isinstance(value, int):
+            assert actual.metrics[key] == value, key
+        else:
+            np.testing.assert_allclose(
+                np.array(_flat(actual.metrics[key])), _flat(value), rtol=1e-9, atol=1e-9,
+                err_msg=key,
+            )  # fmt: skip
+
+
+def _flat(value) -> list[float]:
+    if isinstance(value, dict):
+        return [x for v in value.values() for x in _flat(v)]
+    return list(value) if isinstance(value, list) else [value]
+
+
+@pytest.fixture(scope="module")
+def references() -> list:
+    return [simulate(s) for s in SCENARIOS]
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_simulate_many_equals_simulate(engine: str, references: list) -> None:
+    """Every scenario's series and metrics equal simulate's (seed 000 planners and seed 004's)."""
+    results = simulate_many(SCENARIOS, engine=engine)
+    assert len(results) == len(SCENARIOS)
+    for expected, actual in zip(references, results, strict=True):
+        assert actual.scenario == expected.scenario
+        assert_same(expected, actual)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_rough_sea_with_damping_and_rate_limits(engine: str) -> None:
+    """Where MTMP's damping (the SVD branch) and the rate limit act, the numbers still agree."""
+    scenario = {"planner": "mtmp", "sea_state": 7, "duration": 6.0}
+    expected = simulate(scenario)
+    assert np.any(expected.series["damping"] > 0) and np.any(expected.series["velocity_scale"] < 1)
+    assert_same(expected, simulate_many([scenario], engine=engine)[0])
+
+
+def test_uniform_motion_equals_vessel_motion() -> None:
+    """The factorised phase sum is vessel_motion at t = k dt."""
+    scenario = Scenario(sea_state=5, heading=100.0, speed=2.0, seed=3)
+    raos = load_raos("sov")
+    t = np.arange(1001) * 0.05
+    omega_e, amplitude = response_amplitudes(scenario.components(), raos, 0.0, 2.0)
+    np.testing.assert_allclose(
+        uniform_motion(omega_e, amplitude, t.size, 0.05),
+        vessel_motion(scenario.components(), raos, t, speed=2.0),
+        rtol=0,
+        atol=1e-12,
+    )
+    poses = base_poses(scenario, 11)
+    assert poses.shape == (11, 6)
+    first = MOUNTS["hybrid"].pose(vessel_motion(scenario.components(), raos, [0.0], speed=2.0))
+    np.testing.assert_allclose(poses[0], first[0], atol=1e-12)
+
+
+def test_order_and_mixed_groups_are_kept() -> None:
+    """Results come back in the order given, whatever the grouping by planner and dt."""
+    scenarios = [
+        {"planner": "pi", "duration": 1.0, "seed": 1},
+        {"planner": "mtmp", "duration": 1.0, "dt": 0.1},
+        {"planner": "pi", "duration": 2.0, "seed": 2},
+    ]
+    results = simulate_many(scenarios)
+    assert [r.scenario.planner for r in results] == ["pi", "mtmp", "pi"]
+    assert [len(r.series["t"]) for r in results] == [21, 11, 41]
+    assert results[0].series["xi"][0] == pytest.approx(HybridBoardingSystem().working_state)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [({"engine": "fortran"}, "engine"), ({}, "beta")],
+)
+def test_bad_requests_name_the_field(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        simulate_many([{"beta": 2.0}] if not kwargs else [{}], **kwargs)

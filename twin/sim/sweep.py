@@ -1,0 +1,411 @@
+"""Operability sweeps: a grid of sea states and planner settings, run on Dask.
+
+The question a wave-compensation twin answers is "up to which sea state can we work, with which
+planner and which β?". A sweep runs every cell of Hs × Tp × heading × planner × (β, k_e, k_c)
+with several sea seeds and reports, per cell, the share of runs that are *operable*: no joint or
+leg limit violated (`violations` = 0) and the gangway tip's largest position error under
+`tip_error_threshold` (`tip_position_error_max`, docs/simulation.md).
+
+    spec = SweepSpec(hs=[0.5, 1.5, 2.5], tp=[6, 8, 10], planner=["mtmp", "pi"], seeds=4)
+    result = run_sweep(spec)                     # a LocalCluster, no set-up
+    result = run_sweep(spec, scheduler="tcp://10.0.0.5:8786")   # an existing Dask cluster
+    result.table                                 # pandas, one row per cell
+    heatmap_png(result, "operability.png")
+
+Runs are chunked (`chunk_size` scenarios of one planner each) and each chunk is one Dask task
+calling `simulate_many`; every seed of a cell uses the sea seeds 0 … seeds − 1, so cells (and
+planners) are compared on the same wave records.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+import os
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from tqdm import tqdm
+
+from twin.errors import TwinError
+from twin.planners import get_planner
+from twin.sim.batch import simulate_many
+from twin.sim.scenario import Scenario
+
+#: most grid cells (Hs × Tp × heading × planner × β × k_e × k_c) one sweep may ask for
+MAX_CELLS = 5_000
+#: most runs (cells × seeds)
+MAX_RUNS = 20_000
+#: most planner steps in all (runs × duration / dt): 20 000 runs of 200 s at 0.05 s
+MAX_TOTAL_STEPS = 80_000_000
+#: the grid axes, in table order
+AXES = ("hs", "tp", "heading", "planner", "beta", "k_e", "k_c")
+#: what a run's row in `SweepResult.runs` keeps from its metrics
+RUN_METRICS = (
+    "violations",
+    "joint_violations",
+    "leg_violations",
+    "tip_position_error_max",
+    "tip_orientation_error_max",
+    "leg_margin",
+    "faults",
+)
+
+
+class SweepSpec(BaseModel):
+    """A sweep request. Every axis is a non-empty list of distinct values; units as `Scenario`.
+
+    Runs use the hybrid system; `scenario` sets any other `Scenario` field for every run (e.g.
+    `{"spreading": 10, "n_components": 100}`).
+    """
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    hs: list[float] = Field([0.5, 1.0, 1.5, 2.0, 2.5, 3.0], description="[m] significant heights")
+    tp: list[float] = Field([6.0, 8.0, 10.0], description="[s] peak periods")
+    heading: list[float] = Field(
+        [150.0], description="[deg] wave direction relative to the bow (180 head seas)"
+    )
+    planner: list[str] = Field(["mtmp"], description="hybrid-system planners (PLANNERS)")
+    beta: list[float] = Field([0.7], description="[-] parallel/serial weight β")
+    k_e: list[float] = Field([25.0], description="[1/s] closed-loop gain k_e")
+    k_c: list[float] = Field([9.0], description="[-] telescope weight k_c")
+    seeds: int = Field(3, ge=1, le=100, description="[-] runs per cell, sea seeds 0 … seeds − 1")
+    duration: float = Field(200.0, gt=0.0, le=3600.0, description="[s] simulated time per run")
+    dt: float = Field(0.05, ge=0.005, le=0.2, description="[s] control period")
+    tip_error_threshold: float = Field(
+        0.05,
+        gt=0.0,
+        le=10.0,
+        description="[m] largest tip position error (after the first 10 samples) of an "
+        "operable run",
+    )
+    scenario: dict[str, Any] = Field(
+        default_factory=dict, description="other Scenario fields, the same for every run"
+    )
+
+    @field_validator(*AXES, mode="before")
+    @classmethod
+    def _axis(cls, values: Any, info: Any) -> Any:
+        if isinstance(values, str | int | float):
+            values = [values]
+        if not isinstance(values, list | tuple) or len(values) == 0:
+            raise ValueError(f"{info.field_name}: empty axis; give at least one value")
+        if len(set(values)) != len(values):
+            raise ValueError(f"{info.field_name}: repeated values {list(values)}")
+        return list(values)
+
+    @field_validator(*AXES)
+    @classmethod
+    def _values(cls, values: list, info: Any) -> list:
+        """Each value within the `Scenario` field's range (the error names the field)."""
+        name = info.field_name
+        for value in values:
+            if name == "planner":
+                get_planner(value, "hybrid")
+            else:
+                Scenario(**{name: value})
+        return values
+
+    @model_validator(mode="after")
+    def _caps(self) -> SweepSpec:
+        clash = sorted(set(self.scenario) & {*AXES, "seed", "duration", "dt", "mechanism"})
+        if clash:
+            raise TwinError(f"scenario: {clash} are set by the sweep itself, not by `scenario`")
+        Scenario(**self.scenario, duration=self.duration, dt=self.dt)  # names a bad field
+        sizes = {axis: len(getattr(self, axis)) for axis in AXES}
+        cells, runs = math.prod(sizes.values()), math.prod(sizes.values()) * self.seeds
+        shape = " × ".join(f"{axis} {n}" for axis, n in sizes.items())
+        if cells > MAX_CELLS:
+            raise TwinError(f"grid has {cells} cells ({shape}); allowed at most {MAX_CELLS}")
+        if runs > MAX_RUNS:
+            raise TwinError(
+                f"grid has {runs} runs ({cells} cells × seeds {self.seeds}); allowed at most "
+                f"{MAX_RUNS}"
+            )
+        steps = runs * round(self.duration / self.dt)
+        if steps > MAX_TOTAL_STEPS:
+            raise TwinError(
+                f"grid has {steps} planner steps ({runs} runs × duration / dt); allowed at most "
+                f"{MAX_TOTAL_STEPS}"
+            )
+        return self
+
+    def cells(self) -> list[dict[str, Any]]:
+        """Every grid cell as {axis: value}, in `AXES` order."""
+        return [
+            dict(zip(AXES, values, strict=True))
+            for values in itertools.product(*(getattr(self, axis) for axis in AXES))
+        ]
+
+    def scenarios(self) -> list[dict[str, Any]]:
+        """Every run's scenario fields: the cells × seeds, cell-major."""
+        common = {**self.scenario, "mechanism": "hybrid", "duration": self.duration, "dt": self.dt}
+        return [
+            {**common, **cell, "seed": seed} for cell in self.cells() for seed in range(self.seeds)
+        ]
+
+
+@dataclass
+class SweepResult:
+    """A finished sweep.
+
+    Attributes:
+        spec: what was asked.
+        runs: one row per run: the axes, `seed`, `RUN_METRICS` and `operable`.
+        table: one row per cell: the axes, `runs`, `operable_runs`, `operability` [0-1] and
+            the worst `tip_position_error_max` [m] and `violations_max` (samples) over its
+            runs.
+        elapsed: [s] wall time of the runs (a LocalCluster's start-up and shut-down excluded).
+        scheduler: where it ran ("local cluster", an address, or "in-process").
+    """
+
+    spec: SweepSpec
+    runs: pd.DataFrame
+    table: pd.DataFrame
+    elapsed: float
+    scheduler: str
+
+    @property
+    def criterion(self) -> str:
+        """The operability criterion in words, threshold stated."""
+        return (
+            "operable run: no joint or leg limit violation and tip position error ≤ "
+            f"{self.spec.tip_error_threshold:g} m (largest over the run after the first 10 "
+            "samples)"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: the spec, the criterion and the table's rows."""
+        return {
+            "spec": self.spec.model_dump(),
+            "criterion": self.criterion,
+            "tip_error_threshold": self.spec.tip_error_threshold,
+            "elapsed": self.elapsed,
+            "scheduler": self.scheduler,
+            "cells": _plain(self.table.to_dict(orient="records")),
+        }
+
+
+def run_sweep(
+    spec: SweepSpec | dict,
+    *,
+    scheduler: str | None = None,
+    progress: bool = True,
+    n_workers: int | None = None,
+    chunk_size: int = 64,
+    on_progress: Callable[[int, int], None] | None = None,
+) -> SweepResult:
+    """Run a sweep on Dask and tabulate operability.
+
+    Args:
+        spec: a `SweepSpec` or a dict of its fields (validated).
+        scheduler: None starts a `LocalCluster` (one single-threaded worker process per core)
+            and closes it at the end; "tcp://HOST:PORT" uses an existing Dask scheduler;
+            "in-process" runs without Dask, in this process. Workers of an existing cluster
+            need `twin` (and numba, for the compiled engine) installed.
+        progress: a tqdm bar over runs.
+        n_workers: workers of the LocalCluster (default: the machine's cores).
+        chunk_size: runs per Dask task, stepped together by `simulate_many`.
+        on_progress: called with (runs done, runs in all) after each chunk (e.g. a REST job's
+            status).
+
+    Raises:
+        ValueError: a bad spec (naming the field) or a bad `chunk_size`.
+    """
+    spec = spec if isinstance(spec, SweepSpec) else SweepSpec(**spec)
+    if not 1 <= chunk_size <= 4096:
+        raise TwinError(f"chunk_size: got {chunk_size}, allowed 1 … 4096")
+    scenarios = spec.scenarios()
+    order = sorted(range(len(scenarios)), key=lambda i: scenarios[i]["planner"])
+    chunks = [order[s : s + chunk_size] for s in range(0, len(order), chunk_size)]
+    threshold = spec.tip_error_threshold
+    rows: list[dict[str, Any] | None] = [None] * len(scenarios)
+    with tqdm(total=len(scenarios), disable=not progress, unit="run") as bar:
+        if scheduler == "in-process":
+            start = time.perf_counter()
+            for chunk in chunks:
+                done = run_chunk([scenarios[i] for i in chunk], threshold, single_thread=False)
+                _collect(rows, chunk, done, bar, on_progress)
+            elapsed = time.perf_counter() - start
+        else:
+            with _client(scheduler, n_workers) as client:
+                from distributed import as_completed
+
+                start = time.perf_counter()  # a cluster's start-up is not the sweep's time
+
+                futures = {
+                    client.submit(run_chunk, [scenarios[i] for i in c], threshold, pure=False): c
+                    for c in chunks
+                }
+                for future in as_completed(futures):
+                    _collect(rows, futures[future], future.result(), bar, on_progress)
+                elapsed = time.perf_counter() - start
+    runs = pd.DataFrame(rows)
+    table = (
+        runs.groupby(list(AXES), sort=False)
+        .agg(
+            runs=("operable", "size"),
+            operable_runs=("operable", "sum"),
+            tip_position_error_max=("tip_position_error_max", "max"),
+            violations_max=("violations", "max"),
+        )
+        .reset_index()
+    )
+    table.insert(len(AXES) + 2, "operability", table["operable_runs"] / table["runs"])
+    where = scheduler or "local cluster"
+    return SweepResult(spec, runs, table, elapsed, where)
+
+
+def run_chunk(
+    scenarios: list[dict[str, Any]], threshold: float, *, single_thread: bool = True
+) -> list[dict[str, Any]]:
+    """One Dask task: run scenarios with `simulate_many`, keep `RUN_METRICS` and `operable`.
+
+    Args:
+        scenarios: scenario fields, one planner.
+        threshold: [m] tip position error bound of an operable run.
+        single_thread: keep numba to one thread (a Dask worker is one process per core).
+    """
+    with _numba_threads(1 if single_thread else None):
+        results = simulate_many(scenarios)
+    rows = []
+    for fields, result in zip(scenarios, results, strict=True):
+        m = result.metrics
+        row = {axis: fields[axis] for axis in AXES} | {"seed": fields["seed"]}
+        row |= {name: m[name] for name in RUN_METRICS}
+        row["operable"] = m["violations"] == 0 and m["tip_position_error_max"] <= threshold
+        rows.append(row)
+    return rows
+
+
+def heatmap_png(result: SweepResult, path: str | Path) -> Path:
+    """Operability heatmaps, Hs (rows) × Tp (columns), one panel per planner, heading and
+    (β, k_e, k_c); cells annotated in percent; the criterion in the title.
+
+    Returns:
+        The path written.
+    """
+    from matplotlib.figure import Figure
+
+    table = result.table
+    hs, tp = sorted(table["hs"].unique()), sorted(table["tp"].unique())
+    panels = list(table.groupby(["planner", "heading", "beta", "k_e", "k_c"], sort=False))
+    columns = min(len(panels), 3)
+    rows = -(-len(panels) // columns)
+    figure = Figure(
+        figsize=(2.0 + (1.2 + 0.7 * len(tp)) * columns, 1.2 + (1.4 + 0.5 * len(hs)) * rows),
+        layout="constrained",
+    )
+    axes = figure.subplots(rows, columns, squeeze=False)
+    image = None
+    for ax, ((planner, heading, beta, k_e, k_c), cell) in zip(axes.flat, panels, strict=False):
+        grid = (
+            cell.pivot_table(index="hs", columns="tp", values="operability")
+            .reindex(index=hs, columns=tp)
+            .to_numpy()
+        )
+        image = ax.imshow(100 * grid, cmap="RdYlGn", vmin=0, vmax=100, origin="lower")
+        for (i, j), value in np.ndenumerate(grid):
+            if np.isfinite(value):
+                ax.text(j, i, f"{100 * value:.0f}", ha="center", va="center", fontsize=8)
+        ax.set_xticks(range(len(tp)), [f"{v:g}" for v in tp])
+        ax.set_yticks(range(len(hs)), [f"{v:g}" for v in hs])
+        ax.set_xlabel("Tp [s]")
+        ax.set_ylabel("Hs [m]")
+        ax.set_title(
+            f"{planner.upper()}, heading {heading:g}°\nβ {beta:g}, k_e {k_e:g}, k_c {k_c:g}",
+            fontsize=9,
+        )
+    for ax in axes.flat[len(panels) :]:
+        ax.set_visible(False)
+    figure.suptitle(
+        f"Operability [%], {result.spec.seeds} seeds per cell, {result.spec.duration:g} s runs\n"
+        f"operable: no limit violation, tip error ≤ {result.spec.tip_error_threshold:g} m",
+        fontsize=9,
+    )
+    if image is not None:
+        figure.colorbar(image, ax=axes, label="operable runs [%]", shrink=0.8)
+    path = Path(path)
+    figure.savefig(path, dpi=120, bbox_inches="tight")
+    return path
+
+
+def _collect(
+    rows: list[dict[str, Any] | None],
+    chunk: list[int],
+    done: list[dict[str, Any]],
+    bar: tqdm,
+    on_progress: Callable[[int, int], None] | None,
+) -> None:
+    for i, row in zip(chunk, done, strict=True):
+        rows[i] = row
+    bar.update(len(chunk))
+    if on_progress is not None:
+        on_progress(sum(row is not None for row in rows), len(rows))  # a bar may be disabled
+
+
+@contextmanager
+def _client(scheduler: str | None, n_workers: int | None) -> Iterator[Any]:
+    """A Dask client on `scheduler`, or on a LocalCluster that lives as long as the client."""
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        if not scheduler.startswith(("tcp://", "tls://", "inproc://", "ucx://")):
+            raise TwinError(
+                f"scheduler: got {scheduler!r}; allowed None (a local cluster), 'in-process' or "
+                "a Dask address such as 'tcp://HOST:PORT'"
+            )
+        with Client(scheduler) as client:
+            yield client
+        return
+    workers = n_workers or os.cpu_count() or 1
+    with (
+        LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            # workers log connection errors while the cluster shuts down; a task's own error
+            # still reaches the caller through its future
+            silence_logs=logging.CRITICAL,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        yield client
+
+
+@contextmanager
+def _numba_threads(n: int | None) -> Iterator[None]:
+    """Limit numba's threads for the block (no-op without numba or with n None)."""
+    try:
+        import numba
+    except ImportError:
+        yield
+        return
+    if n is None:
+        yield
+        return
+    before = numba.get_num_threads()
+    numba.set_num_threads(n)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars → Python scalars, recursively (json.dumps cannot take numpy types)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_plain(v) for v in value]
+    return value.item() if isinstance(value, np.generic) else value
