@@ -77,7 +77,7 @@ def test_rough_sea_with_damping_and_rate_limits(engine: str) -> None:
 
 def test_uniform_motion_equals_vessel_motion() -> None:
     """The factorised phase sum is vessel_motion at t = k dt."""
-    scenario = Scenario(sea_state=5, heading=100.0, speed=2.0, seed=3)
+    scenario = Scenario(sea_state=5, heading=100.0, forward_speed=2.0, seed=3)
     raos = load_raos("sov")
     t = np.arange(1001) * 0.05
     omega_e, amplitude = response_amplitudes(scenario.components(), raos, 0.0, 2.0)

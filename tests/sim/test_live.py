@@ -70,3 +70,12 @@ def test_background_loop_runs_in_real_time() -> None:
     t = live.snapshot()["t"]
     assert 0.5 <= t <= 1.3  # paced to the wall clock, not as fast as possible
     assert all(np.all(np.isfinite(v)) for v in live.latest().values())
+
+
+def test_vessel_speed_and_sim_speed_are_separate_knobs(live: LiveSession) -> None:
+    """`forward_speed` is the vessel's [m/s]; `speed` is simulated/wall time."""
+    live.patch({"forward_speed": 2.0, "speed": 3.0})
+    assert live.scenario.forward_speed == 2.0
+    assert live.controls.speed == 3.0
+    snapshot = live.snapshot()
+    assert (snapshot["forward_speed"], snapshot["speed"]) == (2.0, 3.0)

@@ -153,7 +153,9 @@ def base_poses(scenario: Scenario, n: int) -> np.ndarray:
     """The base's inertial poses (n, 6) at t = k dt, as `BaseMotion(...).sample` gives them."""
     mount = mount_for(scenario.mechanism)
     raos = _raos(scenario.vessel or mount.vessel)
-    omega_e, amplitude = response_amplitudes(scenario.components(), raos, 0.0, scenario.speed)
+    omega_e, amplitude = response_amplitudes(
+        scenario.components(), raos, 0.0, scenario.forward_speed
+    )
     return mount.pose(uniform_motion(omega_e, amplitude, n, scenario.dt))
 
 

@@ -44,7 +44,7 @@ RIGS: dict[str, Callable] = {"hybrid": _hybrid, "upu3up": _platform, "upr4": _pl
 #: Scenario fields that change the sea: `Simulation.update` re-synthesises it in place.
 SEA_FIELDS = frozenset(
     {"sea_state", "hs", "tp", "heading", "spectrum", "gamma", "spreading", "n_components",
-     "seed", "regular_waves", "speed"}
+     "seed", "regular_waves", "forward_speed"}
 )  # fmt: skip
 #: Scenario fields that need a new Simulation (a different machine, vessel or clock).
 RESTART_FIELDS = frozenset({"mechanism", "vessel", "dt", "initial_state"})
@@ -63,7 +63,7 @@ class Simulation:
         self.scenario = scenario if isinstance(scenario, Scenario) else Scenario(**scenario)
         s = self.scenario
         self.base_motion = BaseMotion(
-            s.components(), mount_for(s.mechanism), vessel=s.vessel, speed=s.speed
+            s.components(), mount_for(s.mechanism), vessel=s.vessel, speed=s.forward_speed
         )
         self.mechanism = MECHANISMS[s.mechanism]()
         state = (
@@ -105,7 +105,10 @@ class Simulation:
         self.n_steps = round(new.duration / new.dt)
         if changed & SEA_FIELDS:
             self.base_motion = BaseMotion(
-                new.components(), mount_for(new.mechanism), vessel=new.vessel, speed=new.speed
+                new.components(),
+                mount_for(new.mechanism),
+                vessel=new.vessel,
+                speed=new.forward_speed,
             )
             self._base = self._load_chunk(self.k)
         if changed - SEA_FIELDS - {"duration"}:

@@ -75,7 +75,9 @@ class Scenario(PlannerParameters):
     vessel: str | None = Field(
         None, description="RAO table name (assets/vessels); default: the mechanism's mount"
     )
-    speed: float = Field(0.0, ge=0.0, le=10.0, description="[m/s] forward speed (0: on DP)")
+    forward_speed: float = Field(
+        0.0, ge=0.0, le=10.0, description="[m/s] vessel forward speed (0: on DP)"
+    )
     duration: float = Field(
         200.0, gt=0.0, le=MAX_DURATION, description="[s] simulated time (seed 000: 200 s)"
     )

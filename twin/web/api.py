@@ -91,8 +91,7 @@ class SeaStateInfo(BaseModel):
 
 # -- live models: the scenario's fields, flat, plus the session's controls ---------------------
 
-#: Scenario fields the live session exposes. `duration` means nothing live; the scenario's
-#: `speed` (vessel forward speed) is shadowed by the session's `speed` (simulated/wall time).
+#: Scenario fields the live session exposes (`duration` means nothing live).
 LIVE_FIELDS = tuple(
     name for name in Scenario.model_fields if name not in {"duration", *LiveControls.model_fields}
 )
@@ -151,7 +150,7 @@ def _allowed(name: str, schema: dict[str, Any]) -> str:
 
 
 def _ranges(*models: type[BaseModel]) -> dict[str, str]:
-    """Field name → allowed values; a later model's field wins (the live `speed`)."""
+    """Field name → allowed values of every field of the models."""
     ranges: dict[str, str] = {}
     for model in models:
         for name, schema in model.model_json_schema()["properties"].items():

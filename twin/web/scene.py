@@ -441,7 +441,7 @@ class TwinScene:
             self._sea_source, self._sea = fs.sea, drawn_sea(fs.sea)
         # The drawing frame moves with the vessel's mean velocity; the sea is fixed in the
         # world, where this frame's origin is at U t along x (heading 0).
-        shift = fs.scenario.speed * fs.t
+        shift = fs.scenario.forward_speed * fs.t
         x, y = self._grid
         points = gerstner_points(self._sea, x + shift, y, fs.t, GERSTNER_Q)
         points[..., 0] -= shift
