@@ -23,8 +23,14 @@ install: $(STAMP)
 serve: $(STAMP)
 	$(BIN)/twin serve --host 127.0.0.1 --port 8000 --viser-port 8080 --data-dir data
 
+# The browser tests drive Debian's chromium (never a downloaded browser): install it if missing.
+/usr/bin/chromium:
+	$(if $(filter 0,$(shell id -u)),,sudo) apt-get update -q
+	DEBIAN_FRONTEND=noninteractive $(if $(filter 0,$(shell id -u)),,sudo) \
+		apt-get install -y -q --no-install-recommends chromium
+
 ## test: install, lint and run the whole test suite (what CI runs)
-test: $(STAMP)
+test: $(STAMP) /usr/bin/chromium
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest
 

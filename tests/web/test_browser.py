@@ -6,9 +6,8 @@ Never a downloaded browser: the test uses /usr/bin/chromium (`.ci/run` installs 
 
 from __future__ import annotations
 
-import socket
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,7 @@ from fastapi.testclient import TestClient
 from PIL import Image
 from playwright.sync_api import sync_playwright
 
+from tests.web.support import free_port, wait_for
 from twin.sim.live import LiveSession
 from twin.web.api import create_app
 from twin.web.jobs import JobRunner
@@ -34,21 +34,6 @@ ARGS = [
     "--disable-component-update",
     "--disable-sync",
 ]
-
-pytestmark = pytest.mark.skipif(not CHROMIUM.exists(), reason="needs Debian's chromium package")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_for(condition: Callable[[], bool], timeout: float = 10.0) -> bool:
-    end = time.monotonic() + timeout
-    while not condition() and time.monotonic() < end:
-        time.sleep(0.05)
-    return condition()
 
 
 @pytest.fixture
@@ -77,12 +62,12 @@ def test_browser_shows_the_twin_and_controls_the_session(
             page.wait_for_selector("canvas", timeout=30_000)
             page.get_by_text("Planner", exact=True).wait_for(timeout=30_000)
             page.get_by_text("β", exact=True).wait_for()
-            assert wait_for(lambda: len(viewer.server.get_clients()) == 1)
+            assert wait_for(lambda: len(viewer.server.get_clients()) == 1, timeout=10.0)
 
             # force: skip Playwright's wait for a "stable" element, which a page redrawing
             # its canvas every frame reaches slowly
             page.get_by_role("button", name="Pause").click(force=True)
-            assert wait_for(lambda: not session.controls.playing)
+            assert wait_for(lambda: not session.controls.playing, timeout=10.0)
 
             # The β row: its label, then the slider's number box; typing sends a GUI update.
             row = page.locator("div", has=page.get_by_text("β", exact=True)).filter(
@@ -91,7 +76,7 @@ def test_browser_shows_the_twin_and_controls_the_session(
             box = row.last.locator("input").last
             box.fill("0.35", force=True)
             box.press("Enter")
-            assert wait_for(lambda: session.scenario.beta == pytest.approx(0.35))
+            assert wait_for(lambda: session.scenario.beta == pytest.approx(0.35), timeout=10.0)
             # …and the REST view of the same live session reports it
             with RunStore(tmp_path / "runs.sqlite") as store:
                 app = create_app(session, store, jobs=JobRunner(store, workers=1))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import socket
 import time
 from collections.abc import Callable, Iterator
 
@@ -12,6 +11,7 @@ import pytest
 import viser.transforms as tf
 import yourdfpy
 
+from tests.web.support import free_port, wait_for
 from twin.assets import asset_path
 from twin.mechanisms.urdf import joint_configuration
 from twin.planners import PlannerParameters
@@ -20,20 +20,6 @@ from twin.spatial import matrix_to_wxyz, pose_to_transform
 from twin.web.frame import read_frame
 from twin.web.gui import PLANNER_KNOBS, knob, limit_violations
 from twin.web.scene import VIEWS, Viewer, margin_colours, mount_transform, start_viewer
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_for(condition: Callable[[], bool], timeout: float = 3.0) -> bool:
-    """Poll `condition` until it holds or `timeout` [s] passes; its last value."""
-    end = time.monotonic() + timeout
-    while not condition() and time.monotonic() < end:
-        time.sleep(0.01)
-    return condition()
 
 
 @pytest.fixture
