@@ -2,6 +2,7 @@
 
     python benchmarks/run.py            # about 3 minutes on 2 cores; writes docs/performance.md
     python benchmarks/run.py --quick    # smaller sizes, a smoke test (does not write the doc)
+    python benchmarks/run.py --server-only   # live-server and REST rows only, patched into the doc
 
 **Features**
 - the peer: a closed-loop weighted pseudo-inverse on the hybrid system's nine virtual joints as a
@@ -10,7 +11,8 @@
 - the batched engine at N = 256, end to end and its stepping loop alone;
 - a sweep of 1000 × 200 s runs in-process and on a two-worker Dask `LocalCluster`;
 - scaling with duration and with N, with the fitted exponent;
-- numba's compile time on first use (no cache) and its load time from the cache.
+- numba's compile time on first use (no cache) and its load time from the cache;
+- the live server's websocket updates to 1 and 10 clients and REST latency (`server.py`).
 
 Every ratio divides two figures measured in the same run (the machine is shared, so absolute
 times are noisy); each time is the best of a few repeats. Targets are reported, not asserted.
@@ -32,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 from pinocchio_peer import PinocchioPeer, xi_to_q
+from server import live_rows, rest_rows
 
 import twin
 from twin.mechanisms import HybridBoardingSystem
@@ -222,10 +225,30 @@ def main(quick: bool = False) -> None:
         first, cached = compile_times()
         row("numba: compile on first use (empty cache)", f"{first:.1f} s")
         row("numba: load from cache in a new process", f"{cached:.2f} s")
-    row("live server: scene updates/s to 1 and 10 clients, CPU/update", "TODO")
-    row("REST: POST /api/runs (60 s) p50/p99, 1 and 20 clients", "TODO")
+    live_rows(row, window=2.0 if quick else 5.0)
+    rest_rows(row, requests_1=2 if quick else 5)
     if not quick:
         write_doc(rows)
+
+
+def server_only() -> None:
+    """Measure only the live-server and REST rows and put them in place of the doc's rows of
+    the same kind (live server, CPU per update, REST), keeping the rest of the last run."""
+    rows: list[tuple[str, str, str, str]] = []
+
+    def row(figure: str, value: str, target: str = "", met: bool | None = None) -> None:
+        rows.append((figure, value, target, "" if met is None else ("met" if met else "not met")))
+        print(f"{figure:<58} {value:>28}  {target:<22} {rows[-1][3]}", flush=True)
+
+    live_rows(row)
+    rest_rows(row)
+    lines = DOC.read_text().splitlines()
+    ours = ("| live server", "| CPU per update", "| REST:")
+    kept = [line for line in lines if not line.startswith(ours)]
+    table_end = max(i for i, line in enumerate(kept) if line.startswith("|")) + 1
+    new = [f"| {a.strip()} | {b} | {c} | {d} |" for a, b, c, d in rows]
+    DOC.write_text("\n".join(kept[:table_end] + new + kept[table_end:]) + "\n")
+    print(f"updated {DOC.relative_to(ROOT)}")
 
 
 HEADER = """# Performance
@@ -299,4 +322,11 @@ class _NoBar:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes; no doc written")
-    main(quick=parser.parse_args().quick)
+    parser.add_argument(
+        "--server-only", action="store_true", help="only the live-server and REST rows"
+    )
+    args = parser.parse_args()
+    if args.server_only:
+        server_only()
+    else:
+        main(quick=args.quick)

@@ -21,7 +21,7 @@ from twin.sea.sea_states import WMO_SEA_STATES
 from twin.sim import Scenario, simulate
 from twin.sim.live import LiveSession
 from twin.sim.result import flat_columns
-from twin.web import JobRunner, RunStore, create_app
+from twin.web import JobRunner, RunStore, SweepRunner, create_app
 
 SHORT = {"mechanism": "hybrid", "planner": "mtmp", "sea_state": 3, "duration": 2.0}
 #: synchronous cap of the test app: 100 steps (5 s at dt 0.05), so a 10 s run becomes a job
@@ -39,7 +39,10 @@ def store(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunStore]:
 def client(store: RunStore) -> Iterator[TestClient]:
     """An app with its worker pool running (the lifespan), shared by the run tests."""
     jobs = JobRunner(store, workers=1, sync_max_steps=SYNC_STEPS)
-    app = create_app(LiveSession({"sea_state": 3}), store, jobs=jobs, viewer_port=8080)
+    sweeps = SweepRunner(store, scheduler="in-process")  # no Dask cluster start-up in tests
+    app = create_app(
+        LiveSession({"sea_state": 3}), store, jobs=jobs, sweeps=sweeps, viewer_port=8080
+    )
     with TestClient(app) as client:
         yield client
 
@@ -80,7 +83,8 @@ def test_openapi_lists_exactly_the_api_paths(client: TestClient) -> None:
     assert set(paths) == {
         "/api/health", "/api/mechanisms", "/api/planners", "/api/sea-states", "/api/runs",
         "/api/runs/{run_id}", "/api/runs/{run_id}/series", "/api/live", "/api/live/reset",
-        "/api/live/pause", "/api/live/play", "/api/live/step",
+        "/api/live/pause", "/api/live/play", "/api/live/step", "/api/sweeps",
+        "/api/sweeps/{sweep_id}", "/api/sweeps/{sweep_id}/heatmap.png",
     }  # fmt: skip
     assert client.get("/docs").status_code == 200
 
@@ -267,6 +271,81 @@ def test_runs_survive_a_restart_and_interrupted_jobs_rerun(tmp_path: Path) -> No
             assert second.get(f"/api/runs/{done['id']}/series?format=csv").text == csv_before
             rerun = wait_done(second, interrupted)
     assert rerun["status"] == "done" and rerun["metrics"] == done["metrics"]
+
+
+# -- operability sweeps -------------------------------------------------------------------------
+
+#: a 2-cell sweep of 2 s runs, 4 runs in all: about a second in process
+TINY_SWEEP = {"hs": [0.5, 2.0], "tp": [8.0], "planner": ["mtmp"], "seeds": 2, "duration": 2.0}
+
+
+def wait_sweep(client: TestClient, sweep_id: str, timeout: float = 60.0) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        sweep = client.get(f"/api/sweeps/{sweep_id}").json()
+        if sweep["status"] in ("done", "failed"):
+            return sweep
+        time.sleep(0.1)
+    raise AssertionError(f"sweep {sweep_id} not done after {timeout} s: {sweep}")
+
+
+def test_a_sweep_is_a_job_with_progress_a_table_and_a_heatmap(client: TestClient) -> None:
+    response = client.post("/api/sweeps", json=TINY_SWEEP)
+    assert response.status_code == 202, response.text
+    queued = response.json()
+    assert response.headers["location"] == f"/api/sweeps/{queued['id']}"
+    assert queued["total"] == 4 and queued["result"] is None
+    assert queued["spec"]["hs"] == [0.5, 2.0] and queued["spec"]["tip_error_threshold"] == 0.05
+    sweep = wait_sweep(client, queued["id"])
+    assert sweep["status"] == "done", sweep["error"]
+    assert (sweep["done"], sweep["progress"]) == (4, 1.0)
+    result = sweep["result"]
+    assert "tip position error ≤ 0.05 m" in result["criterion"]
+    assert [cell["hs"] for cell in result["cells"]] == [0.5, 2.0]
+    assert all(cell["runs"] == 2 for cell in result["cells"])
+    assert result["cells"][0]["operability"] == 1.0  # a calm sea is operable for MTMP
+    heatmap = client.get(f"/api/sweeps/{queued['id']}/heatmap.png")
+    assert heatmap.status_code == 200 and heatmap.headers["content-type"] == "image/png"
+    assert heatmap.content[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [
+        ({"hs": []}, "hs"),
+        ({"planner": ["nope"]}, "planner"),
+        ({"hs": [0.1 * i for i in range(1, 60)], "tp": [4.0 + 0.1 * i for i in range(100)]},
+         "cells"),
+        ({"seeds": 0}, "seeds"),
+    ],
+)  # fmt: skip
+def test_bad_sweeps_are_422_naming_the_field(
+    client: TestClient, change: dict[str, Any], field: str
+) -> None:
+    response = client.post("/api/sweeps", json={**TINY_SWEEP, **change})
+    assert response.status_code == 422, response.text
+    assert field in response.json()["message"]
+
+
+def test_an_unknown_sweep_is_404(client: TestClient) -> None:
+    assert client.get("/api/sweeps/nope").status_code == 404
+    assert client.get("/api/sweeps/nope/heatmap.png").status_code == 404
+
+
+def test_sweeps_survive_a_restart_and_interrupted_sweeps_rerun(tmp_path: Path) -> None:
+    path = tmp_path / "runs.sqlite"
+    with RunStore(path) as store:
+        interrupted = store.create_sweep(TINY_SWEEP, 4).id
+        store.sweep_running(interrupted)  # as if the server died mid-sweep
+        assert store.get_sweep(interrupted).status == "running"
+
+    with RunStore(path) as store:
+        sweeps = SweepRunner(store, scheduler="in-process")
+        app = create_app(LiveSession(), store, jobs=JobRunner(store, workers=1), sweeps=sweeps)
+        with TestClient(app) as second:
+            sweep = wait_sweep(second, interrupted)
+            assert second.get(f"/api/sweeps/{interrupted}/heatmap.png").status_code == 200
+    assert sweep["status"] == "done" and len(sweep["result"]["cells"]) == 2
 
 
 # -- the live session ---------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import shlex
 import signal
@@ -11,6 +12,7 @@ import sys
 import time
 import urllib.request
 from pathlib import Path
+from typing import Any
 
 import pyarrow.parquet as pq
 import pytest
@@ -141,3 +143,43 @@ def test_dockerfile_runs_twin_serve_as_a_user_on_both_ports() -> None:
     assert (args.host, args.port, args.viser_port) == ("0.0.0.0", 8000, 8080)
     copied = {shlex.split(c)[0] for c in by_name["COPY"]}
     assert {"twin", "assets", "static", "pyproject.toml"} <= copied
+
+
+# -- twin sweep ---------------------------------------------------------------------------------
+
+#: a 2-cell sweep of 2 s runs: seconds, in this process
+TINY_SWEEP = {"hs": [0.5, 2.0], "tp": [8.0], "planner": ["mtmp"], "seeds": 2, "duration": 2.0}
+
+
+def test_sweep_writes_table_json_and_heatmap(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps(TINY_SWEEP))
+    out = tmp_path / "out"
+    assert main(["sweep", str(spec), "--scheduler", "in-process", "--out", str(out)]) == 0
+    printed = capsys.readouterr()
+    assert "operability" in printed.out and "tip position error ≤ 0.05 m" in printed.err
+    rows = list(csv.DictReader((out / "operability.csv").open()))
+    assert [float(r["hs"]) for r in rows] == [0.5, 2.0]
+    assert all(r["runs"] == "2" and 0.0 <= float(r["operability"]) <= 1.0 for r in rows)
+    document = json.loads((out / "operability.json").read_text())
+    assert document["tip_error_threshold"] == 0.05 and len(document["cells"]) == 2
+    assert (out / "heatmap.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [({"hs": []}, "hs"), ({"seeds": 0}, "seeds"), ({"hs": [0.1 * i for i in range(1, 60)],
+      "tp": [4.0 + 0.1 * i for i in range(100)]}, "cells")],
+)  # fmt: skip
+def test_a_bad_sweep_spec_exits_2_naming_the_field(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: dict[str, Any], field: str
+) -> None:
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({**TINY_SWEEP, **change}))
+    with pytest.raises(SystemExit) as exit_:
+        main(["sweep", str(spec), "--scheduler", "in-process", "--out", str(tmp_path / "out")])
+    assert exit_.value.code == 2
+    assert field in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()  # nothing written for a refused spec

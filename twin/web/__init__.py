@@ -7,9 +7,9 @@ It calls only the simulation layer (`twin.sim`) and reads the registries.
 from __future__ import annotations
 
 from twin.web.api import create_app
-from twin.web.jobs import SYNC_MAX_STEPS, JobRunner
+from twin.web.jobs import SYNC_MAX_STEPS, JobRunner, SweepRunner
 from twin.web.server import serve
-from twin.web.store import Run, RunNotFound, RunStore
+from twin.web.store import Run, RunNotFound, RunStore, Sweep
 
 __all__ = [
     "SYNC_MAX_STEPS",
@@ -17,6 +17,8 @@ __all__ = [
     "Run",
     "RunNotFound",
     "RunStore",
+    "Sweep",
+    "SweepRunner",
     "create_app",
     "serve",
 ]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import hmac
+import math
 import tempfile
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
@@ -32,8 +33,9 @@ from twin.sea.sea_states import WMO_SEA_STATES
 from twin.sim import Scenario
 from twin.sim.live import LiveControls, LiveSession
 from twin.sim.scenario import DEFAULT_PLANNER
-from twin.web.jobs import JobRunner
-from twin.web.store import Run, RunNotFound, RunStore
+from twin.sim.sweep import AXES, SweepSpec
+from twin.web.jobs import JobRunner, SweepRunner
+from twin.web.store import Run, RunNotFound, RunStore, Sweep
 
 _HERE = Path(__file__).resolve().parent
 #: the landing page: `twin/_static` in a wheel (pyproject `force-include`), else the
@@ -162,6 +164,7 @@ def _ranges(*models: type[BaseModel]) -> dict[str, str]:
 RANGES = {
     ("POST", "/api/runs"): _ranges(Scenario),
     ("PATCH", "/api/live"): _ranges(Scenario, LiveControls),
+    ("POST", "/api/sweeps"): _ranges(SweepSpec),
 }
 
 
@@ -280,6 +283,7 @@ def create_app(
     *,
     token: str | None = None,
     jobs: JobRunner | None = None,
+    sweeps: SweepRunner | None = None,
     viewer_port: int | None = None,
 ) -> FastAPI:
     """The REST app over a live session and a run store.
@@ -290,18 +294,23 @@ def create_app(
         token: if set, POST and PATCH need `Authorization: Bearer <token>`.
         jobs: the runner of scripted runs (default: a `JobRunner` on `store`); started and
             shut down with the app.
+        sweeps: the runner of operability sweeps (default: a `SweepRunner` on `store`, a
+            Dask LocalCluster per sweep); started and shut down with the app.
         viewer_port: the 3D viewer's port, shown by `/api/health` and the landing page.
 
     Returns:
         The FastAPI app (serve it with uvicorn).
     """
     jobs = jobs if jobs is not None else JobRunner(store)
+    sweeps = sweeps if sweeps is not None else SweepRunner(store)
     mechanisms, planners, sea_states = _registries()
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
         await run_in_threadpool(jobs.start)
+        await run_in_threadpool(sweeps.start)
         yield
+        sweeps.shutdown()
         jobs.shutdown()
 
     app = FastAPI(
@@ -420,6 +429,53 @@ def create_app(
             media_type=media,
             headers={"Content-Disposition": f'attachment; filename="{path.name}"'},
         )
+
+    # -- operability sweeps ------------------------------------------------------------------
+    @app.post(
+        "/api/sweeps",
+        status_code=202,
+        response_model=Sweep,
+        dependencies=guarded,
+        tags=["sweeps"],
+        responses=bad_input,
+    )
+    def create_sweep(spec: SweepSpec, response: Response) -> Any:
+        """Queue an operability sweep (the `SweepSpec` fields; omitted ones take defaults).
+
+        Answers 202 at once; poll `GET /api/sweeps/{id}` (the Location header) for status and
+        progress (runs done of total) and, once done, the operability table. An empty axis or
+        a grid over the caps (`twin.sim.sweep.MAX_CELLS`, `MAX_RUNS`, `MAX_TOTAL_STEPS`) is a
+        422 naming the field.
+        """
+        total = math.prod(len(getattr(spec, axis)) for axis in AXES) * spec.seeds
+        sweep = store.create_sweep(spec.model_dump(), total)
+        sweeps.submit(sweep.id)
+        response.headers["Location"] = f"/api/sweeps/{sweep.id}"
+        return sweep
+
+    @app.get(
+        "/api/sweeps/{sweep_id}", tags=["sweeps"], responses={404: {"description": "no sweep"}}
+    )
+    def get_sweep(sweep_id: str) -> Sweep:
+        """A sweep's status, progress and (once done) operability table with its criterion."""
+        return store.get_sweep(sweep_id)
+
+    @app.get(
+        "/api/sweeps/{sweep_id}/heatmap.png",
+        tags=["sweeps"],
+        response_class=Response,
+        responses={
+            200: {"content": {"image/png": {}}, "description": "operability heatmaps"},
+            404: {"description": "no sweep"},
+            409: {"description": "the sweep is not done"},
+        },
+    )
+    def get_sweep_heatmap(sweep_id: str) -> Response:
+        """A done sweep's heatmap: Hs × Tp per planner, heading and (β, k_e, k_c)."""
+        sweep = store.get_sweep(sweep_id)
+        if sweep.status != "done":
+            raise HTTPException(409, f"sweep {sweep_id} is {sweep.status}; heatmap once done")
+        return Response(store.sweep_heatmap(sweep_id), media_type="image/png")
 
     # -- the live session ------------------------------------------------------------------
     @app.get("/api/live", tags=["live"])

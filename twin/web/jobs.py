@@ -1,4 +1,5 @@
-"""Scripted runs in worker processes: short ones awaited by the request, long ones as jobs.
+"""Scripted runs in worker processes: short ones awaited by the request, long ones as jobs;
+operability sweeps from a thread (`SweepRunner`).
 
 Every run is first a row in the `RunStore` (queued), then executes in a small process pool,
 so a simulation never competes for the GIL with the live loop, the 3D viewer and the web
@@ -15,9 +16,13 @@ app must keep its entry point under `if __name__ == "__main__":` (`twin serve` d
 from __future__ import annotations
 
 import multiprocessing
+import queue
+import tempfile
+import threading
 import time
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
 
 from twin.sim import Scenario, Simulation
 from twin.web.store import RunStore
@@ -142,3 +147,72 @@ class JobRunner:
             process.terminate()
         for process in processes:
             process.join(timeout=5)
+
+
+class SweepRunner:
+    """Operability sweeps, one at a time, from a daemon thread of the web process.
+
+    The thread only drives `run_sweep`: by default that starts a Dask `LocalCluster` whose
+    worker processes do the simulating, so the web process stays responsive. Progress and the
+    result go to the store, so status survives a restart; `start` queues again whatever a
+    stopped server left unfinished.
+
+    Args:
+        store: where sweeps are read from and written to.
+        scheduler: `run_sweep`'s scheduler: None (a LocalCluster per sweep), "tcp://HOST:PORT"
+            or "in-process" (tests, small machines).
+    """
+
+    def __init__(self, store: RunStore, *, scheduler: str | None = None) -> None:
+        self.store = store
+        self.scheduler = scheduler
+        self._queue: queue.Queue[str | None] = queue.Queue()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> list[str]:
+        """Start the thread and queue sweeps a previous server left unfinished.
+
+        Returns:
+            The ids queued again.
+        """
+        if self._thread is None or not self._thread.is_alive():
+            # daemon: a sweep cannot be interrupted mid-chunk, and must not hold up the exit;
+            # it stays unfinished in the store and is rerun on the next start
+            self._thread = threading.Thread(target=self._loop, name="sweeps", daemon=True)
+            self._thread.start()
+        recovered = self.store.requeue_unfinished_sweeps()
+        for sweep_id in recovered:
+            self.submit(sweep_id)
+        return recovered
+
+    def submit(self, sweep_id: str) -> None:
+        """Run a stored sweep after the ones already queued."""
+        self._queue.put(sweep_id)
+
+    def shutdown(self) -> None:
+        """Stop after the current sweep; queued sweeps stay queued in the store."""
+        self._queue.put(None)
+        self._thread = None
+
+    def _loop(self) -> None:
+        while (sweep_id := self._queue.get()) is not None:
+            self.execute(sweep_id)
+
+    def execute(self, sweep_id: str) -> None:
+        """Run one stored sweep to the end, storing progress, table and heatmap (or the error)."""
+        from twin.sim.sweep import SweepSpec, heatmap_png, run_sweep
+
+        try:
+            spec = SweepSpec(**self.store.get_sweep(sweep_id).spec)
+            self.store.sweep_running(sweep_id)
+            result = run_sweep(
+                spec,
+                scheduler=self.scheduler,
+                progress=False,
+                on_progress=lambda done, _total: self.store.sweep_progress(sweep_id, done),
+            )
+            with tempfile.TemporaryDirectory() as folder:
+                png = heatmap_png(result, Path(folder) / "heatmap.png").read_bytes()
+            self.store.finish_sweep(sweep_id, result.to_dict(), png)
+        except Exception as exc:  # a thread has no caller to raise to: the store is its report
+            self.store.fail_sweep(sweep_id, f"{type(exc).__name__}: {exc}")

@@ -1,8 +1,9 @@
 """The run store: every scripted run, its status, metrics and series, in one SQLite file.
 
-One table, one row per run. SQLite in WAL mode lets the web process read while a worker
-process writes; every change is one transaction, so a process killed mid-write leaves the
-previous state and the file reopens consistent. Series are a compressed npz blob (float64,
+One table of runs, one row per run, and one of operability sweeps (`sweeps`). SQLite in WAL
+mode lets the web process read while a worker process writes; every change is one
+transaction, so a process killed mid-write leaves the previous state and the file reopens
+consistent. Series are a compressed npz blob (float64,
 exact), written once when the run is done.
 
 Status goes queued → running → done | failed; `progress` is the fraction of steps taken.
@@ -45,9 +46,24 @@ CREATE TABLE IF NOT EXISTS runs (
     series    BLOB
 );
 CREATE INDEX IF NOT EXISTS runs_by_created ON runs (created);
+CREATE TABLE IF NOT EXISTS sweeps (
+    id        TEXT PRIMARY KEY,
+    created   REAL NOT NULL,
+    finished  REAL,
+    status    TEXT NOT NULL CHECK (status IN ('queued', 'running', 'done', 'failed')),
+    done      INTEGER NOT NULL DEFAULT 0,
+    total     INTEGER NOT NULL,
+    spec      TEXT NOT NULL,
+    result    TEXT,
+    error     TEXT,
+    heatmap   BLOB
+);
 """
+# The sweeps table came after schema 1 without changing what schema-1 readers see, so the
+# version stays: IF NOT EXISTS adds it to an older file the first time this twin opens it.
 # `series` is the last column so listing runs never reads a blob's overflow pages.
 _COLUMNS = "id, created, finished, status, progress, scenario, metrics, error"
+_SWEEP_COLUMNS = "id, created, finished, status, done, total, spec, result, error"
 
 
 class RunNotFound(TwinError):
@@ -65,6 +81,44 @@ class Run(BaseModel):
     scenario: dict[str, Any] = Field(description="the validated scenario, every field")
     metrics: dict[str, Any] | None = Field(None, description="once done (docs/simulation.md)")
     error: str | None = Field(None, description="why it failed")
+
+
+class Sweep(BaseModel):
+    """A stored operability sweep without its heatmap (`RunStore.sweep_heatmap` has it)."""
+
+    id: str = Field(description="sweep id (32 hex digits)")
+    created: datetime = Field(description="when the sweep was submitted (UTC)")
+    finished: datetime | None = Field(None, description="when it finished (UTC)")
+    status: Status = Field(description="queued → running → done | failed")
+    done: int = Field(description="runs finished")
+    total: int = Field(description="runs in all (cells × seeds)")
+    progress: float = Field(description="[-] done / total, 0-1")
+    spec: dict[str, Any] = Field(description="the validated SweepSpec, every field")
+    result: dict[str, Any] | None = Field(
+        None,
+        description="once done: the criterion, `tip_error_threshold` [m], elapsed [s] and the "
+        "operability table's rows (`cells`)",
+    )
+    error: str | None = Field(None, description="why it failed")
+
+
+def _sweep(row: sqlite3.Row) -> Sweep:
+    return Sweep(
+        id=row["id"],
+        created=_utc(row["created"]),
+        finished=_utc(row["finished"]),
+        status=row["status"],
+        done=row["done"],
+        total=row["total"],
+        progress=row["done"] / row["total"] if row["total"] else 0.0,
+        spec=json.loads(row["spec"]),
+        result=None if row["result"] is None else json.loads(row["result"]),
+        error=row["error"],
+    )
+
+
+class SweepNotFound(RunNotFound):
+    """No sweep has this id (a `RunNotFound`, so the API answers 404 alike)."""
 
 
 def _utc(t: float | None) -> datetime | None:
@@ -250,6 +304,88 @@ class RunStore:
         # keeps old runs readable if a later version tightens a range.
         scenario = Scenario.model_construct(**json.loads(row["scenario"]))
         return SimulationResult(scenario, unpack_series(row["series"]), json.loads(row["metrics"]))
+
+    # -- sweeps ------------------------------------------------------------------------------
+    def create_sweep(self, spec: dict[str, Any], total: int) -> Sweep:
+        """Store a new sweep of a validated `SweepSpec` (as a dict) of `total` runs, queued."""
+        sweep_id = uuid.uuid4().hex
+        self._write(
+            "INSERT INTO sweeps (id, created, status, total, spec) VALUES (?, ?, 'queued', ?, ?)",
+            (sweep_id, time.time(), total, json.dumps(spec, allow_nan=False)),
+        )
+        return self.get_sweep(sweep_id)
+
+    def sweep_running(self, sweep_id: str) -> None:
+        self._sweep_changed(
+            sweep_id, "UPDATE sweeps SET status = 'running', done = 0 WHERE id = ?", (sweep_id,)
+        )
+
+    def sweep_progress(self, sweep_id: str, done: int) -> None:
+        self._sweep_changed(sweep_id, "UPDATE sweeps SET done = ? WHERE id = ?", (done, sweep_id))
+
+    def finish_sweep(self, sweep_id: str, result: dict[str, Any], heatmap: bytes) -> Sweep:
+        """Store a finished sweep's `SweepResult.to_dict()` and heatmap PNG (status done)."""
+        self._sweep_changed(
+            sweep_id,
+            "UPDATE sweeps SET status = 'done', done = total, finished = ?, result = ?, "
+            "heatmap = ?, error = NULL WHERE id = ?",
+            (time.time(), json.dumps(result, allow_nan=False), heatmap, sweep_id),
+        )
+        return self.get_sweep(sweep_id)
+
+    def fail_sweep(self, sweep_id: str, error: str) -> None:
+        self._sweep_changed(
+            sweep_id,
+            "UPDATE sweeps SET status = 'failed', finished = ?, error = ? WHERE id = ?",
+            (time.time(), error, sweep_id),
+        )
+
+    def requeue_unfinished_sweeps(self) -> list[str]:
+        """Sweeps a stopped server left queued or running, set back to queued, oldest first."""
+        with self._lock:
+            self._conn.execute("BEGIN IMMEDIATE")
+            rows = self._conn.execute(
+                "SELECT id FROM sweeps WHERE status IN ('queued', 'running') "
+                "ORDER BY created, rowid"
+            ).fetchall()
+            self._conn.execute(
+                "UPDATE sweeps SET status = 'queued', done = 0 WHERE status = 'running'"
+            )
+            self._conn.execute("COMMIT")
+        return [row["id"] for row in rows]
+
+    def get_sweep(self, sweep_id: str) -> Sweep:
+        """The sweep without its heatmap.
+
+        Raises:
+            SweepNotFound: no sweep has this id.
+        """
+        return _sweep(self._sweep_row(sweep_id, _SWEEP_COLUMNS))
+
+    def sweep_heatmap(self, sweep_id: str) -> bytes:
+        """A done sweep's heatmap PNG.
+
+        Raises:
+            SweepNotFound: no sweep has this id.
+            TwinError: the sweep is not done.
+        """
+        row = self._sweep_row(sweep_id, "status, heatmap")
+        if row["status"] != "done":
+            raise TwinError(f"sweep {sweep_id} is {row['status']}; its heatmap exists once done")
+        return bytes(row["heatmap"])
+
+    def _sweep_changed(self, sweep_id: str, sql: str, parameters: tuple[Any, ...]) -> None:
+        if self._write(sql, parameters) == 0:
+            raise SweepNotFound(f"unknown sweep id {sweep_id!r}")
+
+    def _sweep_row(self, sweep_id: str, columns: str) -> sqlite3.Row:
+        with self._lock:
+            row = self._conn.execute(
+                f"SELECT {columns} FROM sweeps WHERE id = ?", (sweep_id,)
+            ).fetchone()
+        if row is None:
+            raise SweepNotFound(f"unknown sweep id {sweep_id!r}")
+        return row
 
     # -- lifetime ----------------------------------------------------------------------------
     def close(self) -> None:

@@ -1,0 +1,149 @@
+"""Benchmarks of the served twin: the live 3D viewer's websocket updates and REST latency.
+
+    python benchmarks/run.py --server-only   # just these rows, patched into docs/performance.md
+
+- **live server**: a `LiveSession` shown by `start_viewer`; N websocket clients (the `websockets`
+  package, speaking viser's subprotocol) count the messages each receives over a window after
+  the initial scene; CPU per update is the process's CPU time (simulation, render thread and
+  websocket server together) over the render frames drawn in that window.
+- **REST**: `POST /api/runs` of a 60 s scenario (1200 steps, under the synchronous cap, so the
+  answer comes when the run is done) against uvicorn in a thread, from C concurrent httpx
+  clients in threads; p50 and p99 over every request.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import socket
+import statistics
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import httpx
+import numpy as np
+import uvicorn
+import viser
+import websockets
+
+from twin.sim.live import LiveSession
+from twin.web import JobRunner, RunStore, create_app
+from twin.web.scene import start_viewer
+
+#: [s] the window over which live updates are counted
+LIVE_WINDOW = 5.0
+#: [s] wait after connecting, so the initial scene (large messages) is not counted
+LIVE_SETTLE = 1.0
+#: the REST request: a 60 s run of the hybrid system (SYNC: answered when done)
+REST_BODY = {"mechanism": "hybrid", "planner": "mtmp", "sea_state": 4, "duration": 60.0}
+
+Row = Callable[..., None]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+async def _count(url: str, clients: int, settle: float, window: float) -> list[int]:
+    """Messages each of `clients` websocket clients receives during `window` after `settle`."""
+    counts = [0] * clients
+    counting = asyncio.Event()
+    protocol = websockets.Subprotocol(f"viser-v{viser.__version__}")  # viser refuses others
+
+    async def client(i: int) -> None:
+        async with websockets.connect(url, subprotocols=[protocol], max_size=None) as ws:
+            while True:
+                await ws.recv()
+                if counting.is_set():
+                    counts[i] += 1
+
+    tasks = [asyncio.create_task(client(i)) for i in range(clients)]
+    await asyncio.sleep(settle)
+    counting.set()
+    await asyncio.sleep(window)
+    for task in tasks:
+        task.cancel()
+    await asyncio.gather(*tasks, return_exceptions=True)
+    return counts
+
+
+def live_rows(row: Row, window: float = LIVE_WINDOW) -> None:
+    """Scene updates per second to 1 and to 10 websocket clients, and CPU per update."""
+    session = LiveSession({"sea_state": 4})
+    session.start()
+    viewer = start_viewer(session, port=free_port())
+    try:
+        time.sleep(1.0)  # numba, BLAS and the first frames warmed up
+        for clients in (1, 10):
+            frames, cpu = viewer.frames, time.process_time()
+            counts = asyncio.run(_count(f"ws://127.0.0.1:{viewer.port}", clients, 1.0, window))
+            # the settle second is in the CPU and frame deltas on both sides, so they cancel
+            updates = viewer.frames - frames
+            cpu_per_update = (time.process_time() - cpu) / max(updates, 1)
+            rates = [c / window for c in counts]
+            row(
+                # viser coalesces queued updates into one websocket message, so messages/s can
+                # be below frames drawn/s; no target: issue 6's 30 fps is about frames drawn
+                f"live server: scene updates/s, {clients} websocket client"
+                + ("s" if clients > 1 else "")
+                + " (ws messages)",
+                f"{statistics.mean(rates):.1f}/s per client (min {min(rates):.1f})",
+            )
+            row(
+                f"  CPU per update, {clients} client" + ("s" if clients > 1 else ""),
+                f"{1e3 * cpu_per_update:.1f} ms ({updates / (window + 1.0):.1f} frames/s drawn)",
+            )
+    finally:
+        viewer.stop()
+        session.stop()
+
+
+def rest_rows(row: Row, requests_1: int = 5, requests_20: int = 1) -> None:
+    """p50/p99 latency of POST /api/runs (60 s scenario) at 1 and 20 concurrent clients."""
+    for name in ("uvicorn.error", "httpx"):  # the root logger is at INFO (wavespectra)
+        logging.getLogger(name).setLevel(logging.WARNING)
+    with tempfile.TemporaryDirectory() as folder, RunStore(Path(folder) / "r.sqlite") as store:
+        jobs = JobRunner(store)
+        app = create_app(LiveSession(), store, jobs=jobs)
+        port = free_port()
+        server = uvicorn.Server(
+            uvicorn.Config(app, host="127.0.0.1", port=port, access_log=False, log_level="warning")
+        )
+        thread = threading.Thread(target=server.run, daemon=True)
+        thread.start()
+        try:
+            url = f"http://127.0.0.1:{port}"
+            while not server.started:
+                time.sleep(0.05)
+            with httpx.Client(base_url=url, timeout=300) as warm:  # spawn and warm both workers
+                for _ in range(jobs.workers):
+                    warm.post("/api/runs", json={**REST_BODY, "duration": 1.0}).raise_for_status()
+
+            def client(n: int) -> list[float]:
+                latencies = []
+                with httpx.Client(base_url=url, timeout=300) as http:
+                    for _ in range(n):
+                        start = time.perf_counter()
+                        http.post("/api/runs", json=REST_BODY).raise_for_status()
+                        latencies.append(time.perf_counter() - start)
+                return latencies
+
+            for clients, each in ((1, requests_1), (20, requests_20)):
+                with ThreadPoolExecutor(clients) as pool:
+                    latencies = np.concatenate(list(pool.map(client, [each] * clients)))
+                p50, p99 = np.percentile(latencies, [50, 99])
+                row(
+                    f"REST: POST /api/runs (60 s run), {clients} client"
+                    + ("s" if clients > 1 else "")
+                    + f", {len(latencies)} requests, {jobs.workers} workers",
+                    f"p50 {p50:.2f} s, p99 {p99:.2f} s",
+                )
+        finally:
+            server.should_exit = True
+            thread.join(timeout=10)
