@@ -22,8 +22,6 @@ class HybridRig:
         dt: [s] control period.
     """
 
-    mechanism_name = "hybrid"
-
     def __init__(
         self,
         mechanism: HybridBoardingSystem,

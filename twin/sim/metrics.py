@@ -16,7 +16,7 @@ SETTLE = 10
 _ANGLES = {"roll", "pitch", "yaw", "q1", "q2"}
 
 
-def _f(x: float | np.floating) -> float:
+def finite(x: float | np.floating) -> float:
     """A finite Python float (metrics are JSON and must never carry NaN)."""
     x = float(x)
     return x if np.isfinite(x) else 0.0
@@ -53,7 +53,7 @@ def efficacy(alpha_top: np.ndarray, alpha_bottom: np.ndarray) -> dict[str, float
     )
     denominator = np.sum(np.abs(alpha_bottom))
     integral = 1.0 - np.sum(np.abs(alpha_top)) / denominator if denominator > 0 else 0.0
-    return {"eta_printed": _f(100 * printed), "eta": _f(100 * integral)}
+    return {"eta_printed": finite(100 * printed), "eta": finite(100 * integral)}
 
 
 def hybrid_metrics(series: dict[str, np.ndarray], mechanism: HybridBoardingSystem) -> dict:
@@ -72,10 +72,10 @@ def hybrid_metrics(series: dict[str, np.ndarray], mechanism: HybridBoardingSyste
     for j, name in enumerate(JOINT_NAMES):
         scale = np.degrees(1.0) if name in _ANGLES else 1.0
         joints[name] = {
-            "min": _f(xi[s, j].min() * scale),
-            "max": _f(xi[s, j].max() * scale),
-            "margin": _f(min(xi[s, j].min() - lower[j], upper[j] - xi[s, j].max()) * scale),
-            "drift": _f(drift(t, xi[:, j : j + 1])[0] * scale),
+            "min": finite(xi[s, j].min() * scale),
+            "max": finite(xi[s, j].max() * scale),
+            "margin": finite(min(xi[s, j].min() - lower[j], upper[j] - xi[s, j].max()) * scale),
+            "drift": finite(drift(t, xi[:, j : j + 1])[0] * scale),
         }
     return {
         "violations": int(np.sum(joint_bad | leg_bad)),
@@ -85,17 +85,17 @@ def hybrid_metrics(series: dict[str, np.ndarray], mechanism: HybridBoardingSyste
             "q1_max": joints["q1"]["max"], "q1_min": joints["q1"]["min"],
             "q2_max": joints["q2"]["max"], "q2_min": joints["q2"]["min"],
             "d3_max": joints["d3"]["max"], "d3_min": joints["d3"]["min"],
-            "legs_max": _f(legs[s].max()), "legs_min": _f(legs[s].min()),
+            "legs_max": finite(legs[s].max()), "legs_min": finite(legs[s].min()),
         },
         "joints": joints,
-        "leg_margin": _f(min(legs[s].min() - leg_min, leg_max - legs[s].max())),
-        "leg_drift": [_f(v) for v in drift(t, legs)],
-        "tip_position_error_rms": _f(np.sqrt(np.mean(pos_err**2))),
-        "tip_position_error_max": _f(pos_err.max()),
-        "tip_orientation_error_rms": _f(np.sqrt(np.mean(rot_err**2))),
-        "tip_orientation_error_max": _f(rot_err.max()),
-        "manipulability_min": _f(series["manipulability"][s].min()),
-        "phi_e_max": _f(np.degrees(_extreme(series["phi_e"][s]))),
-        "theta_e_max": _f(np.degrees(_extreme(series["theta_e"][s]))),
+        "leg_margin": finite(min(legs[s].min() - leg_min, leg_max - legs[s].max())),
+        "leg_drift": [finite(v) for v in drift(t, legs)],
+        "tip_position_error_rms": finite(np.sqrt(np.mean(pos_err**2))),
+        "tip_position_error_max": finite(pos_err.max()),
+        "tip_orientation_error_rms": finite(np.sqrt(np.mean(rot_err**2))),
+        "tip_orientation_error_max": finite(rot_err.max()),
+        "manipulability_min": finite(series["manipulability"][s].min()),
+        "phi_e_max": finite(np.degrees(_extreme(series["phi_e"][s]))),
+        "theta_e_max": finite(np.degrees(_extreme(series["theta_e"][s]))),
         **efficacy(series["alpha_top"], series["alpha_bottom"]),
     }  # fmt: skip

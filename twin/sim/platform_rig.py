@@ -19,7 +19,7 @@ from twin.mechanisms.upu3up import Upu3Up
 from twin.planners import PlannerParameters, get_planner
 from twin.planners.platform import PlatformModel
 from twin.sim.base_motion import BaseSamples
-from twin.sim.metrics import SETTLE, drift, efficacy
+from twin.sim.metrics import SETTLE, drift, efficacy, finite
 from twin.sim.target import held_target, tilt
 from twin.spatial import invert_transform, pose_error, pose_to_transform
 
@@ -119,12 +119,6 @@ class PlatformRig:
         return rec
 
 
-def _f(x: float | np.floating) -> float:
-    """A finite Python float (metrics are JSON and must never carry NaN)."""
-    x = float(x)
-    return x if np.isfinite(x) else 0.0
-
-
 def platform_metrics(series: dict[str, np.ndarray], model: PlatformModel) -> dict:
     """Metrics of a small-platform run from its series (see `PlatformRig.record`).
 
@@ -142,10 +136,10 @@ def platform_metrics(series: dict[str, np.ndarray], model: PlatformModel) -> dic
         scale = 1.0 if j == 0 else np.degrees(1.0)
         x = state[:, j]
         states[name] = {
-            "min": _f(x[s].min() * scale),
-            "max": _f(x[s].max() * scale),
-            "margin": _f(min(x[s].min() - low[j], high[j] - x[s].max()) * scale),
-            "drift": _f(drift(t, x[:, None])[0] * scale),
+            "min": finite(x[s].min() * scale),
+            "max": finite(x[s].max() * scale),
+            "margin": finite(min(x[s].min() - low[j], high[j] - x[s].max()) * scale),
+            "drift": finite(drift(t, x[:, None])[0] * scale),
         }
     stroke_low, stroke_high = model.stroke
     err = series["tip_error"][s]
@@ -155,22 +149,24 @@ def platform_metrics(series: dict[str, np.ndarray], model: PlatformModel) -> dic
         "violations": int(np.sum(bad)),
         "limit_violations": {name: int(np.sum(v)) for name, v in violated.items()},
         "states": states,
-        "legs_min": _f(legs[s].min()),
-        "legs_max": _f(legs[s].max()),
-        "leg_margin": _f(min(legs[s].min() - stroke_low[0], stroke_high[0] - legs[s].max())),
-        "leg_drift": [_f(v) for v in drift(t, legs)],
-        "leg_rate_max": _f(np.abs(series["leg_rates"]).max() * model.unit),
-        "tip_position_error_rms": _f(np.sqrt(np.mean(pos_err**2))),
-        "tip_position_error_max": _f(pos_err.max()),
-        "tip_orientation_error_rms": _f(np.sqrt(np.mean(rot_err**2))),
-        "tip_orientation_error_max": _f(rot_err.max()),
-        "alpha_top_max": _f(np.degrees(series["alpha_top"][s].max())),
-        "alpha_bottom_max": _f(np.degrees(series["alpha_bottom"][s].max())),
+        "legs_min": finite(legs[s].min()),
+        "legs_max": finite(legs[s].max()),
+        "leg_margin": finite(min(legs[s].min() - stroke_low[0], stroke_high[0] - legs[s].max())),
+        "leg_drift": [finite(v) for v in drift(t, legs)],
+        "leg_rate_max": finite(np.abs(series["leg_rates"]).max() * model.unit),
+        "tip_position_error_rms": finite(np.sqrt(np.mean(pos_err**2))),
+        "tip_position_error_max": finite(pos_err.max()),
+        "tip_orientation_error_rms": finite(np.sqrt(np.mean(rot_err**2))),
+        "tip_orientation_error_max": finite(rot_err.max()),
+        "alpha_top_max": finite(np.degrees(series["alpha_top"][s].max())),
+        "alpha_bottom_max": finite(np.degrees(series["alpha_bottom"][s].max())),
         "clipped": int(np.sum(series["clipped"] > 0)),
         "saturated": int(np.sum(series["saturated"] > 0)),
         **efficacy(series["alpha_top"], series["alpha_bottom"]),  # seed 002 eq (29)
     }
     if "coupled_displacement" in series:
         peak = np.abs(series["coupled_displacement"][s]).max(axis=0)  # seed 001 eq (15), mm
-        metrics["coupled_displacement_max"] = {a: _f(v) for a, v in zip("xyz", peak, strict=True)}
+        metrics["coupled_displacement_max"] = {
+            a: finite(v) for a, v in zip("xyz", peak, strict=True)
+        }
     return metrics
