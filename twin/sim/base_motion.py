@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twin.sea.components import WaveComponents
+from twin.sim.scenario import Scenario
 from twin.spatial import pose_to_transform
 from twin.vessel import MOUNTS, Mount, load_raos, vessel_motion
 
@@ -48,6 +49,16 @@ class BaseMotion:
         self.mount = mount
         self.raos = load_raos(vessel or mount.vessel)
         self.speed = speed
+
+    @classmethod
+    def of(cls, scenario: Scenario) -> BaseMotion:
+        """The base motion of a scenario: its sea, its mechanism's mount, its vessel."""
+        return cls(
+            scenario.components(),
+            mount_for(scenario.mechanism),
+            vessel=scenario.vessel,
+            speed=scenario.forward_speed,
+        )
 
     def poses(self, t: np.ndarray) -> np.ndarray:
         """(N, 6) inertial base poses at times t (N,) [s]."""

@@ -16,7 +16,7 @@ from tqdm import tqdm
 from twin.errors import TwinError
 from twin.mechanisms import MECHANISMS
 from twin.planners import PlannerParameters
-from twin.sim.base_motion import BaseMotion, BaseSamples, mount_for
+from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.hybrid_rig import HybridRig
 from twin.sim.metrics import hybrid_metrics
 from twin.sim.platform_rig import PlatformRig, platform_metrics
@@ -62,9 +62,7 @@ class Simulation:
     def __init__(self, scenario: Scenario | dict, history_limit: int | None = None) -> None:
         self.scenario = scenario if isinstance(scenario, Scenario) else Scenario(**scenario)
         s = self.scenario
-        self.base_motion = BaseMotion(
-            s.components(), mount_for(s.mechanism), vessel=s.vessel, speed=s.forward_speed
-        )
+        self.base_motion = BaseMotion.of(s)
         self.mechanism = MECHANISMS[s.mechanism]()
         state = (
             self.mechanism.working_state if s.initial_state is None else np.array(s.initial_state)
@@ -104,12 +102,7 @@ class Simulation:
         self.scenario = new
         self.n_steps = round(new.duration / new.dt)
         if changed & SEA_FIELDS:
-            self.base_motion = BaseMotion(
-                new.components(),
-                mount_for(new.mechanism),
-                vessel=new.vessel,
-                speed=new.forward_speed,
-            )
+            self.base_motion = BaseMotion.of(new)
             self._base = self._load_chunk(self.k)
         if changed - SEA_FIELDS - {"duration"}:
             parameters = PlannerParameters(
