@@ -1,6 +1,8 @@
 # The live twin for demos: landing page and REST API on 8000, the 3D viewer on 8080.
 #   docker build -t wave-twin .
-#   docker run --rm -p 8000:8000 -p 8080:8080 -e TWIN_TOKEN=... wave-twin
+#   docker run --rm -p 8000:8000 -p 8080:8080 -e TWIN_TOKEN=$(openssl rand -hex 16) wave-twin
+# TWIN_TOKEN is required: bound to 0.0.0.0, the server refuses to start without one (POST and
+# PATCH then need `Authorization: Bearer $TWIN_TOKEN`; browsers unlock the viewer's controls).
 # Runs are stored in /home/twin/data (a volume: mount it to keep them).
 FROM python:3.11-slim
 

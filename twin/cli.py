@@ -4,14 +4,20 @@
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import json
 import os
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 #: formats `twin run --out` writes, by file suffix
 OUTPUTS = (".csv", ".parquet", ".json")
+#: [bytes] largest scenario or sweep file read (a scenario is < 2 KiB)
+MAX_INPUT_FILE = 1024 * 1024
+_LABEL = r"[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
+_HOSTNAME = re.compile(rf"^(?=.{{1,253}}$){_LABEL}(\.{_LABEL})*$")
 
 
 def port(text: str) -> int:
@@ -20,6 +26,30 @@ def port(text: str) -> int:
     if not 1 <= value <= 65535:
         raise argparse.ArgumentTypeError(f"{value}: a port is 1-65535")
     return value
+
+
+def host(text: str) -> str:
+    """An IP address or host name to bind (argparse type)."""
+    try:
+        ipaddress.ip_address(text)
+    except ValueError:
+        if not _HOSTNAME.match(text):
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: not an IP address or host name (e.g. 127.0.0.1, 0.0.0.0, ::1)"
+            ) from None
+    return text
+
+
+def read_input(parser: argparse.ArgumentParser, path: Path) -> bytes:
+    """A scenario or sweep file's bytes; a missing, unreadable or oversized file is a usage
+    error naming it."""
+    try:
+        size = path.stat().st_size
+        if size > MAX_INPUT_FILE:
+            parser.error(f"{path}: {size} bytes; a scenario file is at most {MAX_INPUT_FILE}")
+        return path.read_bytes()
+    except OSError as exc:
+        parser.error(f"{path}: cannot read: {exc.strerror}")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -34,10 +64,13 @@ def build_parser() -> argparse.ArgumentParser:
         "serve",
         help="run the live twin: 3D viewer, REST API and landing page",
         description="Run the live twin until Ctrl-C. POST and PATCH require the bearer token "
-        "in the TWIN_TOKEN environment variable when it is set.",
+        "in the TWIN_TOKEN environment variable when it is set; a --host other than loopback "
+        "requires it.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    serve.add_argument("--host", default="127.0.0.1", help="interface to bind (0.0.0.0: all)")
+    serve.add_argument(
+        "--host", type=host, default="127.0.0.1", help="interface to bind (0.0.0.0: all)"
+    )
     serve.add_argument("--port", type=port, default=8000, help="REST API and landing page")
     serve.add_argument("--viser-port", type=port, default=8080, help="3D viewer")
     serve.add_argument("--data-dir", type=Path, default=Path("data"), help="run store folder")
@@ -83,7 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    del parser  # Unused.
+    from twin.errors import TwinError
     from twin.web.server import serve
 
     try:
@@ -97,6 +130,8 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         )
     except KeyboardInterrupt:  # Ctrl-C is how a server is stopped; serve has cleaned up
         pass
+    except TwinError as exc:  # a bind that needs a token, or a data directory it cannot use
+        parser.error(str(exc))
     return 0
 
 
@@ -110,7 +145,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     source = Path(args.scenario)
     if source.is_file():
         try:
-            scenario = Scenario.model_validate_json(source.read_bytes())
+            scenario = Scenario.model_validate_json(read_input(parser, source))
         except ValidationError as exc:
             parser.error(f"{source}: {exc}")
     elif args.scenario in PAPER_PRESETS:
@@ -136,7 +171,7 @@ def _sweep(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if not args.spec.is_file():
         parser.error(f"{args.spec}: no such file")
     try:
-        spec = SweepSpec.model_validate_json(args.spec.read_bytes())
+        spec = SweepSpec.model_validate_json(read_input(parser, args.spec))
     except ValidationError as exc:  # its message names each bad field
         parser.error(f"{args.spec}: {exc}")
     try:

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import shlex
 import signal
 import socket
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 from pathlib import Path
 from typing import Any
@@ -80,6 +82,8 @@ def test_run_accepts_a_preset_and_writes_parquet(
         (("run", "missing.json"), "presets: ['seed000'"),
         (("run", "seed000", "--out", "run.xlsx"), "suffix must be one of"),
         (("serve", "--port", "70000"), "a port is 1-65535"),
+        (("serve", "--host", "0.0.0.0; rm"), "not an IP address or host name"),
+        (("serve", "--host", "0.0.0.0", "--no-viewer"), "refusing to bind 0.0.0.0 without a"),
     ],
 )
 def test_bad_arguments_exit_2_saying_what_is_allowed(
@@ -90,31 +94,39 @@ def test_bad_arguments_exit_2_saying_what_is_allowed(
     message: str,
 ) -> None:
     monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("TWIN_TOKEN", raising=False)
     (tmp_path / "bad.json").write_text('{"beta": 2}')
     with pytest.raises(SystemExit) as exit_:
         main(list(args))
     assert exit_.value.code == 2 and message in capsys.readouterr().err
-    assert not (tmp_path / "run.xlsx").exists()
+    assert not (tmp_path / "run.xlsx").exists() and not (tmp_path / "data").exists()
 
 
-def test_serve_answers_prints_its_urls_and_stops_cleanly(tmp_path: Path) -> None:
+def start_server(cwd: Path, *args: str, env: dict[str, str] | None = None) -> tuple[Any, int]:
+    """`twin serve --no-viewer` on a free port, once /api/health answers: (process, port)."""
     port = free_port()
     process = subprocess.Popen(
-        [sys.executable, "-m", "twin.cli", "serve", "--port", str(port), "--no-viewer"],
-        cwd=tmp_path,
+        [sys.executable, "-m", "twin.cli", "serve", "--port", str(port), "--no-viewer", *args],
+        cwd=cwd,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env={**os.environ, **(env or {})},
     )
+    deadline, health = time.monotonic() + 30, None
+    while health is None and time.monotonic() < deadline and process.poll() is None:
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health") as r:
+                health = json.load(r)
+        except OSError:
+            time.sleep(0.2)
+    assert health is not None and health["status"] == "ok", process.poll()
+    return process, port
+
+
+def test_serve_answers_prints_its_urls_and_stops_cleanly(tmp_path: Path) -> None:
+    process, port = start_server(tmp_path)
     try:
-        deadline, health = time.monotonic() + 30, None
-        while health is None and time.monotonic() < deadline:
-            try:
-                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health") as r:
-                    health = json.load(r)
-            except OSError:
-                time.sleep(0.2)
-        assert health is not None and health["status"] == "ok"
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/live") as r:
             assert json.load(r)["mechanism"] == "hybrid"
     finally:
@@ -123,6 +135,25 @@ def test_serve_answers_prints_its_urls_and_stops_cleanly(tmp_path: Path) -> None
     assert process.returncode == 0, stderr
     assert f"http://127.0.0.1:{port}/" in stdout
     assert (tmp_path / "data" / "runs.sqlite").is_file()
+
+
+def test_serve_on_all_interfaces_enforces_its_token(tmp_path: Path) -> None:
+    """Bound to 0.0.0.0 (as in Docker) with TWIN_TOKEN: reads are open, a mutation without
+    the token is 401, with it 200."""
+    process, port = start_server(tmp_path, "--host", "0.0.0.0", env={"TWIN_TOKEN": "tok-123"})
+    url = f"http://127.0.0.1:{port}/api/live/pause"
+    try:
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(urllib.request.Request(url, method="POST"))
+        assert refused.value.code == 401
+        request = urllib.request.Request(
+            url, method="POST", headers={"Authorization": "Bearer tok-123"}
+        )
+        with urllib.request.urlopen(request) as r:
+            assert json.load(r)["playing"] is False
+    finally:
+        process.send_signal(signal.SIGINT)
+        process.communicate(timeout=20)
 
 
 def test_dockerfile_runs_twin_serve_as_a_user_on_both_ports() -> None:

@@ -235,3 +235,34 @@ def test_knob_ranges_come_from_the_fields() -> None:
     assert {k.name for k in PLANNER_KNOBS} == set(PlannerParameters.model_fields)
     ki = next(k for k in PLANNER_KNOBS if k.name == "ki")
     assert not ki.slider  # 8e-4 is off a 0-200 slider's grid: a number box keeps it
+
+
+@dataclasses.dataclass
+class FakeClient:
+    """What the GUI's callbacks use of a browser: its id and notifications."""
+
+    client_id: int
+    notes: list[str] = dataclasses.field(default_factory=list)
+
+    def add_notification(self, title: str, body: str, **_: object) -> None:
+        self.notes.append(f"{title}: {body}")
+
+
+def test_with_a_token_a_browser_edits_only_after_unlocking(session: LiveSession) -> None:
+    """A locked browser's slider edit and button press change nothing and are undone; after
+    it enters the token (a wrong one is refused) its edits apply; others stay locked."""
+    viewer = start_viewer(session, port=free_port(), token="s3cret")
+    try:
+        gui, browser, other = viewer.gui, FakeClient(1), FakeClient(2)
+        gui._patch({"beta": 0.3}, browser)
+        gui._act(session.reset, browser)
+        assert session.scenario.beta == 0.7 and session.version == 0
+        assert gui.inputs["beta"].value == 0.7 and "locked" in browser.notes[-1]
+        assert not gui.unlock(1, "guess") and not gui.allowed(browser)
+        assert gui.unlock(1, "s3cret") and gui.allowed(browser)
+        gui._patch({"beta": 0.3}, browser)
+        assert session.scenario.beta == 0.3
+        gui._patch({"beta": 0.5}, other)
+        assert session.scenario.beta == 0.3 and not gui.allowed(other)
+    finally:
+        viewer.stop()

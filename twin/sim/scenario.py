@@ -26,6 +26,9 @@ from twin.vessel.rao import available_raos
 MAX_DURATION = 3600.0
 MAX_STEPS = 200_000
 
+#: Most values any mechanism's state has (the hybrid system's xi).
+MAX_STATE_SIZE = 9
+
 #: Planner a mechanism gets when the scenario names none.
 DEFAULT_PLANNER = {"hybrid": "mtmp", "upu3up": "pid", "upr4": "pid"}
 
@@ -85,8 +88,10 @@ class Scenario(PlannerParameters):
     seed: int = Field(0, ge=0, le=2**32 - 1, description="random-phase seed of the sea")
     initial_state: list[float] | None = Field(
         None,
-        description="mechanism state at t = 0 (hybrid: xi, 9 values [m, rad]); default: the "
-        "working state",
+        max_length=MAX_STATE_SIZE,
+        description="mechanism state at t = 0 within its state limits (hybrid: xi, 9 values "
+        "[m, rad]; upu3up: z [mm], α, β [rad]; upr4: z [m], α, β [rad]); default: the working "
+        "state",
     )
 
     @model_validator(mode="after")
@@ -109,12 +114,7 @@ class Scenario(PlannerParameters):
                     "to your own .nc file in the same layout (docs/vessel.md)"
                 )
         if self.initial_state is not None:
-            n = MECHANISMS[self.mechanism]().working_state.size
-            if len(self.initial_state) != n:
-                raise TwinError(
-                    f"initial_state: {self.mechanism} has {n} state values, got "
-                    f"{len(self.initial_state)}"
-                )
+            _check_state(self.mechanism, self.initial_state)
         return self
 
     def components(self) -> WaveComponents:
@@ -134,3 +134,21 @@ class Scenario(PlannerParameters):
         if self.tp is not None:
             return hs, self.tp
         return hs, float(fully_developed_tp(hs)) if self.hs is not None else tp_table
+
+
+def _check_state(mechanism: str, state: list[float]) -> None:
+    """TwinError unless `state` has the mechanism's size and lies within its state limits."""
+    model = MECHANISMS[mechanism]()
+    n = model.working_state.size
+    if len(state) != n:
+        raise TwinError(f"initial_state: {mechanism} has {n} state values, got {len(state)}")
+    low, high = model.state_limits
+    x = np.asarray(state, dtype=float)
+    bad = np.flatnonzero((x < low - 1e-9) | (x > high + 1e-9))
+    if bad.size:
+        i = int(bad[0])
+        raise TwinError(
+            f"initial_state[{i}] = {x[i]:g} is outside {mechanism}'s state limits; allowed "
+            f"{low[i]:.6g} ≤ initial_state[{i}] ≤ {high[i]:.6g} (all limits: "
+            f"{np.round(low, 4).tolist()} .. {np.round(high, 4).tolist()})"
+        )

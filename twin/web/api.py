@@ -4,7 +4,9 @@ Read-only endpoints are open. Mutating ones (POST, PATCH) take `Authorization: B
 when the app has a token, and refuse browser requests from another origin: no CORS headers
 are sent, so other sites can neither read answers nor drive the twin. Bad input is a 422
 whose `detail` lists each field (`loc`), what is wrong (`msg`) and, for scenario and live
-fields, the `allowed` range; `message` says the same in one line. No endpoint takes a path.
+fields, the `allowed` range; `message` says the same in one line. No endpoint takes a path:
+a vessel is one of the shipped RAO tables by name. A body over `limits.MAX_BODY` is a 413;
+run and sweep submissions are rate-limited per client and capped while queued (429).
 """
 
 from __future__ import annotations
@@ -34,7 +36,9 @@ from twin.sim import Scenario
 from twin.sim.live import LiveControls, LiveSession
 from twin.sim.scenario import DEFAULT_PLANNER
 from twin.sim.sweep import AXES, SweepSpec
+from twin.vessel.rao import available_raos
 from twin.web.jobs import JobRunner, SweepRunner
+from twin.web.limits import MAX_BODY, BodyLimit, RateLimit
 from twin.web.store import Run, RunNotFound, RunStore, Sweep
 
 _HERE = Path(__file__).resolve().parent
@@ -91,6 +95,30 @@ class SeaStateInfo(BaseModel):
     tp: float = Field(description="[s] representative peak period (fully developed sea)")
 
 
+# -- request models ----------------------------------------------------------------------------
+
+#: [1/s] sustained run (and sweep) submissions per client, and how many at once
+RUN_RATE = 5.0
+RUN_BURST = 20
+#: most runs, and sweeps, queued or running at a time; more are refused until some finish
+MAX_PENDING_RUNS = 200
+MAX_PENDING_SWEEPS = 4
+
+#: the shipped RAO tables: over REST a vessel is named, never a path (a path would let a
+#: request make the server open any file it can read)
+VesselName = Literal[tuple(available_raos())]
+
+
+class RunRequest(Scenario):
+    """A scenario as a request gives it: the `Scenario` fields, `vessel` by name only."""
+
+    vessel: VesselName | None = Field(  # type: ignore[valid-type]
+        None,
+        description="shipped RAO table by name (assets/vessels); default: the mechanism's "
+        "mount. Your own .nc table is loaded from Python (`Scenario(vessel=path)`), not REST.",
+    )
+
+
 # -- live models: the scenario's fields, flat, plus the session's controls ---------------------
 
 #: Scenario fields the live session exposes (`duration` means nothing live).
@@ -110,7 +138,7 @@ LivePatch = create_model(
     "LivePatch",
     __config__=ConfigDict(extra="forbid", allow_inf_nan=False),
     __doc__="Fields to change in the live session; omitted fields stay as they are.",
-    **{name: _optional(Scenario, name) for name in LIVE_FIELDS},
+    **{name: _optional(RunRequest, name) for name in LIVE_FIELDS},
     **{name: _optional(LiveControls, name) for name in LiveControls.model_fields},
 )
 
@@ -162,8 +190,8 @@ def _ranges(*models: type[BaseModel]) -> dict[str, str]:
 
 #: allowed values per body field, by the endpoint that receives the body
 RANGES = {
-    ("POST", "/api/runs"): _ranges(Scenario),
-    ("PATCH", "/api/live"): _ranges(Scenario, LiveControls),
+    ("POST", "/api/runs"): _ranges(RunRequest),
+    ("PATCH", "/api/live"): _ranges(RunRequest, LiveControls),
     ("POST", "/api/sweeps"): _ranges(SweepSpec),
 }
 
@@ -285,6 +313,10 @@ def create_app(
     jobs: JobRunner | None = None,
     sweeps: SweepRunner | None = None,
     viewer_port: int | None = None,
+    run_rate: float = RUN_RATE,
+    run_burst: int = RUN_BURST,
+    max_pending_runs: int = MAX_PENDING_RUNS,
+    max_body: int = MAX_BODY,
 ) -> FastAPI:
     """The REST app over a live session and a run store.
 
@@ -297,6 +329,10 @@ def create_app(
         sweeps: the runner of operability sweeps (default: a `SweepRunner` on `store`, a
             Dask LocalCluster per sweep); started and shut down with the app.
         viewer_port: the 3D viewer's port, shown by `/api/health` and the landing page.
+        run_rate: [1/s] sustained run and sweep submissions per client address (429 beyond).
+        run_burst: submissions a client may make at once.
+        max_pending_runs: runs queued or running at most (429 beyond, until some finish).
+        max_body: [bytes] largest request body (413 beyond).
 
     Returns:
         The FastAPI app (serve it with uvicorn).
@@ -319,8 +355,41 @@ def create_app(
         summary="Digital twin of offshore wave-motion compensation: runs and the live session",
         lifespan=lifespan,
     )
+    app.add_middleware(BodyLimit, max_bytes=max_body)
     guarded = [Depends(_guard(token))]
-    bad_input = {422: {"description": "bad input: each field, its problem and allowed range"}}
+    refused: dict[int | str, dict[str, Any]] = {
+        401: {"description": "missing or wrong token (the server has one)"},
+        403: {"description": "a browser request from another origin"},
+        413: {"description": f"body over {max_body} bytes"},
+    }
+    bad_input = {
+        **refused,
+        422: {"description": "bad input: each field, its problem and allowed range"},
+    }
+    limited = {
+        **bad_input,
+        429: {"description": "too many submissions from this client, or the queue is full: "
+              "retry after the Retry-After header's seconds"},
+    }  # fmt: skip
+    submissions = RateLimit(run_rate, run_burst)
+
+    def admit(request: Request, pending: int, cap: int, what: str) -> None:
+        """429 unless this client may submit now and the queue has room."""
+        client = request.client.host if request.client else "unknown"
+        wait = submissions.acquire(client)
+        if wait > 0:
+            raise HTTPException(
+                429,
+                f"too many submissions from {client}: at most {run_burst} at once, then "
+                f"{run_rate:g} per second; retry in {wait:.1f} s",
+                headers={"Retry-After": str(math.ceil(wait))},
+            )
+        if pending >= cap:
+            raise HTTPException(
+                429,
+                f"{pending} {what} queued or running (at most {cap}); retry once some finish",
+                headers={"Retry-After": "5"},
+            )
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
@@ -360,16 +429,19 @@ def create_app(
         tags=["runs"],
         responses={
             202: {"model": Run, "description": "longer than the synchronous cap: queued"},
-            **bad_input,
+            **limited,
         },
     )
-    async def create_run(scenario: Scenario, response: Response) -> Any:
+    async def create_run(scenario: RunRequest, request: Request, response: Response) -> Any:
         """Run a scenario (the flat `Scenario` fields; omitted ones take their defaults).
 
         Up to `jobs.SYNC_MAX_STEPS` steps (duration / dt; 600 s at dt 0.05 s) the answer comes
         when the run is done (201, with metrics). Longer runs answer 202 at once; poll
-        `GET /api/runs/{id}` (the Location header) for status and progress.
+        `GET /api/runs/{id}` (the Location header) for status and progress. Each client may
+        submit `run_burst` runs at once, then `run_rate` per second (429 with Retry-After).
         """
+        pending = await run_in_threadpool(store.pending)
+        admit(request, pending, max_pending_runs, "runs")
         run = await run_in_threadpool(store.create, scenario)
         response.headers["Location"] = f"/api/runs/{run.id}"
         future = jobs.submit(run.id)
@@ -437,16 +509,25 @@ def create_app(
         response_model=Sweep,
         dependencies=guarded,
         tags=["sweeps"],
-        responses=bad_input,
+        responses=limited,
     )
-    def create_sweep(spec: SweepSpec, response: Response) -> Any:
+    def create_sweep(spec: SweepSpec, request: Request, response: Response) -> Any:
         """Queue an operability sweep (the `SweepSpec` fields; omitted ones take defaults).
 
         Answers 202 at once; poll `GET /api/sweeps/{id}` (the Location header) for status and
         progress (runs done of total) and, once done, the operability table. An empty axis or
         a grid over the caps (`twin.sim.sweep.MAX_CELLS`, `MAX_RUNS`, `MAX_TOTAL_STEPS`) is a
-        422 naming the field.
+        422 naming the field. Sweeps share the runs' rate limit; at most `MAX_PENDING_SWEEPS`
+        wait at a time.
         """
+        try:
+            RunRequest(**spec.scenario)  # the same rules as a run's body: no vessel paths
+        except ValueError as exc:
+            errors = _body_errors(exc)
+            for e in errors:
+                e["loc"] = ("body", "scenario", *e["loc"][1:])
+            return unprocessable(errors, RANGES[("POST", "/api/sweeps")])
+        admit(request, store.pending("sweeps"), MAX_PENDING_SWEEPS, "sweeps")
         total = math.prod(len(getattr(spec, axis)) for axis in AXES) * spec.seeds
         sweep = store.create_sweep(spec.model_dump(), total)
         sweeps.submit(sweep.id)
@@ -502,23 +583,23 @@ def create_app(
             return unprocessable(_body_errors(exc), RANGES[("PATCH", "/api/live")])
         return session.snapshot()
 
-    @app.post("/api/live/reset", dependencies=guarded, tags=["live"])
+    @app.post("/api/live/reset", dependencies=guarded, tags=["live"], responses=refused)
     def reset_live() -> LiveState:
         """Start the current scenario again from t = 0."""
         session.reset()
         return session.snapshot()
 
-    @app.post("/api/live/pause", dependencies=guarded, tags=["live"])
+    @app.post("/api/live/pause", dependencies=guarded, tags=["live"], responses=refused)
     def pause_live() -> LiveState:
         session.pause()
         return session.snapshot()
 
-    @app.post("/api/live/play", dependencies=guarded, tags=["live"])
+    @app.post("/api/live/play", dependencies=guarded, tags=["live"], responses=refused)
     def play_live() -> LiveState:
         session.play()
         return session.snapshot()
 
-    @app.post("/api/live/step", dependencies=guarded, tags=["live"])
+    @app.post("/api/live/step", dependencies=guarded, tags=["live"], responses=bad_input)
     def step_live(n: Annotated[int, Query(ge=1, le=1000)] = 1) -> LiveState:
         """Advance n steps now, also while paused."""
         session.step(n)

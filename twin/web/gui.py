@@ -4,14 +4,17 @@ views, live plots and a readout of the metrics and limit violations.
 Ranges, defaults and hints come from one place, the pydantic fields (`PlannerParameters`,
 `Scenario`, `LiveControls`). Callbacks only call the session (`patch`, `play`, `pause`,
 `step`, `reset`) and show a notification when it refuses a value; they never step the
-simulation themselves. The render loop calls `TwinGui.update` every frame, which moves the
-widgets to the session's values (so a REST PATCH shows in every browser) and feeds the plots
-and the readout.
+simulation themselves. With a token (a server reachable from other machines), each browser
+unlocks the controls by entering it; until then its edits are refused and undone, while the
+scene, plots and camera views stay open to it. The render loop calls `TwinGui.update` every
+frame, which moves the widgets to the session's values (so a REST PATCH shows in every
+browser) and feeds the plots and the readout.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hmac
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
@@ -267,6 +270,7 @@ class TwinGui:
         session: the live session the widgets control.
         fs: the first frame (mechanism, scenario).
         on_camera: sets the given clients' cameras to a preset view.
+        token: if set, a browser must enter it (its own "Access" panel) before its edits apply.
 
     Attributes:
         inputs: scenario or control field → its widget.
@@ -283,9 +287,12 @@ class TwinGui:
         session: LiveSession,
         fs: FrameState,
         on_camera: Callable[[View, Iterable[viser.ClientHandle]], None],
+        token: str | None = None,
     ) -> None:
         self.server = server
         self.session = session
+        self._token = None if token is None else token.encode()
+        self._unlocked: set[int] = set()  # client ids that entered the token
         self.last_error: str | None = None
         self.plots: list[viser.GuiUplotHandle] = []
         self._local = threading.local()  # `syncing` marks widget writes of the render loop
@@ -308,7 +315,9 @@ class TwinGui:
                 ("Reset", viser.Icon.REFRESH, session.reset),
             ):
                 self.buttons[label] = gui.add_button(label, icon=icon)
-                self.buttons[label].on_click(lambda _, action=action: action())
+                self.buttons[label].on_click(
+                    lambda event, action=action: self._act(action, event.client)
+                )
             self.inputs["speed"] = self._add_knob(SPEED_KNOB, fs.speed)
             self.readout = gui.add_markdown("")
         with gui.add_folder("Mechanism and planner"):
@@ -341,6 +350,49 @@ class TwinGui:
             handle.on_update(self._callback(name))
         self._show_planner_knobs(s.planner)
         self.restart(fs)
+        if self._token is not None:
+            server.on_client_connect(self._offer_unlock)
+            server.on_client_disconnect(lambda client: self._unlocked.discard(client.client_id))
+
+    # -- access -------------------------------------------------------------------------------
+    def _offer_unlock(self, client: viser.ClientHandle) -> None:
+        """A per-browser panel: the token typed here is never shared with other browsers."""
+        with client.gui.add_folder("Access", order=-1) as folder:
+            field = client.gui.add_text("Token", "", hint="the server's TWIN_TOKEN")
+            button = client.gui.add_button("Unlock controls", icon=viser.Icon.LOCK_OPEN)
+
+        def unlock(_: viser.GuiEvent) -> None:
+            if self.unlock(client.client_id, field.value):
+                folder.remove()
+                client.add_notification("Unlocked", "controls apply", auto_close_seconds=3.0)
+            else:
+                field.value = ""
+                client.add_notification("Wrong token", "controls stay locked", color="red")
+
+        button.on_click(unlock)
+
+    def unlock(self, client_id: int, token: str) -> bool:
+        """Let a browser's edits apply if `token` is the server's (constant-time compare)."""
+        if self._token is not None and not hmac.compare_digest(token.encode(), self._token):
+            return False
+        self._unlocked.add(client_id)
+        return True
+
+    def allowed(self, client: viser.ClientHandle | None) -> bool:
+        """Whether edits from `client` apply (None: the server itself)."""
+        return self._token is None or client is None or client.client_id in self._unlocked
+
+    def _locked(self, client: viser.ClientHandle) -> str:
+        message = "controls are locked: enter the server's token under Access"
+        self.last_error = message
+        client.add_notification("Not applied", message, auto_close_seconds=8.0, color="red")
+        return message
+
+    def _act(self, action: Callable[[], Any], client: viser.ClientHandle | None) -> None:
+        if not self.allowed(client):
+            self._locked(client)
+            return
+        action()
 
     # -- GUI → session ------------------------------------------------------------------------
     def _add_knob(self, k: Knob, value: float) -> viser.GuiInputHandle:
@@ -366,11 +418,14 @@ class TwinGui:
 
     def _patch(self, changes: dict[str, Any], client: viser.ClientHandle | None) -> None:
         try:
+            if not self.allowed(client):
+                raise PermissionError(self._locked(client))
             self.session.patch(changes)
-        except ValueError as err:
-            self.last_error = str(err)
-            for c in self._clients(client):
-                c.add_notification("Not applied", str(err), auto_close_seconds=8.0, color="red")
+        except (ValueError, PermissionError) as err:
+            if isinstance(err, ValueError):
+                self.last_error = str(err)
+                for c in self._clients(client):
+                    c.add_notification("Not applied", str(err), auto_close_seconds=8.0, color="red")
             with self._syncing():  # show the value still in force
                 for name in changes:
                     self.inputs[name].value = self._current(name)

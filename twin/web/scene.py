@@ -526,7 +526,9 @@ class Viewer:
         frame_cpu: [s] CPU time of the render thread per frame (moving average).
     """
 
-    def __init__(self, session: LiveSession, server: viser.ViserServer) -> None:
+    def __init__(
+        self, session: LiveSession, server: viser.ViserServer, token: str | None = None
+    ) -> None:
         self.session = session
         self.server = server
         self.frames = 0
@@ -535,7 +537,7 @@ class Viewer:
         fs = self._read()
         self.scene = TwinScene(server)
         self.scene.build(fs)
-        self.gui = TwinGui(server, session, fs, on_camera=self.scene.set_camera)
+        self.gui = TwinGui(server, session, fs, on_camera=self.scene.set_camera, token=token)
         self._version = fs.version
         self._frame(fs)
         self._stop = threading.Event()
@@ -597,7 +599,9 @@ class Viewer:
             self.gui.update(fs)
 
 
-def start_viewer(session: LiveSession, host: str = "127.0.0.1", port: int = 8080) -> Viewer:
+def start_viewer(
+    session: LiveSession, host: str = "127.0.0.1", port: int = 8080, token: str | None = None
+) -> Viewer:
     """Serve the live twin in viser: build scene and GUI and start the render thread.
 
     The caller runs the session (`session.start()`); the viewer only reads it, and its GUI
@@ -607,6 +611,7 @@ def start_viewer(session: LiveSession, host: str = "127.0.0.1", port: int = 8080
         session: the live session to show and control.
         host: interface to bind (viser's own default would be 0.0.0.0: all of them).
         port: port to listen on; viser takes the next free one if it is in use.
+        token: if set, each browser enters it before its control edits apply.
 
     Returns:
         The running viewer: `.port`, `.stop()`.
@@ -614,7 +619,7 @@ def start_viewer(session: LiveSession, host: str = "127.0.0.1", port: int = 8080
     server = viser.ViserServer(host=host, port=port, label="wave-twin", verbose=False)
     server.gui.configure_theme(control_width="large", show_share_button=False)
     try:
-        return Viewer(session, server)
+        return Viewer(session, server, token)
     except Exception:
         server.stop()
         raise

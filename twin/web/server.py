@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import ipaddress
-import sys
 from pathlib import Path
 
 import uvicorn
 
+from twin.errors import TwinError
 from twin.sim.live import LiveSession
 from twin.web.api import create_app
 from twin.web.store import RunStore
@@ -53,9 +53,20 @@ def serve(
         port: REST API and landing page.
         viser_port: 3D viewer.
         data_dir: folder of the run store (created if missing).
-        token: if set, POST and PATCH need `Authorization: Bearer <token>`.
+        token: if set, POST and PATCH need `Authorization: Bearer <token>`, and the 3D
+            viewer's controls stay locked until a browser enters it. Required when `host` is
+            not a loopback address.
         viewer: False serves REST only (no viser).
+
+    Raises:
+        TwinError: `host` is not loopback and there is no token (nothing is started).
     """
+    if not is_loopback(host) and not token:
+        raise TwinError(
+            f"refusing to bind {host} without a token: anyone who can reach it could drive the "
+            "live session and submit runs. Set TWIN_TOKEN (e.g. TWIN_TOKEN=$(openssl rand -hex "
+            "16)) or bind 127.0.0.1"
+        )
     store = RunStore(Path(data_dir) / DATABASE)
     session = LiveSession()
     session.start()
@@ -65,15 +76,9 @@ def serve(
             # Imported here: the scene pulls in viser and the meshes, which REST-only needs not.
             from twin.web.scene import start_viewer
 
-            handle = start_viewer(session, host, viser_port)
+            handle = start_viewer(session, host, viser_port, token=token)
             viser_port = handle.port  # viser moves to the next free port if this one is taken
         app = create_app(session, store, token=token, viewer_port=viser_port if viewer else None)
-        if not is_loopback(host) and token is None:
-            print(
-                f"twin: warning: bound to {host} without a token (TWIN_TOKEN): anyone who can "
-                "reach these ports can drive the live session and submit runs",
-                file=sys.stderr,
-            )
         print(f"twin: landing page and REST API {url(host, port)}  (docs: {url(host, port)}docs)")
         if viewer:
             print(f"twin: 3D twin {url(host, viser_port)}")

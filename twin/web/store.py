@@ -255,6 +255,13 @@ class RunStore:
             self._conn.execute("COMMIT")
         return [row["id"] for row in rows]
 
+    def pending(self, table: Literal["runs", "sweeps"] = "runs") -> int:
+        """How many runs (or sweeps) are queued or running."""
+        with self._lock:
+            return self._conn.execute(
+                f"SELECT COUNT(*) FROM {table} WHERE status IN ('queued', 'running')"
+            ).fetchone()[0]
+
     def _changed(self, run_id: str, sql: str, parameters: tuple[Any, ...]) -> None:
         if self._write(sql, parameters) == 0:
             raise RunNotFound(f"unknown run id {run_id!r}")

@@ -1,0 +1,140 @@
+"""Limits on what a client may send: request size (413) and run submission rate (429).
+
+A script in a loop, or a hostile client, must not fill the memory with one huge body nor the
+run queue and the disk with thousands of runs: bodies are capped before they are parsed, and
+each client address gets a token bucket of submissions.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+from collections.abc import Awaitable, Callable, MutableMapping
+from typing import Any
+
+#: [bytes] largest request body: a scenario is < 2 KiB, a sweep spec with long axes < 16 KiB
+MAX_BODY = 64 * 1024
+
+Scope = MutableMapping[str, Any]
+Message = MutableMapping[str, Any]
+Receive = Callable[[], Awaitable[Message]]
+Send = Callable[[Message], Awaitable[None]]
+ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
+
+
+async def _answer(send: Send, status: int, message: str) -> None:
+    body = json.dumps({"detail": message, "message": message}).encode()
+    await send(
+        {
+            "type": "http.response.start",
+            "status": status,
+            "headers": [
+                (b"content-type", b"application/json"),
+                (b"content-length", str(len(body)).encode()),
+                (b"connection", b"close"),
+            ],
+        }
+    )
+    await send({"type": "http.response.body", "body": body})
+
+
+class BodyLimit:
+    """ASGI middleware: a body over `max_bytes` is a 413 before the app reads any of it.
+
+    The declared Content-Length is checked first; a chunked body (no length) is counted as it
+    arrives and cut off at the cap, so a client cannot stream an endless body either.
+
+    Args:
+        app: the ASGI app.
+        max_bytes: largest body accepted.
+    """
+
+    def __init__(self, app: ASGIApp, max_bytes: int = MAX_BODY) -> None:
+        self.app = app
+        self.max_bytes = max_bytes
+
+    def _refusal(self) -> str:
+        return f"request body too large: at most {self.max_bytes} bytes allowed"
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        declared = dict(scope.get("headers", [])).get(b"content-length")
+        if declared is not None:
+            try:
+                length = int(declared)
+            except ValueError:
+                await _answer(send, 400, f"bad Content-Length {declared!r}: not an integer")
+                return
+            if length > self.max_bytes:
+                await _answer(send, 413, self._refusal())
+                return
+
+        received = 0
+        exceeded = False
+
+        async def counted() -> Message:
+            # Past the cap the body ends here; whatever the app answers to the cut body is
+            # replaced by the 413 (apps turn exceptions raised while reading into a 400).
+            nonlocal received, exceeded
+            if exceeded:
+                return {"type": "http.request", "body": b"", "more_body": False}
+            message = await receive()
+            received += len(message.get("body", b""))
+            if received > self.max_bytes:
+                exceeded = True
+                return {"type": "http.request", "body": b"", "more_body": False}
+            return message
+
+        async def checked(message: Message) -> None:
+            if not exceeded:
+                await send(message)
+            elif message["type"] == "http.response.start":
+                await _answer(send, 413, self._refusal())
+
+        await self.app(scope, counted, checked)
+
+class RateLimit:
+    """A token bucket per client: `burst` submissions at once, then `rate` per second.
+
+    Thread-safe. Buckets that have refilled are dropped, so memory stays bounded by the
+    clients active within the last `burst / rate` seconds.
+
+    Args:
+        rate: [1/s] sustained submissions per client.
+        burst: submissions a client may make at once.
+    """
+
+    def __init__(self, rate: float, burst: int) -> None:
+        if not (math.isfinite(rate) and rate > 0 and burst >= 1):
+            raise ValueError(f"rate limit: need rate > 0 and burst ≥ 1, got {rate}, {burst}")
+        self.rate = rate
+        self.burst = burst
+        self._buckets: dict[str, tuple[float, float]] = {}  # key → (tokens, time)
+        self._lock = threading.Lock()
+
+    def acquire(self, key: str, now: float | None = None) -> float:
+        """Take one submission for `key`; 0 if allowed, else [s] until one is available."""
+        now = time.monotonic() if now is None else now
+        with self._lock:
+            tokens, then = self._buckets.get(key, (float(self.burst), now))
+            tokens = min(float(self.burst), tokens + (now - then) * self.rate)
+            if tokens < 1.0:
+                self._buckets[key] = (tokens, now)
+                return (1.0 - tokens) / self.rate
+            self._buckets[key] = (tokens - 1.0, now)
+            if len(self._buckets) > 1024:
+                self._prune(now)
+            return 0.0
+
+    def _prune(self, now: float) -> None:
+        full = [
+            k
+            for k, (tokens, then) in self._buckets.items()
+            if tokens + (now - then) * self.rate >= self.burst
+        ]
+        for k in full:
+            del self._buckets[k]
