@@ -19,6 +19,7 @@ from twin.mechanisms import MECHANISMS
 from twin.planners import PLANNERS, PlannerParameters
 from twin.sea.sea_states import WMO_SEA_STATES
 from twin.sim import Scenario, simulate
+from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.live import LiveSession
 from twin.sim.result import flat_columns
 from twin.web import JobRunner, RunStore, SweepRunner, create_app
@@ -464,3 +465,30 @@ def test_cross_origin_mutations_are_refused_and_cors_is_closed(
         "/api/live", headers={**evil, "Access-Control-Request-Method": "PATCH"}
     )
     assert "access-control-allow-origin" not in preflight.headers
+
+
+def test_live_faults_are_served_finite(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """NaN injected into the base motion: GET /api/live stays strict JSON (no NaN) and
+    reports the held steps; the session keeps stepping."""
+    original = BaseMotion.sample
+
+    def sample(self: BaseMotion, t: np.ndarray) -> BaseSamples:
+        s = original(self, t)
+        pose, transform = s.pose.copy(), s.transform.copy()
+        pose[s.t > 0.32], transform[s.t > 0.32] = np.nan, np.inf
+        return BaseSamples(s.t, pose, transform)
+
+    monkeypatch.setattr(BaseMotion, "sample", sample)
+    live = LiveSession({"sea_state": 3})
+    client = live_client(live, tmp_path)
+    client.post("/api/live/step?n=20")
+    response = client.get("/api/live")
+    assert response.status_code == 200
+
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"{constant} in the answer")
+
+    state = json.loads(response.text, parse_constant=refuse)
+    assert state["t"] == pytest.approx(1.0)
+    assert state["faults"]["counts"]["base_motion"] == 14  # samples at t = 0.35 … 1.0
+    assert state["faults"]["events"][-1]["kinds"] == ["base_motion"]

@@ -15,6 +15,7 @@ from tests.web.support import free_port, wait_for
 from twin.assets import asset_path
 from twin.mechanisms.urdf import joint_configuration
 from twin.planners import PlannerParameters
+from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.live import LiveSession
 from twin.spatial import matrix_to_wxyz, pose_to_transform
 from twin.web.frame import read_frame
@@ -266,3 +267,33 @@ def test_with_a_token_a_browser_edits_only_after_unlocking(session: LiveSession)
         assert session.scenario.beta == 0.3 and not gui.allowed(other)
     finally:
         viewer.stop()
+
+
+def test_nan_base_motion_never_reaches_the_scene_and_the_readout_flags_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A NaN sea window: every node the scene moves stays finite, and the panel says so."""
+    original = BaseMotion.sample
+
+    def sample(self: BaseMotion, t: np.ndarray) -> BaseSamples:
+        s = original(self, t)
+        bad = (s.t > 0.2) & (s.t < 0.6)
+        pose, transform = s.pose.copy(), s.transform.copy()
+        pose[bad], transform[bad] = np.nan, np.nan
+        return BaseSamples(s.t, pose, transform)
+
+    monkeypatch.setattr(BaseMotion, "sample", sample)
+    session = LiveSession({"sea_state": 3})
+    session.pause()
+    viewer = start_viewer(session, port=free_port())
+    try:
+        session.step(10)  # t = 0.5: inside the window
+        assert wait_for(caught_up(viewer, session))
+        scene = viewer.scene
+        for node in (scene.vessel, scene.base, scene.top):
+            assert np.all(np.isfinite(node.position)) and np.all(np.isfinite(node.wxyz))
+        assert np.all(np.isfinite(scene.legs.points))
+        assert wait_for(lambda: "⚠ Faults:** base motion" in viewer.gui.readout.content, 5.0)
+    finally:
+        viewer.stop()
+        session.stop()

@@ -119,8 +119,23 @@ class HybridBoardingSystem:
         """
         xi = as_array(xi, "xi", (9,))
         velocity = as_array(velocity, "velocity", (9,))
+        dt = as_array(dt, "dt")  # a NaN or inf dt would return a NaN state silently
         T = pose_to_transform(xi[..., :6]) @ se3_exp(velocity[..., :6] * dt)
         return np.concatenate([transform_to_pose(T), xi[..., 6:] + velocity[..., 6:] * dt], -1)
+
+    def limit_excess(self, xi: ArrayLike) -> np.ndarray:
+        """How far each virtual joint and each leg is past its limit, (..., 15) [m, rad]:
+        the 9 joints (Table 6) then the 6 legs (Table 1); 0 inside."""
+        xi = as_array(xi, "xi", (9,))
+        legs = self.leg_lengths(xi)
+        s = self.stewart
+        return np.concatenate(
+            [
+                np.maximum(self.lower - xi, 0.0) + np.maximum(xi - self.upper, 0.0),
+                np.maximum(s.leg_min - legs, 0.0) + np.maximum(legs - s.leg_max, 0.0),
+            ],
+            axis=-1,
+        )
 
     def within_limits(self, xi: ArrayLike) -> np.ndarray:
         """True where xi (..., 9) is inside the Table 6 limits and every leg inside Table 1."""

@@ -42,6 +42,7 @@ from twin.planners import (
 )
 from twin.sim.base_motion import mount_for
 from twin.sim.engine import simulate
+from twin.sim.faults import series_faults
 from twin.sim.metrics import hybrid_metrics
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import Scenario
@@ -82,7 +83,8 @@ def simulate_many(
     alone: list[int] = []
     for i, s in enumerate(scenarios):
         n_steps = round(s.duration / s.dt)
-        if s.mechanism == "hybrid" and n_steps > 0 and s.planner in DIFFERENTIAL | ALLOCATION:
+        batchable = s.planner in DIFFERENTIAL | ALLOCATION and s.joint_limits == "record"
+        if s.mechanism == "hybrid" and n_steps > 0 and batchable:
             groups[(s.planner, s.dt, n_steps)].append(i)
         else:
             alone.append(i)
@@ -338,8 +340,15 @@ class _HybridBatch:
             for name, values in self.diagnostics.items():
                 # no step has been taken at t = 0: the first step's values repeat there
                 series[name] = np.concatenate([values[n, :1], values[n]])
+            series["limit_scale"] = np.ones(self.n_steps + 1)  # "record" takes every step
             metrics = hybrid_metrics(series, self.mechanism)
             metrics["faults"] = int(self.faults[n])
+            metrics["fault_counts"] = {
+                "base_motion": 0,  # the batch's sea is finite by construction (no injection)
+                "planner": int(self.faults[n]),
+                "kinematics": 0,
+                **series_faults(series),
+            }
             out.append(SimulationResult(s, series, metrics))
         return out
 

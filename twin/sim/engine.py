@@ -2,6 +2,10 @@
 
 `simulate(s)` is `Simulation(s)` stepped to the end, so the live server's stepping and a
 batch run give the same numbers by construction (tested).
+
+A step never raises for numerical reasons and never records NaN: a non-finite base sample is
+replaced by the last finite one, a planner or kinematics failure holds the mechanism for the
+step, and each such step is flagged (`twin.sim.faults`) and counted in the metrics.
 """
 
 from __future__ import annotations
@@ -13,10 +17,11 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from twin.errors import TwinError
+from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms import MECHANISMS
 from twin.planners import PlannerParameters
 from twin.sim.base_motion import BaseMotion, BaseSamples
+from twin.sim.faults import HOLDS, Fault, FaultLog, finite_record, hold_invalid, series_faults
 from twin.sim.hybrid_rig import HybridRig
 from twin.sim.metrics import hybrid_metrics
 from twin.sim.platform_rig import PlatformRig, platform_metrics
@@ -48,6 +53,8 @@ SEA_FIELDS = frozenset(
 )  # fmt: skip
 #: Scenario fields that need a new Simulation (a different machine, vessel or clock).
 RESTART_FIELDS = frozenset({"mechanism", "vessel", "dt", "initial_state"})
+#: errors a step turns into a held, flagged sample instead of raising
+NUMERICAL = (ArithmeticError, ValueError, np.linalg.LinAlgError)
 
 
 class Simulation:
@@ -72,8 +79,11 @@ class Simulation:
         self.dt = s.dt
         self.n_steps = round(s.duration / s.dt)
         self.k = 0
+        self.faults = FaultLog()
         self._chunk_start = 0
+        self._last_good = self.base_motion.mount.pose(np.zeros((1, 6)))[0]  # the mount at rest
         self._base = self._load_chunk(0)
+        self.rig.hold_limits = s.joint_limits == "hold"
         self.history: deque[dict[str, np.ndarray]] = deque(
             [self.rig.reset(self._base)], maxlen=history_limit
         )
@@ -101,10 +111,11 @@ class Simulation:
             )
         self.scenario = new
         self.n_steps = round(new.duration / new.dt)
+        self.rig.hold_limits = new.joint_limits == "hold"
         if changed & SEA_FIELDS:
             self.base_motion = BaseMotion.of(new)
             self._base = self._load_chunk(self.k)
-        if changed - SEA_FIELDS - {"duration"}:
+        if changed - SEA_FIELDS - {"duration", "joint_limits"}:
             parameters = PlannerParameters(
                 **new.model_dump(include=set(PlannerParameters.model_fields))
             )
@@ -112,9 +123,18 @@ class Simulation:
         return changed
 
     def _load_chunk(self, start: int) -> BaseSamples:
-        """Base samples for steps start … start + CHUNK (one extra for the step's end)."""
+        """Base samples for steps start … start + CHUNK (one extra for the step's end), each
+        finite: a sample that is not (or a sea that fails to evaluate) holds the last good
+        base pose and is marked in `_base_bad`."""
         self._chunk_start = start
-        return self.base_motion.sample((start + np.arange(CHUNK + 1)) * self.dt)
+        t = (start + np.arange(CHUNK + 1)) * self.dt
+        try:
+            samples = self.base_motion.sample(t)
+        except NUMERICAL:
+            nan = np.full((t.size, 6), np.nan)
+            samples = BaseSamples(t, nan, np.full((t.size, 4, 4), np.nan))
+        samples, self._base_bad, self._last_good = hold_invalid(samples, self._last_good)
+        return samples
 
     @property
     def t(self) -> float:
@@ -126,29 +146,61 @@ class Simulation:
         return self.k >= self.n_steps
 
     def step(self) -> dict[str, np.ndarray]:
-        """Advance one dt; returns the new sample's record (also appended to `history`)."""
+        """Advance one dt; returns the new sample's record (also appended to `history`).
+
+        Never raises for a numerical fault and never records a non-finite number: see the
+        module docstring; the step's `Fault` flags are in `faults` (a `FaultLog`).
+        """
         local = self.k - self._chunk_start
         if local >= CHUNK:
             self._base = self._load_chunk(self.k)
             local = 0
-        record = self.rig.advance(self._base, local, self.dt)
+        fault, message = Fault(0), ""
+        if self._base_bad[local] or self._base_bad[local + 1]:
+            fault |= Fault.BASE_MOTION
+        try:
+            record = self.rig.advance(self._base, local, self.dt)
+            fault |= self.rig.fault
+        except NUMERICAL as exc:  # hold the mechanism where it is for this step
+            failed = isinstance(exc, ConvergenceError | UnreachableError)
+            fault |= Fault.KINEMATICS if failed else Fault.PLANNER
+            message = f"{type(exc).__name__}: {exc}"
+            record = self.rig.hold(self._base, local)
+        record, replaced = finite_record(record, self.history[-1])
+        if replaced:
+            fault |= Fault.PLANNER
         record["t"] = np.float64((self.k + 1) * self.dt)  # exact multiples, chunk-independent
         self.k += 1
+        self.faults.add(float(record["t"]), fault, message)
         self.history.append(record)
         return record
 
     def series(self) -> dict[str, np.ndarray]:
         """The history stacked per key, (N + 1, ...). Planner diagnostics do not exist at t = 0
-        (no step taken yet); there they repeat the first step's values."""
+        (no step taken yet), nor at a step held before the planner answered; there they
+        repeat the nearest step's values (the first step's, or the previous one's)."""
         history = list(self.history)
-        if len(history) > 1:
-            history = [{**history[1], **history[0]}, *history[1:]]
-        return {key: np.stack([rec[key] for rec in history]) for key in history[-1]}
+        first: dict[str, np.ndarray] = {}
+        for rec in history:
+            for key, value in rec.items():
+                first.setdefault(key, value)
+        columns: dict[str, list[np.ndarray]] = {key: [] for key in history[-1]}
+        for key, column in columns.items():
+            value = first[key]
+            for rec in history:
+                value = rec.get(key, value)
+                column.append(value)
+        return {key: np.stack(column) for key, column in columns.items()}
 
     def result(self) -> SimulationResult:
         series = self.series()
         metrics = self._metrics(series)
-        metrics["faults"] = int(getattr(self.rig, "faults", 0))
+        counts = self.faults.counts
+        metrics["faults"] = self.faults.holds
+        metrics["fault_counts"] = {
+            **{f.name.lower(): counts[f.name.lower()] for f in Fault if f in HOLDS},
+            **series_faults(series),
+        }
         return SimulationResult(self.scenario, series, metrics)
 
     def run(self, progress: bool = False) -> SimulationResult:

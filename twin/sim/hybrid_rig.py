@@ -7,8 +7,41 @@ import numpy as np
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners import PlannerParameters, get_planner
 from twin.sim.base_motion import BaseSamples
+from twin.sim.faults import Fault
 from twin.sim.target import held_target, tilt
 from twin.spatial import invert_transform, pose_error, pose_to_transform
+
+#: bisection steps of `limit_scale`: the step is shortened to within 2⁻¹² of the limit
+LIMIT_BISECTIONS = 12
+
+
+def limit_scale(
+    mechanism: HybridBoardingSystem, xi: np.ndarray, velocity: np.ndarray, dt: float
+) -> float:
+    """The largest s in [0, 1] such that the step s·velocity·dt carries no joint and no leg
+    further past its limit than it already is (a joint at its limit stops there; one beyond
+    it, e.g. a start outside the limits, may only come back).
+
+    Args:
+        mechanism: the hybrid system.
+        xi: (9,) [m, rad] state.
+        velocity: (9,) virtual-joint velocity (`HybridBoardingSystem.integrate`).
+        dt: [s] step.
+    """
+    now = mechanism.limit_excess(xi) + 1e-12
+
+    def fits(s: float) -> bool:
+        return bool(
+            np.all(mechanism.limit_excess(mechanism.integrate(xi, s * velocity, dt)) <= now)
+        )
+
+    if fits(1.0):
+        return 1.0
+    low, high = 0.0, 1.0
+    for _ in range(LIMIT_BISECTIONS):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if fits(mid) else (low, mid)
+    return low
 
 
 class HybridRig:
@@ -20,6 +53,12 @@ class HybridRig:
         parameters: the planner's knobs.
         initial_state: (9,) xi at t = 0.
         dt: [s] control period.
+
+    Attributes:
+        hold_limits: shorten a step that would carry a joint or leg past its limit
+            (`Scenario.joint_limits == "hold"`); else let it pass and count the violation.
+        fault: what happened at the last step (`Fault`): a non-finite planner velocity held
+            the mechanism (PLANNER), a shortened step (JOINT_LIMIT), damping (SINGULAR).
     """
 
     def __init__(
@@ -40,7 +79,8 @@ class HybridRig:
         self.held: np.ndarray | None = None  # ᴵT_E*, fixed at reset
         self._gangway0: np.ndarray | None = None
         self._landing: np.ndarray | None = None
-        self.faults = 0
+        self.hold_limits = False
+        self.fault = Fault(0)
 
     def reset(self, base: BaseSamples) -> dict[str, np.ndarray]:
         """Fix the held tip pose at the base's first sample; the record at t = 0."""
@@ -74,14 +114,27 @@ class HybridRig:
         """Plan at sample k, integrate one dt, return the record at sample k + 1."""
         out = self.planner.step(self.xi, held_target(self.held, base, k, dt), dt)
         v = out.velocity
+        self.fault = Fault.SINGULAR if out.diagnostics.get("damping", 0.0) > 0 else Fault(0)
         if not np.all(np.isfinite(v)):
             # A planner fault holds the mechanism still rather than letting NaN through.
-            self.faults += 1
-            v = np.zeros_like(v)
-        self.xi = self.mechanism.integrate(self.xi, v, dt)
-        return self.record(base, k + 1, out.diagnostics)
+            self.fault |= Fault.PLANNER
+            return self.hold(base, k, out.diagnostics)
+        scale = limit_scale(self.mechanism, self.xi, v, dt) if self.hold_limits else 1.0
+        if scale < 1.0:
+            self.fault |= Fault.JOINT_LIMIT
+        self.xi = self.mechanism.integrate(self.xi, scale * v, dt)
+        return self.record(base, k + 1, out.diagnostics, scale)
 
-    def record(self, base: BaseSamples, k: int, diagnostics: dict) -> dict[str, np.ndarray]:
+    def hold(
+        self, base: BaseSamples, k: int, diagnostics: dict | None = None
+    ) -> dict[str, np.ndarray]:
+        """The mechanism held still for the step from sample k: the record at k + 1."""
+        return self.record(base, k + 1, diagnostics or {}, 0.0)
+
+    def record(
+        self, base: BaseSamples, k: int, diagnostics: dict, scale: float = 1.0
+    ) -> dict[str, np.ndarray]:
+        """The sample at k; `scale`: the fraction of the planner's step taken (1: all)."""
         T_IB = base.transform[k]
         T_E = self.mechanism.end_effector(self.xi)
         error = pose_error(invert_transform(T_IB) @ self.held, T_E)
@@ -107,4 +160,5 @@ class HybridRig:
         for name in ("weights", "null_space_share", "damping", "velocity_scale", "position_share"):
             if name in diagnostics:
                 rec[name] = np.asarray(diagnostics[name], dtype=float)
+        rec["limit_scale"] = np.float64(scale)
         return rec

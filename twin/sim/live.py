@@ -4,10 +4,15 @@ A background thread steps the simulation at dt of simulated time, paced to wall 
 Readers (the 3D scene, REST) take `latest()` / `snapshot()` under a lock and never block the
 loop for longer than a copy; writers (`patch`, `reset`, …) validate first and apply between
 two steps, so a bad value changes nothing and a good one acts on the next step.
+
+A numerical fault holds, damps or clamps inside the step (`twin.sim.faults`) and shows in
+`snapshot()["faults"]`; anything else a step raises is caught by the loop, logged, counted
+(`loop_errors`) and the loop goes on: a live twin does not stop on a bad step.
 """
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from typing import Any
@@ -19,6 +24,11 @@ from twin.sea.components import WaveComponents
 from twin.sim.engine import RESTART_FIELDS, Simulation
 from twin.sim.scenario import Scenario
 
+log = logging.getLogger(__name__)
+
+#: the live session's start: the papers' hybrid MTMP run, held at the joint limits as a real
+#: machine is (`Scenario.joint_limits`)
+LIVE_DEFAULTS = {"joint_limits": "hold"}
 #: samples the live session keeps (a ring buffer: 100 s at dt = 0.05 s)
 HISTORY = 2000
 #: most steps one wall-clock tick may take; a stalled machine drops simulated time instead of
@@ -39,13 +49,17 @@ class LiveSession:
     """A running `Simulation` with real-time pacing, pause/play/step/reset and live patches.
 
     Args:
-        scenario: the starting scenario (default: the papers' hybrid MTMP run). Its
-            `duration` is ignored: a live session runs until stopped.
+        scenario: the starting scenario: a `Scenario`, or a dict of fields on top of
+            `LIVE_DEFAULTS`. Its `duration` is ignored: a live session runs until stopped.
         tick: [s] wall-clock period of the loop (default 1/60 s).
     """
 
     def __init__(self, scenario: Scenario | dict | None = None, tick: float = 1 / 60) -> None:
-        base = scenario if isinstance(scenario, Scenario) else Scenario(**(scenario or {}))
+        base = (
+            scenario
+            if isinstance(scenario, Scenario)
+            else Scenario(**{**LIVE_DEFAULTS, **(scenario or {})})
+        )
         self._lock = threading.RLock()
         self.controls = LiveControls()
         self.tick = tick
@@ -54,6 +68,7 @@ class LiveSession:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self.version = 0  # bumps on every reset, so viewers can clear trails
+        self.loop_errors = 0  # steps the loop caught an unexpected error in
 
     # -- readers -----------------------------------------------------------------------------
     @property
@@ -97,6 +112,7 @@ class LiveSession:
                 "t": self._sim.t,
                 **self.controls.model_dump(),
                 "metrics": result.metrics,
+                "faults": {**self._sim.faults.summary(), "loop_errors": self.loop_errors},
             }
 
     # -- writers -----------------------------------------------------------------------------
@@ -182,6 +198,10 @@ class LiveSession:
         last = time.perf_counter()
         while not self._stop.is_set():
             now = time.perf_counter()
-            self.advance(now - last)
+            try:
+                self.advance(now - last)
+            except Exception:  # a bug must not stop the twin: log it and go on
+                self.loop_errors += 1
+                log.exception("live step failed (%d so far); the loop goes on", self.loop_errors)
             last = now
             self._stop.wait(max(0.0, self.tick - (time.perf_counter() - now)))

@@ -19,6 +19,7 @@ from twin.mechanisms.upu3up import Upu3Up
 from twin.planners import PlannerParameters, get_planner
 from twin.planners.platform import PlatformModel
 from twin.sim.base_motion import BaseSamples
+from twin.sim.faults import Fault
 from twin.sim.metrics import SETTLE, drift, efficacy, finite
 from twin.sim.target import held_target, tilt
 from twin.spatial import invert_transform, pose_error, pose_to_transform
@@ -35,8 +36,11 @@ class PlatformRig:
         dt: [s] control period.
 
     Attributes:
-        faults: steps where the planner's velocity or the forward kinematics was not finite
-            or did not converge; the rig then held the previous state.
+        fault: what went wrong at the last step (`Fault`): a planner velocity that was not
+            finite (PLANNER) or forward kinematics that did not converge (KINEMATICS) held the
+            previous state; legs stopped at their end stops flag JOINT_LIMIT.
+        hold_limits: unused: the actuators' end stops always hold (`joint_limits` matters
+            for the hybrid system, whose platform has no end stops of its own in the papers).
     """
 
     def __init__(
@@ -57,7 +61,8 @@ class PlatformRig:
         self.legs = self.model.leg_lengths(self.state)
         self.leg_rates = np.zeros(self.model.n_legs)
         self.held: np.ndarray | None = None  # ᴵT*, fixed at reset
-        self.faults = 0
+        self.fault = Fault(0)
+        self.hold_limits = True
 
     def reset(self, base: BaseSamples) -> dict[str, np.ndarray]:
         """Fix the held top pose at the base's first sample; the record at t = 0."""
@@ -79,22 +84,31 @@ class PlatformRig:
         """Servo at sample k, move the actuators one dt, return the record at sample k + 1."""
         out = self.planner.step(self.legs, held_target(self.held, base, k, dt), dt)
         v = np.asarray(out.velocity, dtype=float)
-        state = None
-        if np.all(np.isfinite(v)):
-            low, high = self.model.stroke
-            lengths = np.clip(self.legs + v * dt, low, high)  # the actuators' end stops
-            try:
-                state = self.model.fit(lengths, self.state)
-            except TwinError:
-                state = None
+        self.fault = Fault(0)
+        if not np.all(np.isfinite(v)):
+            self.fault = Fault.PLANNER
+            return self.hold(base, k, out.diagnostics)
+        low, high = self.model.stroke
+        lengths = np.clip(self.legs + v * dt, low, high)  # the actuators' end stops
+        if np.any(lengths != self.legs + v * dt):
+            self.fault |= Fault.JOINT_LIMIT
+        try:
+            state = self.model.fit(lengths, self.state)
+        except TwinError:  # no convergence, or lengths met only outside the workspace
+            state = None
         if state is None or not np.all(np.isfinite(state)):
-            # A fault holds the platform still rather than letting NaN into the record.
-            self.faults += 1
-            self.leg_rates = np.zeros(self.model.n_legs)
-        else:
-            self.leg_rates = (lengths - self.legs) / dt
-            self.state, self.legs = state, lengths
+            self.fault |= Fault.KINEMATICS
+            return self.hold(base, k, out.diagnostics)
+        self.leg_rates = (lengths - self.legs) / dt
+        self.state, self.legs = state, lengths
         return self.record(base, k + 1, out.diagnostics)
+
+    def hold(
+        self, base: BaseSamples, k: int, diagnostics: dict | None = None
+    ) -> dict[str, np.ndarray]:
+        """The platform held still for the step from sample k: the record at k + 1."""
+        self.leg_rates = np.zeros(self.model.n_legs)
+        return self.record(base, k + 1, diagnostics or {})
 
     def record(self, base: BaseSamples, k: int, diagnostics: dict) -> dict[str, np.ndarray]:
         """The sample at k: base, state, legs, errors against the level target, tilts."""

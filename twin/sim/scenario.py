@@ -81,6 +81,13 @@ class Scenario(PlannerParameters):
     forward_speed: float = Field(
         0.0, ge=0.0, le=10.0, description="[m/s] vessel forward speed (0: on DP)"
     )
+    joint_limits: Literal["record", "hold"] = Field(
+        "record",
+        description="record: joints and legs may pass their limits and each such sample "
+        "counts as a violation (the papers' kinematic studies); hold: a step that would carry "
+        "one further past its limit is shortened to stop there, like an end stop (the live "
+        "session's default)",
+    )
     duration: float = Field(
         200.0, gt=0.0, le=MAX_DURATION, description="[s] simulated time (seed 000: 200 s)"
     )

@@ -156,6 +156,15 @@ LiveState = create_model(
         for name, info in LiveControls.model_fields.items()
     },
     metrics=(dict[str, Any], Field(description="metrics over the live history")),
+    faults=(
+        dict[str, Any],
+        Field(
+            description="numerical faults since the last (re)start: `counts` per kind "
+            "(base_motion, planner, kinematics: the step was held; joint_limit: shortened at a "
+            "limit; singular: damped), `held` steps, the newest `events` (t, kinds, message) "
+            "and `loop_errors`"
+        ),
+    ),
 )
 
 # -- errors ------------------------------------------------------------------------------------

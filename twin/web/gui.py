@@ -262,6 +262,23 @@ def limit_violations(fs: FrameState) -> list[str]:
     return out
 
 
+def fault_line(faults: dict[str, Any]) -> str:
+    """The readout's line of numerical faults (`LiveSession.snapshot()["faults"]`)."""
+    counts = {k: n for k, n in faults.get("counts", {}).items() if n}
+    if not counts and not faults.get("loop_errors"):
+        return "**Faults:** none"
+    parts = [f"{k.replace('_', ' ')} {n}" for k, n in counts.items()]
+    if faults.get("loop_errors"):
+        parts.append(f"loop errors {faults['loop_errors']}")
+    line = "**⚠ Faults:** " + ", ".join(parts) + f" · {faults.get('held', 0)} steps held"
+    if faults.get("events"):
+        last = faults["events"][-1]
+        line += f" · last at t = {last['end']:.2f} s: {', '.join(last['kinds'])}"
+        if last["message"]:
+            line += f" ({last['message'][:120]})"
+    return line
+
+
 class TwinGui:
     """The control panel of one live session, shared by every browser.
 
@@ -302,6 +319,7 @@ class TwinGui:
         self._count = 0
         self._next = {"plot": 0.0, "readout": 0.0, "metrics": 0.0}
         self._metrics: dict[str, Any] = {}
+        self._faults: dict[str, Any] = {}
         self.inputs: dict[str, viser.GuiInputHandle] = {}
         self.buttons: dict[str, viser.GuiButtonHandle] = {}
         gui = server.gui
@@ -485,7 +503,8 @@ class TwinGui:
                 handle.data = tuple(data[:, : 1 + len(spec.series)].T)
         if now >= self._next["metrics"]:
             self._next["metrics"] = now + METRICS_PERIOD
-            self._metrics = self.session.snapshot()["metrics"]
+            snapshot = self.session.snapshot()
+            self._metrics, self._faults = snapshot["metrics"], snapshot["faults"]
         if now >= self._next["readout"]:
             self._next["readout"] = now + READOUT_PERIOD
             self.readout.content = self._readout(fs)
@@ -557,6 +576,7 @@ class TwinGui:
             )
         violations = limit_violations(fs)
         lines.append("")
+        lines.append(fault_line(self._faults))
         lines.append(
             "**Limits:** all within limits"
             if not violations

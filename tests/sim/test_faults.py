@@ -1,0 +1,259 @@
+"""Numerical faults injected into running simulations: each is held, damped or clamped,
+flagged and counted; no record ever holds NaN; the live loop goes on (twin/sim/faults.py)."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterator
+
+import numpy as np
+import pytest
+
+from tests.figures import record
+from twin.errors import ConvergenceError
+from twin.planners.platform import PlatformModel
+from twin.planners.tasks import TipPoseTask
+from twin.sim import Simulation
+from twin.sim.base_motion import BaseMotion, BaseSamples
+from twin.sim.faults import Fault, FaultLog, finite_record, hold_invalid
+from twin.sim.live import LiveSession
+
+#: [s] the window of simulated time whose base motion is NaN
+WINDOW = (1.0, 1.5)
+
+
+def all_finite(series: dict[str, np.ndarray]) -> bool:
+    return all(np.all(np.isfinite(v)) for v in series.values() if v.dtype.kind == "f")
+
+
+@pytest.fixture
+def nan_sea(monkeypatch: pytest.MonkeyPatch) -> Callable[[float, float], None]:
+    """Make every BaseMotion return NaN poses for t in [start, end]."""
+
+    def inject(start: float = WINDOW[0], end: float = WINDOW[1]) -> None:
+        original = BaseMotion.sample
+
+        def sample(self: BaseMotion, t: np.ndarray) -> BaseSamples:
+            samples = original(self, t)
+            bad = (samples.t >= start - 1e-9) & (samples.t <= end + 1e-9)
+            pose, transform = samples.pose.copy(), samples.transform.copy()
+            pose[bad], transform[bad] = np.nan, np.nan
+            return BaseSamples(samples.t, pose, transform)
+
+        monkeypatch.setattr(BaseMotion, "sample", sample)
+
+    return inject
+
+
+@pytest.mark.parametrize("mechanism", ["hybrid", "upu3up", "upr4"])
+def test_nan_base_motion_holds_the_last_good_pose_and_is_flagged(
+    nan_sea: Callable[..., None], mechanism: str
+) -> None:
+    nan_sea()
+    sim = Simulation({"mechanism": mechanism, "sea_state": 4, "duration": 3.0})
+    run = sim.run()
+    t, base = run.series["t"], run.series["base_pose"]
+    assert all_finite(run.series)
+    inside = (t >= WINDOW[0] - 1e-9) & (t <= WINDOW[1] + 1e-9)
+    last_good = np.flatnonzero(t < WINDOW[0] - 1e-9)[-1]
+    np.testing.assert_array_equal(
+        base[inside], np.broadcast_to(base[last_good], base[inside].shape)
+    )
+    assert not np.array_equal(base[-1], base[last_good])  # the sea moves again afterwards
+    # a step reads its start and end sample: the window's samples and the one step before it
+    assert run.metrics["fault_counts"]["base_motion"] == inside.sum() + 1
+    assert run.metrics["faults"] == inside.sum() + 1
+    assert sim.faults.events[0].kinds == ("base_motion",)
+    event = sim.faults.events[0]
+    assert (event.start, event.end) == pytest.approx((WINDOW[0], WINDOW[1] + 0.05))
+    json.dumps(run.metrics, allow_nan=False)
+    record(f"fault_nan_base_{mechanism}", steps=int(inside.sum() + 1), held=run.metrics["faults"])
+
+
+def test_a_sea_that_raises_is_held_like_nan(monkeypatch: pytest.MonkeyPatch) -> None:
+    sim = Simulation({"sea_state": 3, "duration": 20.0})
+
+    def broken(self: BaseMotion, t: np.ndarray) -> BaseSamples:
+        raise FloatingPointError("overflow in the RAO interpolation")
+
+    monkeypatch.setattr(BaseMotion, "sample", broken)
+    run = sim.run()  # the second chunk (t > 12.8 s) cannot be evaluated
+    assert all_finite(run.series) and run.metrics["fault_counts"]["base_motion"] > 100
+    held = run.series["base_pose"][run.series["t"] > 13.0]
+    assert np.all(held == held[0])
+
+
+def test_a_planner_that_raises_holds_the_hybrid_state_for_the_step() -> None:
+    """Forward kinematics that does not converge inside a planner: state held, flagged,
+    the message kept; the next steps move on."""
+    sim = Simulation({"sea_state": 4, "duration": 1.0})
+    step, calls = sim.rig.planner.step, []
+
+    def failing(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 5:
+            raise ConvergenceError("forward kinematics did not converge in 20 iterations")
+        return step(*args, **kwargs)
+
+    sim.rig.planner.step = failing
+    run = sim.run()
+    xi = run.series["xi"]
+    np.testing.assert_array_equal(xi[5], xi[4])
+    assert not np.array_equal(xi[6], xi[5])
+    assert run.metrics["fault_counts"]["kinematics"] == 1 and run.metrics["faults"] == 1
+    assert "did not converge" in sim.faults.events[-1].message
+    assert all_finite(run.series)
+
+
+@pytest.mark.parametrize("mechanism", ["upu3up", "upr4"])
+def test_platform_forward_kinematics_that_fails_holds_the_platform(
+    mechanism: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    fit, failing_now = PlatformModel.fit, [False]
+
+    def failing(self: PlatformModel, lengths: np.ndarray, guess: np.ndarray) -> np.ndarray:
+        if failing_now[0]:
+            raise ConvergenceError("Gauss-Newton did not converge")
+        return fit(self, lengths, guess)
+
+    monkeypatch.setattr(PlatformModel, "fit", failing)
+    sim = Simulation({"mechanism": mechanism, "sea_state": 4, "duration": 1.0})
+    for k in range(5):
+        failing_now[0] = k >= 2  # steps 3, 4 and 5 fail
+        sim.step()
+    failing_now[0] = False
+    run = sim.run()
+    state = run.series["state"]
+    for k in (3, 4, 5):
+        np.testing.assert_array_equal(state[k], state[2])
+    assert not np.array_equal(state[6], state[5])
+    assert run.metrics["fault_counts"]["kinematics"] == 3 and all_finite(run.series)
+
+
+def test_a_near_singular_jacobian_is_damped_and_flagged(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The tip Jacobian's smallest singular value forced to 1e-9: the planner's damped least
+    squares keeps the velocity finite and bounded, and the step is flagged singular."""
+    jacobian = TipPoseTask.jacobian
+
+    def near_singular(self: TipPoseTask, xi: np.ndarray) -> np.ndarray:
+        u, s, vt = np.linalg.svd(jacobian(self, xi), full_matrices=False)
+        s[-1] = 1e-9
+        return (u * s) @ vt
+
+    monkeypatch.setattr(TipPoseTask, "jacobian", near_singular)
+    sim = Simulation({"planner": "mtmp", "sea_state": 4, "duration": 2.0})
+    run = sim.run()
+    assert all_finite(run.series)
+    assert run.metrics["fault_counts"]["singular"] == len(run.series["t"])
+    assert np.all(run.series["damping"] > 0)
+    # the 9-DOF step stays physical: below 1 m/s and 1 rad/s on every virtual joint
+    rates = np.abs(np.diff(run.series["xi"], axis=0)) / 0.05
+    assert rates.max() < 1.0
+    record("fault_near_singular", steps=len(run.series["t"]), max_rate=float(rates.max()))
+
+
+def test_holding_at_the_limits_stops_legs_at_their_stroke() -> None:
+    """PI drives the legs out of their stroke (Table 7); with `joint_limits="hold"` each such
+    step is shortened at the limit and flagged, and no leg ever passes it."""
+    scenario = {"planner": "pi", "sea_state": 4, "duration": 40.0}
+    free = Simulation(scenario).run()
+    held = Simulation({**scenario, "joint_limits": "hold"}).run()
+    assert free.series["legs"].max() > 4.18 + 0.05  # PI alone leaves the stroke
+    legs = held.series["legs"]
+    assert legs.max() <= 4.18 + 1e-9 and legs.min() >= 2.58 - 1e-9
+    assert held.metrics["violations"] == 0
+    limited = held.metrics["fault_counts"]["joint_limit"]
+    assert limited > 0 and limited == np.sum(held.series["limit_scale"] < 1)
+    assert held.metrics["faults"] == 0  # shortened steps are not holds
+    record("fault_joint_limit", steps=len(legs), limited=int(limited))
+
+
+def test_joint_limits_switch_live_without_a_restart() -> None:
+    sim = Simulation({"planner": "pi", "sea_state": 4, "duration": 40.0})
+    for _ in range(10):
+        sim.step()
+    sim.update({"joint_limits": "hold"})
+    assert sim.rig.hold_limits and sim.k == 10
+
+
+# -- the pure pieces ------------------------------------------------------------------------------
+
+
+def test_hold_invalid_carries_the_last_good_pose_across_batches() -> None:
+    t = np.arange(5.0)
+    pose = np.arange(30.0).reshape(5, 6)
+    pose[0], pose[3] = np.nan, np.inf
+    from twin.spatial import pose_to_transform
+
+    samples = BaseSamples(t, pose, pose_to_transform(np.nan_to_num(pose)))
+    out, bad, last = hold_invalid(samples, last_good=np.full(6, 7.0))
+    assert bad.tolist() == [True, False, False, True, False]
+    np.testing.assert_array_equal(out.pose[0], np.full(6, 7.0))
+    np.testing.assert_array_equal(out.pose[3], out.pose[2])
+    np.testing.assert_array_equal(last, out.pose[4])
+    np.testing.assert_allclose(out.transform, pose_to_transform(out.pose))
+
+
+def test_finite_record_replaces_only_what_is_not_finite() -> None:
+    previous = {"a": np.array([1.0, 2.0]), "b": np.float64(3.0)}
+    fixed, replaced = finite_record({"a": np.array([np.nan, 5.0]), "b": np.float64(4.0)}, previous)
+    assert replaced and fixed["a"].tolist() == [1.0, 5.0] and fixed["b"] == 4.0
+    same, replaced = finite_record(previous, previous)
+    assert not replaced and same["a"].tolist() == [1.0, 2.0]
+
+
+def test_fault_log_merges_a_running_fault_and_bounds_its_events() -> None:
+    log = FaultLog(keep=3)
+    for k in range(10):
+        log.add(0.1 * k, Fault.BASE_MOTION)
+    assert len(log.events) == 1
+    assert (log.events[0].start, log.events[0].end) == pytest.approx((0.0, 0.9))
+    for k in range(10):
+        log.add(1.0 + k, Fault.PLANNER if k % 2 else Fault.SINGULAR)
+    assert len(log.events) == 3 and log.counts["planner"] == 5 and log.counts["singular"] == 5
+    assert log.holds == 15
+    json.dumps(log.summary(), allow_nan=False)
+
+
+# -- the live session -----------------------------------------------------------------------------
+
+
+@pytest.fixture
+def live() -> Iterator[LiveSession]:
+    session = LiveSession({"sea_state": 4})
+    yield session
+    session.stop()
+
+
+def test_live_session_reports_faults_and_never_nan(
+    nan_sea: Callable[..., None], live: LiveSession
+) -> None:
+    nan_sea(0.5, 1.0)
+    live.reset()  # the patched sea from t = 0
+    live.pause()
+    live.step(60)
+    snapshot = live.snapshot()
+    assert snapshot["faults"]["counts"]["base_motion"] == 12
+    assert snapshot["faults"]["events"][0]["kinds"] == ["base_motion"]
+    json.dumps(snapshot, allow_nan=False)  # what the REST API serves
+    assert all_finite(live.series())
+
+
+def test_the_live_loop_survives_a_step_that_raises(live: LiveSession) -> None:
+    """An unexpected error inside a step is logged and counted; simulated time goes on."""
+    step, calls = live._sim.step, []
+
+    def flaky() -> dict[str, np.ndarray]:
+        calls.append(1)
+        if len(calls) == 3:
+            raise RuntimeError("a bug")
+        return step()
+
+    live._sim.step = flaky
+    live.start()
+    deadline = time.monotonic() + 5
+    while (live.loop_errors == 0 or live.snapshot()["t"] < 0.5) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert live.loop_errors == 1 and live.snapshot()["t"] >= 0.5
+    assert live.snapshot()["faults"]["loop_errors"] == 1

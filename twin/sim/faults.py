@@ -1,0 +1,151 @@
+"""Numerical faults of a running simulation: what went wrong at a step, and how it was held.
+
+A twin that runs for hours meets a sea sample that is not a number, a planner that blows up
+next to a singularity, forward kinematics that does not converge, a joint driven into its end
+stop. None of these may stop the loop or reach a viewer as NaN. The simulation holds (keeps
+the last good base pose, or the mechanism where it is), damps (the planners' damped least
+squares) or clamps (a step shortened at a limit), and flags the sample with a `Fault`.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, deque
+from dataclasses import dataclass
+from enum import IntFlag
+
+import numpy as np
+
+from twin.sim.base_motion import BaseSamples
+from twin.spatial import pose_to_transform
+
+
+class Fault(IntFlag):
+    """What happened at a step; several may at once."""
+
+    #: the base motion was not finite: the last finite base pose is held
+    BASE_MOTION = 1
+    #: the planner's velocity was not finite, or it raised: the mechanism is held
+    PLANNER = 2
+    #: forward kinematics did not converge (or left the workspace): the mechanism is held
+    KINEMATICS = 4
+    #: the step would have carried a joint or leg further past its limit: shortened at it
+    JOINT_LIMIT = 8
+    #: near-singular Jacobian: damped least squares engaged (the planner's `damping` > 0)
+    SINGULAR = 16
+
+
+#: faults that stop the mechanism for the step (counted by the `faults` metric)
+HOLDS = Fault.BASE_MOTION | Fault.PLANNER | Fault.KINEMATICS
+
+
+def fault_names(fault: Fault) -> list[str]:
+    """Lower-case names of the flags set, e.g. ['base_motion', 'singular']."""
+    return [f.name.lower() for f in Fault if f in fault]
+
+
+def hold_invalid(
+    samples: BaseSamples, last_good: np.ndarray
+) -> tuple[BaseSamples, np.ndarray, np.ndarray]:
+    """Base samples with every non-finite pose replaced by the last finite one before it.
+
+    Args:
+        samples: base motion at N times (any row may hold NaN or inf).
+        last_good: (6,) [m, rad] the finite pose to hold if the first rows are bad.
+
+    Returns:
+        (samples with finite poses and transforms, (N,) bool: rows replaced, (6,) the last
+        finite pose, to carry into the next batch).
+    """
+    pose = np.array(samples.pose, dtype=float)
+    bad = ~np.all(np.isfinite(pose), axis=1) | ~np.all(
+        np.isfinite(samples.transform.reshape(len(pose), -1)), axis=1
+    )
+    if not bad.any():
+        return samples, bad, pose[-1].copy()
+    held = np.array(last_good, dtype=float)
+    for i in range(len(pose)):
+        if bad[i]:
+            pose[i] = held
+        else:
+            held = pose[i]
+    return BaseSamples(samples.t, pose, pose_to_transform(pose)), bad, held.copy()
+
+
+def finite_record(
+    record: dict[str, np.ndarray], previous: dict[str, np.ndarray]
+) -> tuple[dict[str, np.ndarray], bool]:
+    """The record with every non-finite entry replaced by the previous record's value.
+
+    Returns:
+        (the record, whether anything was replaced).
+    """
+    replaced = False
+    out = {}
+    for key, value in record.items():
+        array = np.asarray(value)
+        if array.dtype.kind == "f" and not np.all(np.isfinite(array)):
+            fallback = np.asarray(previous.get(key, np.zeros_like(array)))
+            array = np.where(np.isfinite(array), array, fallback)
+            array = np.where(np.isfinite(array), array, 0.0)
+            replaced = True
+        out[key] = array if isinstance(value, np.ndarray) else array[()]
+    return out, replaced
+
+
+@dataclass(frozen=True)
+class FaultEvent:
+    """A run of faulty steps alike: first and last sample time [s], what, and the message of
+    what raised (if anything did)."""
+
+    start: float
+    end: float
+    kinds: tuple[str, ...]
+    message: str = ""
+
+
+class FaultLog:
+    """Counts per kind over a run and the newest events (a bounded list).
+
+    Args:
+        keep: events kept.
+    """
+
+    def __init__(self, keep: int = 20) -> None:
+        self.counts: Counter[str] = Counter({f.name.lower(): 0 for f in Fault})
+        self.events: deque[FaultEvent] = deque(maxlen=keep)
+        self.holds = 0
+
+    def add(self, t: float, fault: Fault, message: str = "") -> None:
+        if not fault:
+            return
+        names = fault_names(fault)
+        self.counts.update(names)
+        if fault & HOLDS:
+            self.holds += 1
+        last = self.events[-1] if self.events else None
+        if last is None or last.kinds != tuple(names) or message:
+            self.events.append(FaultEvent(t, t, tuple(names), message))
+        else:  # the same fault going on: one event, its end moved on
+            self.events[-1] = FaultEvent(last.start, t, last.kinds, last.message)
+
+    def summary(self) -> dict[str, object]:
+        """JSON-able: counts per kind, samples held, the newest events (newest last)."""
+        return {
+            "counts": dict(self.counts),
+            "held": self.holds,
+            "events": [
+                {"start": e.start, "end": e.end, "kinds": list(e.kinds), "message": e.message}
+                for e in self.events
+            ],
+        }
+
+
+def series_faults(series: dict[str, np.ndarray]) -> dict[str, int]:
+    """Samples where a limit clamped the step or damping engaged, from a run's series."""
+    limited = 0
+    if "limit_scale" in series:
+        limited = int(np.sum(series["limit_scale"] < 1.0))
+    elif "clipped" in series:
+        limited = int(np.sum(series["clipped"] > 0))
+    damped = int(np.sum(series["damping"] > 0)) if "damping" in series else 0
+    return {"joint_limit": limited, "singular": damped}
