@@ -25,6 +25,9 @@ SCENARIOS = [
     {"planner": "mtmp", "sea_state": 4, "duration": 4.0,
      "initial_state": [0.1, -0.1, 2.6, 0.02, -0.03, 0.05, 0.1, 0.05, 12.0]},
     {"mechanism": "upr4", "duration": 2.0},  # not batched: runs through simulate
+    # not batched either: undamped with a rank-deficient J_W, and held at the limits
+    {"planner": "wpi", "beta": 0.0, "damping": 0.0, "sea_state": 4, "duration": 2.0},
+    {"planner": "pi", "sea_state": 5, "duration": 4.0, "joint_limits": "hold"},
 ]  # fmt: skip
 
 

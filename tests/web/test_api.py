@@ -122,7 +122,7 @@ def test_planners_carry_ranges_and_defaults_of_planner_parameters(client: TestCl
     assert list(mtmp["parameters"]) == list(PLANNERS["mtmp"].parameters)
     beta = mtmp["parameters"]["beta"]
     assert (beta["minimum"], beta["maximum"], beta["default"]) == (0.0, 1.0, 0.7)
-    assert mtmp["parameters"]["sigma"]["exclusiveMinimum"] == 0.0
+    assert mtmp["parameters"]["sigma"]["minimum"] == 0.1
     defaults = PlannerParameters()
     for planner in planners.values():
         assert planner["source"] and planner["title"]
@@ -217,7 +217,7 @@ def test_a_long_run_becomes_a_job_that_completes_and_is_stored(client: TestClien
     ("body", "field", "allowed"),
     [
         ({"beta": 2.0}, "beta", "0 ≤ beta ≤ 1"),
-        ({"sigma": 0.0}, "sigma", "0 < sigma ≤ 15"),
+        ({"sigma": 0.0}, "sigma", "0.1 ≤ sigma ≤ 15"),
         ({"spectrum": "flat"}, "spectrum", "one of 'jonswap', 'pm'"),
         ({"duration": 5000.0}, "duration", "0 < duration ≤ 3600"),
         ({"bogus": 1}, "bogus", None),

@@ -231,8 +231,8 @@ def test_knob_ranges_come_from_the_fields() -> None:
     """Slider ranges and defaults are the pydantic constraints (a strict bound moves a step)."""
     beta = knob(PlannerParameters, "beta", "β")
     assert (beta.min, beta.max, beta.default, beta.slider) == (0.0, 1.0, 0.7, True)
-    sigma = knob(PlannerParameters, "sigma", "σ")
-    assert sigma.min == pytest.approx(sigma.step) and sigma.max == 15.0
+    rate = knob(PlannerParameters, "q1_rate_max", "q̇1,max")  # 0 < q1_rate_max ≤ 45
+    assert rate.min == pytest.approx(rate.step) and rate.max == 45.0
     assert {k.name for k in PLANNER_KNOBS} == set(PlannerParameters.model_fields)
     ki = next(k for k in PLANNER_KNOBS if k.name == "ki")
     assert not ki.slider  # 8e-4 is off a 0-200 slider's grid: a number box keeps it
@@ -297,3 +297,13 @@ def test_nan_base_motion_never_reaches_the_scene_and_the_readout_flags_it(
     finally:
         viewer.stop()
         session.stop()
+
+
+def test_joint_limits_dropdown_switches_hold_and_record(
+    viewer: Viewer, session: LiveSession
+) -> None:
+    """The live session starts holding at the limits; the dropdown switches without a reset."""
+    assert session.scenario.joint_limits == "hold" and session._sim.rig.hold_limits
+    viewer.gui.inputs["joint_limits"].value = "record"
+    assert session.scenario.joint_limits == "record" and not session._sim.rig.hold_limits
+    assert session.version == 0

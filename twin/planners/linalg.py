@@ -25,13 +25,17 @@ def weighted_pinv(
     Returns:
         J_W⁺ (..., n, m) and λ (...,).
     """
-    sqrt_w = np.sqrt(w)[..., None, :]
-    sigma_min = np.linalg.svd(J * sqrt_w, compute_uv=False)[..., -1]
+    sqrt_w = np.sqrt(w)
+    U, s, Vt = np.linalg.svd(J * sqrt_w[..., None, :], full_matrices=False)  # J_W = U S Vᵀ
+    sigma_min = s[..., -1]
     ratio = np.clip(sigma_min / epsilon, 0.0, 1.0)
     lam2 = (1.0 - ratio**2) * damping_max**2
-    WJt = w[..., :, None] * np.swapaxes(J, -1, -2)  # W⁻¹ Jᵀ, (..., n, m)
-    m = J.shape[-2]
-    A = J @ WJt + lam2[..., None, None] * np.eye(m)
-    # (J W⁻¹ Jᵀ + λ²I) is symmetric positive (semi)definite: solve, never invert
-    pinv = np.swapaxes(np.linalg.solve(A, np.swapaxes(WJt, -1, -2)), -1, -2)
+    # W⁻¹Jᵀ(J W⁻¹ Jᵀ + λ²I)⁻¹ = W^{-1/2} V diag(s / (s² + λ²)) Uᵀ, from the same SVD. Not a
+    # solve: with λ = 0 (damping_max = 0) and a rank-deficient J_W (β = 0 keeps three joints)
+    # J W⁻¹ Jᵀ is singular; singular values lost to rounding then get 0, as in numpy's pinv.
+    kept = s > s[..., :1] * max(J.shape[-2:]) * np.finfo(float).eps
+    safe = np.where(kept, s, 1.0)
+    gain = np.where(kept, 1.0 / (safe + lam2[..., None] / safe), 0.0)  # s / (s² + λ²)
+    VG = np.swapaxes(Vt, -1, -2) * gain[..., None, :]  # (..., n, k)
+    pinv = sqrt_w[..., :, None] * (VG @ np.swapaxes(U, -1, -2))  # (..., n, m)
     return pinv, np.sqrt(lam2)

@@ -37,7 +37,7 @@ class PlannerParameters(BaseModel):
     )
     sigma: float = Field(
         5.0,
-        gt=0.0,
+        ge=0.1,
         le=15.0,
         description="[deg] critical protection angle σ of Algorithm 1 (not given; ours)",
     )

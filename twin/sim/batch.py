@@ -83,7 +83,11 @@ def simulate_many(
     alone: list[int] = []
     for i, s in enumerate(scenarios):
         n_steps = round(s.duration / s.dt)
-        batchable = s.planner in DIFFERENTIAL | ALLOCATION and s.joint_limits == "record"
+        # the fused kernel solves with λ > 0 only: an undamped (damping = 0) rank-deficient
+        # J_W (β = 0) needs the SVD fallback of `weighted_pinv`, so it runs scenario by scenario
+        batchable = (
+            s.planner in DIFFERENTIAL | ALLOCATION and s.joint_limits == "record" and s.damping > 0
+        )
         if s.mechanism == "hybrid" and n_steps > 0 and batchable:
             groups[(s.planner, s.dt, n_steps)].append(i)
         else:

@@ -109,16 +109,18 @@ class Simulation:
                 f"{sorted(changed & RESTART_FIELDS)} cannot change while running; start a new "
                 f"simulation (fields needing a restart: {sorted(RESTART_FIELDS)})"
             )
+        # everything that can fail is built before any state changes
+        base_motion = BaseMotion.of(new) if changed & SEA_FIELDS else None
+        parameters = PlannerParameters(
+            **new.model_dump(include=set(PlannerParameters.model_fields))
+        )
         self.scenario = new
         self.n_steps = round(new.duration / new.dt)
         self.rig.hold_limits = new.joint_limits == "hold"
-        if changed & SEA_FIELDS:
-            self.base_motion = BaseMotion.of(new)
+        if base_motion is not None:
+            self.base_motion = base_motion
             self._base = self._load_chunk(self.k)
         if changed - SEA_FIELDS - {"duration", "joint_limits"}:
-            parameters = PlannerParameters(
-                **new.model_dump(include=set(PlannerParameters.model_fields))
-            )
             self.rig.replan(new.planner, parameters, self._base, self.k - self._chunk_start)
         return changed
 

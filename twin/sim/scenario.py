@@ -26,6 +26,8 @@ from twin.vessel.rao import available_raos
 MAX_DURATION = 3600.0
 MAX_STEPS = 200_000
 
+#: [s] peak periods a scenario may have
+TP_RANGE = (1.0, 30.0)
 #: Most values any mechanism's state has (the hybrid system's xi).
 MAX_STATE_SIZE = 9
 
@@ -50,9 +52,10 @@ class Scenario(PlannerParameters):
     )
     tp: float | None = Field(
         None,
-        ge=1.0,
-        le=30.0,
-        description="[s] peak period; overrides sea_state (default with hs: fully developed)",
+        ge=TP_RANGE[0],
+        le=TP_RANGE[1],
+        description="[s] peak period; overrides sea_state (default with hs: fully developed, "
+        "kept within 1-30 s)",
     )
     heading: float = Field(
         150.0,
@@ -140,7 +143,10 @@ class Scenario(PlannerParameters):
         hs = self.hs if self.hs is not None else hs_table
         if self.tp is not None:
             return hs, self.tp
-        return hs, float(fully_developed_tp(hs)) if self.hs is not None else tp_table
+        if self.hs is None:
+            return hs, tp_table
+        # below Hs ≈ 0.04 m a fully developed sea peaks under 1 s, outside the tp range
+        return hs, float(np.clip(fully_developed_tp(hs), TP_RANGE[0], TP_RANGE[1]))
 
 
 def _check_state(mechanism: str, state: list[float]) -> None:

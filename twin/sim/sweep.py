@@ -99,6 +99,8 @@ class SweepSpec(BaseModel):
             values = [values]
         if not isinstance(values, list | tuple) or len(values) == 0:
             raise ValueError(f"{info.field_name}: empty axis; give at least one value")
+        if not all(isinstance(v, str | int | float) for v in values):
+            raise ValueError(f"{info.field_name}: each value must be a number or a name")
         if len(set(values)) != len(values):
             raise ValueError(f"{info.field_name}: repeated values {list(values)}")
         return list(values)

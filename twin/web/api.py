@@ -12,19 +12,17 @@ run and sweep submissions are rate-limited per client and capped while queued (4
 from __future__ import annotations
 
 import asyncio
-import hmac
 import math
 import tempfile
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Annotated, Any, Literal
-from urllib.parse import urlsplit
 
 from fastapi import Depends, FastAPI, HTTPException, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse
-from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from fastapi.security import HTTPBearer
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 from starlette.concurrency import run_in_threadpool
 
@@ -37,6 +35,7 @@ from twin.sim.live import LiveControls, LiveSession
 from twin.sim.scenario import DEFAULT_PLANNER
 from twin.sim.sweep import AXES, SweepSpec
 from twin.vessel.rao import available_raos
+from twin.web.access import Guard
 from twin.web.jobs import JobRunner, SweepRunner
 from twin.web.limits import MAX_BODY, BodyLimit, RateLimit
 from twin.web.store import Run, RunNotFound, RunStore, Sweep
@@ -282,36 +281,11 @@ def _registries() -> tuple[list[MechanismInfo], list[PlannerInfo], list[SeaState
     return mechanisms, planners, sea_states
 
 
+#: declares the token in the OpenAPI schema; `access.Guard` checks it before a body is read
 _BEARER = HTTPBearer(
     auto_error=False,
     description="required on POST and PATCH when the server runs with a token (TWIN_TOKEN)",
 )
-
-
-def _guard(token: str | None) -> Callable[..., None]:
-    """The dependency of every mutating endpoint: same origin and, if set, the token."""
-    expected = None if token is None else token.encode()
-
-    def authorize(
-        request: Request,
-        credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_BEARER)],
-    ) -> None:
-        # Browsers send Origin with every POST/PATCH; scripts send none. A page from another
-        # origin (another site, or the viewer's port) must not drive the twin.
-        origin = request.headers.get("origin")
-        if origin is not None and urlsplit(origin).netloc != request.headers.get("host"):
-            raise HTTPException(403, f"cross-origin request from {origin} refused")
-        if expected is None:
-            return
-        given = b"" if credentials is None else credentials.credentials.encode()
-        if not hmac.compare_digest(given, expected):  # constant time: no timing oracle
-            raise HTTPException(
-                401,
-                "missing or wrong token: send Authorization: Bearer <token>",
-                headers={"WWW-Authenticate": "Bearer"},
-            )
-
-    return authorize
 
 
 def create_app(
@@ -365,8 +339,10 @@ def create_app(
         lifespan=lifespan,
     )
     app.add_middleware(BodyLimit, max_bytes=max_body)
-    guarded = [Depends(_guard(token))]
+    app.add_middleware(Guard, token=token)  # the outermost: refused before anything is read
+    guarded = [Depends(_BEARER)]
     refused: dict[int | str, dict[str, Any]] = {
+        400: {"description": "a body that is not UTF-8 JSON text, or a bad Content-Length"},
         401: {"description": "missing or wrong token (the server has one)"},
         403: {"description": "a browser request from another origin"},
         413: {"description": f"body over {max_body} bytes"},
@@ -592,10 +568,19 @@ def create_app(
             return unprocessable(_body_errors(exc), RANGES[("PATCH", "/api/live")])
         return session.snapshot()
 
-    @app.post("/api/live/reset", dependencies=guarded, tags=["live"], responses=refused)
-    def reset_live() -> LiveState:
+    @app.post(
+        "/api/live/reset",
+        response_model=LiveState,
+        dependencies=guarded,
+        tags=["live"],
+        responses=bad_input,
+    )
+    def reset_live() -> Any:
         """Start the current scenario again from t = 0."""
-        session.reset()
+        try:
+            session.reset()
+        except ValueError as exc:  # the scenario in force cannot start (nothing changed)
+            return unprocessable(_body_errors(exc), {})
         return session.snapshot()
 
     @app.post("/api/live/pause", dependencies=guarded, tags=["live"], responses=refused)

@@ -144,6 +144,7 @@ SEA_KNOBS = (
 SPEED_KNOB = knob(LiveControls, "speed", "Sim speed ×", step=0.25)
 MECHANISM_NAMES: tuple[str, ...] = get_args(Scenario.model_fields["mechanism"].annotation)
 SPECTRA: tuple[str, ...] = get_args(Scenario.model_fields["spectrum"].annotation)
+JOINT_LIMITS: tuple[str, ...] = get_args(Scenario.model_fields["joint_limits"].annotation)
 
 
 def planners_for(mechanism: str) -> tuple[str, ...]:
@@ -344,6 +345,12 @@ class TwinGui:
             )
             self.inputs["planner"] = gui.add_dropdown(
                 "Planner", planners_for(s.mechanism), initial_value=s.planner
+            )
+            self.inputs["joint_limits"] = gui.add_dropdown(
+                "Joint limits",
+                JOINT_LIMITS,
+                initial_value=s.joint_limits,
+                hint=Scenario.model_fields["joint_limits"].description,
             )
             for k in PLANNER_KNOBS:
                 self.inputs[k.name] = self._add_knob(k, getattr(s, k.name))

@@ -24,7 +24,10 @@ Send = Callable[[Message], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
 
-async def _answer(send: Send, status: int, message: str) -> None:
+async def refuse(
+    send: Send, status: int, message: str, headers: tuple[tuple[bytes, bytes], ...] = ()
+) -> None:
+    """Answer a request from a middleware: JSON `{detail, message}` like the app's errors."""
     body = json.dumps({"detail": message, "message": message}).encode()
     await send(
         {
@@ -34,6 +37,7 @@ async def _answer(send: Send, status: int, message: str) -> None:
                 (b"content-type", b"application/json"),
                 (b"content-length", str(len(body)).encode()),
                 (b"connection", b"close"),
+                *headers,
             ],
         }
     )
@@ -67,10 +71,10 @@ class BodyLimit:
             try:
                 length = int(declared)
             except ValueError:
-                await _answer(send, 400, f"bad Content-Length {declared!r}: not an integer")
+                await refuse(send, 400, f"bad Content-Length {declared!r}: not an integer")
                 return
             if length > self.max_bytes:
-                await _answer(send, 413, self._refusal())
+                await refuse(send, 413, self._refusal())
                 return
 
         received = 0
@@ -93,7 +97,7 @@ class BodyLimit:
             if not exceeded:
                 await send(message)
             elif message["type"] == "http.response.start":
-                await _answer(send, 413, self._refusal())
+                await refuse(send, 413, self._refusal())
 
         await self.app(scope, counted, checked)
 
