@@ -63,3 +63,31 @@ def test_history_limit_is_a_ring_buffer() -> None:
     run(sim, 120)
     assert len(sim.history) == 50
     assert sim.series()["t"][-1] == pytest.approx(6.0)
+
+
+def test_a_sea_change_that_fails_changes_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The new sea is built before any state moves: if building it raises, the scenario,
+    the sea and the step count stay as they were."""
+    from twin.sim.base_motion import BaseMotion
+
+    sim = Simulation({"sea_state": 3, "duration": 10.0})
+    run(sim, 5)
+    before = (sim.scenario, sim.base_motion, sim.k)
+
+    def broken(scenario):
+        raise ValueError("tp: the RAO table does not reach this frequency")
+
+    monkeypatch.setattr(BaseMotion, "of", broken)
+    with pytest.raises(ValueError, match="RAO table"):
+        sim.update({"sea_state": 6, "beta": 0.2})
+    assert (sim.scenario, sim.base_motion, sim.k) == before and sim.scenario.beta == 0.7
+
+
+def test_a_calm_sea_keeps_its_period_in_range_and_runs() -> None:
+    """hs = 0 without tp: the fully developed tp (0 s) is kept at the 1 s floor."""
+    sim = Simulation({"sea_state": 3, "duration": 1.0})
+    sim.update({"hs": 0.0})
+    assert sim.scenario.sea() == (0.0, 1.0)
+    result = sim.run()
+    assert np.all(np.isfinite(result.series["xi"]))
+    np.testing.assert_allclose(result.series["base_pose"][-1], result.series["base_pose"][-2])
