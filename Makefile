@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install serve test lint demo urdf raos bench clean
+.PHONY: install serve test lint demo urdf raos bench reliability clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -52,6 +52,10 @@ raos: $(STAMP)
 ## bench: benchmarks against the Pinocchio peer; rewrites docs/performance.md (~3 min)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+
+## reliability: fuzz, fault, load and crash tests; rewrites docs/reliability.md (~5 min)
+reliability: $(STAMP)
+	$(BIN)/python scripts/reliability.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache

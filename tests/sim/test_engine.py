@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import typing
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -98,3 +99,13 @@ def test_exports_round_trip(tmp_path) -> None:
     data = json.loads(result.to_json(tmp_path / "run.json").read_text())
     np.testing.assert_array_equal(np.array(data["series"]["xi"]), result.series["xi"])
     assert data["metrics"] == json.loads(json.dumps(result.metrics))
+
+
+@pytest.mark.parametrize(
+    "spectrum", [*typing.get_args(Scenario.model_fields["spectrum"].annotation), "pm"]
+)
+def test_every_allowed_spectrum_runs(spectrum: str) -> None:
+    """Each name the scenario accepts (and the `pm` alias) simulates a moving, finite sea."""
+    result = simulate({"spectrum": spectrum, "sea_state": 4, "duration": 1.0})
+    base = result.series["base_pose"]
+    assert np.all(np.isfinite(base)) and np.ptp(base[:, 2]) > 1e-3

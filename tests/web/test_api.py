@@ -218,7 +218,7 @@ def test_a_long_run_becomes_a_job_that_completes_and_is_stored(client: TestClien
     [
         ({"beta": 2.0}, "beta", "0 ≤ beta ≤ 1"),
         ({"sigma": 0.0}, "sigma", "0.1 ≤ sigma ≤ 15"),
-        ({"spectrum": "flat"}, "spectrum", "one of 'jonswap', 'pm'"),
+        ({"spectrum": "flat"}, "spectrum", "one of 'jonswap', 'pierson_moskowitz'"),
         ({"duration": 5000.0}, "duration", "0 < duration ≤ 3600"),
         ({"bogus": 1}, "bogus", None),
     ],

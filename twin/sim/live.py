@@ -34,6 +34,9 @@ HISTORY = 2000
 #: most steps one wall-clock tick may take; a stalled machine drops simulated time instead of
 #: spiralling (the loop never tries to catch up more than this)
 MAX_CATCH_UP = 40
+#: [s] shortest pause between two ticks: the loop lets readers and writers (REST, viewer)
+#: take the lock even when stepping cannot keep up with wall time × speed
+MIN_PAUSE = 0.002
 
 
 class LiveControls(BaseModel):
@@ -164,8 +167,14 @@ class LiveSession:
         self._sim.step()
 
     # -- the real-time loop ----------------------------------------------------------------
-    def advance(self, wall_dt: float) -> int:
-        """Step as many dt as `wall_dt` × speed of simulated time owes; returns steps taken."""
+    def advance(self, wall_dt: float, budget: float | None = None) -> int:
+        """Step as many dt as `wall_dt` × speed of simulated time owes; returns steps taken.
+
+        At most `MAX_CATCH_UP` steps and, given a `budget` [s] of wall time (the loop gives
+        half a tick), no more than fit in it: what is left is dropped, not owed, so a machine
+        that cannot keep up runs slower than real time instead of holding the lock (and every
+        client) for ever longer ticks.
+        """
         with self._lock:
             if not self.controls.playing:
                 self._debt = 0.0
@@ -177,7 +186,11 @@ class LiveSession:
                 n, self._debt = MAX_CATCH_UP, 0.0
             else:
                 self._debt -= n * dt
-            for _ in range(n):
+            deadline = time.perf_counter() + (np.inf if budget is None else budget)
+            for taken in range(n):
+                if taken and time.perf_counter() > deadline:
+                    self._debt = 0.0
+                    return taken
                 self._advance_one()
             return n
 
@@ -199,9 +212,9 @@ class LiveSession:
         while not self._stop.is_set():
             now = time.perf_counter()
             try:
-                self.advance(now - last)
+                self.advance(now - last, budget=0.5 * self.tick)
             except Exception:  # a bug must not stop the twin: log it and go on
                 self.loop_errors += 1
                 log.exception("live step failed (%d so far); the loop goes on", self.loop_errors)
             last = now
-            self._stop.wait(max(0.0, self.tick - (time.perf_counter() - now)))
+            self._stop.wait(max(MIN_PAUSE, self.tick - (time.perf_counter() - now)))

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from twin.errors import TwinError
 from twin.mechanisms import MECHANISMS
@@ -18,7 +18,7 @@ from twin.planners import PlannerParameters, get_planner
 from twin.sea.components import WaveComponents
 from twin.sea.regular import REGULAR_PRESETS
 from twin.sea.sea_states import sea_state_hs_tp
-from twin.sea.spectra import fully_developed_tp
+from twin.sea.spectra import SpectrumName, fully_developed_tp
 from twin.sea.synthesis import wave_components
 from twin.vessel.rao import available_raos
 
@@ -64,7 +64,9 @@ class Scenario(PlannerParameters):
         description="[deg] wave direction relative to the bow, 180 = head seas, 90 = beam seas "
         "from port (waves travelling to starboard)",
     )
-    spectrum: Literal["jonswap", "pm"] = Field("jonswap", description="wave spectrum")
+    spectrum: SpectrumName = Field(
+        "jonswap", description="wave spectrum (seed 001 eq 28); `pm` is short for pierson_moskowitz"
+    )
     gamma: float = Field(3.3, ge=1.0, le=10.0, description="[-] JONSWAP peak enhancement")
     spreading: float | None = Field(
         None,
@@ -103,6 +105,11 @@ class Scenario(PlannerParameters):
         "[m, rad]; upu3up: z [mm], α, β [rad]; upr4: z [m], α, β [rad]); default: the working "
         "state",
     )
+
+    @field_validator("spectrum", mode="before")
+    @classmethod
+    def _spectrum_alias(cls, value: object) -> object:
+        return "pierson_moskowitz" if value == "pm" else value
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:

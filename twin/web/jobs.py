@@ -16,6 +16,7 @@ app must keep its entry point under `if __name__ == "__main__":` (`twin serve` d
 from __future__ import annotations
 
 import multiprocessing
+import os
 import queue
 import tempfile
 import threading
@@ -63,6 +64,27 @@ def execute(db_path: str, run_id: str) -> None:
         except Exception as exc:
             store.fail(run_id, f"{type(exc).__name__}: {exc}")
             raise
+
+
+#: [s] how often a worker checks that the server that spawned it is still alive
+PARENT_CHECK = 0.5
+
+
+def _exit_with_parent(parent: int) -> None:
+    """Worker initializer: exit as soon as the server that spawned the worker is gone.
+
+    A server killed with SIGKILL cannot stop its pool; its workers would finish the run in hand
+    beside the next server (which runs it again) and then idle for ever. Polling the parent id
+    (it changes when the worker is re-parented) works whatever thread started the worker,
+    which the kernel's parent-death signal would not.
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_CHECK)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
 def _warm() -> None:
@@ -117,7 +139,10 @@ class JobRunner:
         # child would inherit mid-lock.
         if self._pool is None:
             self._pool = ProcessPoolExecutor(
-                self.workers, mp_context=multiprocessing.get_context("spawn")
+                self.workers,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=_exit_with_parent,
+                initargs=(os.getpid(),),
             )
         return self._pool
 
