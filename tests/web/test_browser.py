@@ -92,3 +92,39 @@ def test_browser_shows_the_twin_and_controls_the_session(
     assert pixels.std() > 20.0  # sea, hull, panel: far from one flat colour
     scene = pixels[200:700, 50:700]  # the 3D view, clear of the GUI panel and toasts
     assert scene.std(axis=(0, 1)).max() > 5.0
+
+
+def test_a_browser_unlocks_the_viewer_with_the_token(tmp_path: Path) -> None:
+    """With a token, a browser sees its own Access panel: Pause does nothing until it enters
+    the token and unlocks; then Pause pauses the session."""
+    session = LiveSession({"sea_state": 3})
+    session.start()
+    viewer = start_viewer(session, port=free_port(), token="tok-42")
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+            try:
+                page = browser.new_page(viewport={"width": 1200, "height": 760})
+                page.goto(f"http://127.0.0.1:{viewer.port}", timeout=30_000)
+                page.get_by_role("button", name="Unlock controls").wait_for(timeout=30_000)
+                page.get_by_role("button", name="Pause").click(force=True)
+                time.sleep(1.0)
+                assert session.controls.playing  # locked: the click changed nothing
+                assert "locked" in (viewer.gui.last_error or "")
+
+                row = page.locator("div", has=page.get_by_text("Token", exact=True)).filter(
+                    has=page.locator("input")
+                )
+                field = row.last.locator("input").last
+                field.fill("tok-42", force=True)
+                field.press("Enter")
+                time.sleep(0.5)  # the text reaches the server before the click
+                page.get_by_role("button", name="Unlock controls").click(force=True)
+                assert wait_for(lambda: len(viewer.gui._unlocked) == 1, timeout=10.0)
+                page.get_by_role("button", name="Pause").click(force=True)
+                assert wait_for(lambda: not session.controls.playing, timeout=10.0)
+            finally:
+                browser.close()
+    finally:
+        viewer.stop()
+        session.stop()
