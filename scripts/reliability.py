@@ -121,7 +121,8 @@ SECURITY = """\
   the token in its own panel (never shared with other browsers); until then its edits are
   undone and it only watches. Tested: test_cli.py (refusal; a 0.0.0.0 server that answers
   401 without the token and 200 with it), test_fuzz_api.py (UNAUTHORIZED requests without
-  the token), test_scene.py (a locked browser).
+  the token), test_scene.py (locked and unlocked browsers),
+  test_browser.py (a real Chromium that unlocks with the token).
 - **CORS** closed: no CORS headers are sent, and a POST or PATCH whose `Origin` is another
   origin is a 403.
 - **No paths from requests**; **rate and size limits** on submission (above).

@@ -1,11 +1,14 @@
-"""Shared fixtures: the SPEC's paths and random states inside each mechanism's workspace."""
+"""Shared fixtures: random states inside each mechanism's workspace, a NaN-injecting sea."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 import pytest
 
 from twin.mechanisms import HybridBoardingSystem
+from twin.sim.base_motion import BaseMotion, BaseSamples
 
 
 @pytest.fixture
@@ -24,3 +27,23 @@ def random_hybrid_states(rng: np.random.Generator, n: int, shrink: float = 0.5) 
         draw = rng.uniform(lo, hi, size=(4 * n, 9))
         kept.append(draw[h.within_limits(draw)])
     return np.concatenate(kept)[:n]
+
+
+@pytest.fixture
+def nan_sea(monkeypatch: pytest.MonkeyPatch) -> Callable[[float, float], None]:
+    """`nan_sea(start, end)`: every BaseMotion built afterwards (or re-sampled) returns NaN
+    poses and transforms for start ≤ t ≤ end [s] (± 1e-9), as a fault injection."""
+
+    def inject(start: float, end: float = np.inf) -> None:
+        original = BaseMotion.sample
+
+        def sample(self: BaseMotion, t: np.ndarray) -> BaseSamples:
+            samples = original(self, t)
+            bad = (samples.t >= start - 1e-9) & (samples.t <= end + 1e-9)
+            pose, transform = samples.pose.copy(), samples.transform.copy()
+            pose[bad], transform[bad] = np.nan, np.nan
+            return BaseSamples(samples.t, pose, transform)
+
+        monkeypatch.setattr(BaseMotion, "sample", sample)
+
+    return inject

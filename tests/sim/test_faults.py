@@ -27,30 +27,11 @@ def all_finite(series: dict[str, np.ndarray]) -> bool:
     return all(np.all(np.isfinite(v)) for v in series.values() if v.dtype.kind == "f")
 
 
-@pytest.fixture
-def nan_sea(monkeypatch: pytest.MonkeyPatch) -> Callable[[float, float], None]:
-    """Make every BaseMotion return NaN poses for t in [start, end]."""
-
-    def inject(start: float = WINDOW[0], end: float = WINDOW[1]) -> None:
-        original = BaseMotion.sample
-
-        def sample(self: BaseMotion, t: np.ndarray) -> BaseSamples:
-            samples = original(self, t)
-            bad = (samples.t >= start - 1e-9) & (samples.t <= end + 1e-9)
-            pose, transform = samples.pose.copy(), samples.transform.copy()
-            pose[bad], transform[bad] = np.nan, np.nan
-            return BaseSamples(samples.t, pose, transform)
-
-        monkeypatch.setattr(BaseMotion, "sample", sample)
-
-    return inject
-
-
 @pytest.mark.parametrize("mechanism", ["hybrid", "upu3up", "upr4"])
 def test_nan_base_motion_holds_the_last_good_pose_and_is_flagged(
     nan_sea: Callable[..., None], mechanism: str
 ) -> None:
-    nan_sea()
+    nan_sea(*WINDOW)
     sim = Simulation({"mechanism": mechanism, "sea_state": 4, "duration": 3.0})
     run = sim.run()
     t, base = run.series["t"], run.series["base_pose"]

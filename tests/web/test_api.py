@@ -6,7 +6,7 @@ import csv
 import io
 import json
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +19,6 @@ from twin.mechanisms import MECHANISMS
 from twin.planners import PLANNERS, PlannerParameters
 from twin.sea.sea_states import WMO_SEA_STATES
 from twin.sim import Scenario, simulate
-from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.live import LiveSession
 from twin.sim.result import flat_columns
 from twin.web import JobRunner, RunStore, SweepRunner, create_app
@@ -467,18 +466,12 @@ def test_cross_origin_mutations_are_refused_and_cors_is_closed(
     assert "access-control-allow-origin" not in preflight.headers
 
 
-def test_live_faults_are_served_finite(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_live_faults_are_served_finite(
+    tmp_path: Path, nan_sea: Callable[[float, float], None]
+) -> None:
     """NaN injected into the base motion: GET /api/live stays strict JSON (no NaN) and
     reports the held steps; the session keeps stepping."""
-    original = BaseMotion.sample
-
-    def sample(self: BaseMotion, t: np.ndarray) -> BaseSamples:
-        s = original(self, t)
-        pose, transform = s.pose.copy(), s.transform.copy()
-        pose[s.t > 0.32], transform[s.t > 0.32] = np.nan, np.inf
-        return BaseSamples(s.t, pose, transform)
-
-    monkeypatch.setattr(BaseMotion, "sample", sample)
+    nan_sea(0.32, np.inf)
     live = LiveSession({"sea_state": 3})
     client = live_client(live, tmp_path)
     client.post("/api/live/step?n=20")

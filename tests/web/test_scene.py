@@ -15,7 +15,6 @@ from tests.web.support import free_port, wait_for
 from twin.assets import asset_path
 from twin.mechanisms.urdf import joint_configuration
 from twin.planners import PlannerParameters
-from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.live import LiveSession
 from twin.spatial import matrix_to_wxyz, pose_to_transform
 from twin.web.frame import read_frame
@@ -270,19 +269,10 @@ def test_with_a_token_a_browser_edits_only_after_unlocking(session: LiveSession)
 
 
 def test_nan_base_motion_never_reaches_the_scene_and_the_readout_flags_it(
-    monkeypatch: pytest.MonkeyPatch,
+    nan_sea: Callable[[float, float], None],
 ) -> None:
     """A NaN sea window: every node the scene moves stays finite, and the panel says so."""
-    original = BaseMotion.sample
-
-    def sample(self: BaseMotion, t: np.ndarray) -> BaseSamples:
-        s = original(self, t)
-        bad = (s.t > 0.2) & (s.t < 0.6)
-        pose, transform = s.pose.copy(), s.transform.copy()
-        pose[bad], transform[bad] = np.nan, np.nan
-        return BaseSamples(s.t, pose, transform)
-
-    monkeypatch.setattr(BaseMotion, "sample", sample)
+    nan_sea(0.22, 0.58)
     session = LiveSession({"sea_state": 3})
     session.pause()
     viewer = start_viewer(session, port=free_port())
