@@ -7,6 +7,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
+from tests.figures import record
 from twin.mechanisms import HybridBoardingSystem
 from twin.sim.base_motion import BaseMotion, BaseSamples
 
@@ -47,3 +48,13 @@ def nan_sea(monkeypatch: pytest.MonkeyPatch) -> Callable[[float, float], None]:
         monkeypatch.setattr(BaseMotion, "sample", sample)
 
     return inject
+
+
+@pytest.fixture(autouse=True)
+def _record_fuzz_examples(request: pytest.FixtureRequest):
+    """After a `tests.figures.fuzz` property test passed, log how many inputs it fuzzed."""
+    failed = request.session.testsfailed
+    yield
+    examples = getattr(getattr(request.node, "function", None), "fuzz_examples", None)
+    if examples is not None and request.session.testsfailed == failed:
+        record(request.node.nodeid, examples=examples, kind="hypothesis")

@@ -2,14 +2,19 @@
 
 `record` appends one JSON line to the file named by `TWIN_RELIABILITY_LOG` when it is set
 (`scripts/reliability.py` sets it and renders docs/reliability.md from the lines); otherwise
-it does nothing, so the tests run the same either way.
+it does nothing, so the tests run the same either way. `fuzz` gives a property test its
+reproducible hypothesis settings and marks how many inputs it tries; tests/conftest.py
+records that count once the test has passed.
 """
 
 from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from typing import Any
+
+from hypothesis import settings
 
 
 def record(test: str, **figures: Any) -> None:
@@ -18,3 +23,17 @@ def record(test: str, **figures: Any) -> None:
     if path:
         with open(path, "a", encoding="utf-8") as log:
             log.write(json.dumps({"test": test, **figures}) + "\n")
+
+
+def fuzz(examples: int, deadline: float = 2000.0) -> Callable[[Callable], Callable]:
+    """Reproducible hypothesis settings (`examples` inputs, `deadline` [ms] each); the test
+    carries `fuzz_examples` for the conftest fixture that records it."""
+
+    def decorate(test: Callable) -> Callable:
+        test = settings(max_examples=examples, deadline=deadline, derandomize=True, database=None)(
+            test
+        )
+        test.fuzz_examples = examples  # type: ignore[attr-defined]
+        return test
+
+    return decorate

@@ -14,39 +14,14 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import event, given, settings
+from hypothesis import event, given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from tests.figures import record
+from tests.figures import fuzz
 from twin.errors import TwinError
 from twin.mechanisms import HybridBoardingSystem, Upr4, Upu3Up
 from twin.planners import HYBRID_RATE_LIMITS
-
-EXAMPLES: dict[str, int] = {}  # property test → max_examples, logged by `_record_examples`
-
-
-def fuzz(examples: int, deadline: float = 2000.0) -> Callable:
-    """Reproducible hypothesis settings (`examples` inputs, `deadline` [ms] each)."""
-
-    def decorate(test: Callable) -> Callable:
-        EXAMPLES[test.__name__] = examples
-        return settings(max_examples=examples, deadline=deadline, derandomize=True, database=None)(
-            test
-        )
-
-    return decorate
-
-
-@pytest.fixture(autouse=True)
-def _record_examples(request: pytest.FixtureRequest):
-    """After a property test passed, log how many inputs it fuzzed (tests/figures.py)."""
-    failed = request.session.testsfailed
-    yield
-    examples = EXAMPLES.get(request.node.originalname)
-    if examples is not None and request.session.testsfailed == failed:
-        record(request.node.nodeid, examples=examples, kind="hypothesis")
-
 
 H = HybridBoardingSystem()
 STEWART, GANGWAY = H.stewart, H.gangway

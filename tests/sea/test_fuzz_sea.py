@@ -13,12 +13,12 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.integrate import quad
 
-from tests.figures import record
+from tests.figures import fuzz
 from twin.sea import (
     WMO_SEA_STATES,
     cos2s_spreading,
@@ -35,30 +35,6 @@ from twin.sea import (
     wave_components,
 )
 from twin.sea.synthesis import OMEGA_BAND
-
-EXAMPLES: dict[str, int] = {}  # property test → max_examples, logged by `_record_examples`
-
-
-def fuzz(examples: int, deadline: float = 2000.0) -> Callable:
-    """Reproducible hypothesis settings (`examples` inputs, `deadline` [ms] each)."""
-
-    def decorate(test: Callable) -> Callable:
-        EXAMPLES[test.__name__] = examples
-        return settings(max_examples=examples, deadline=deadline, derandomize=True, database=None)(
-            test
-        )
-
-    return decorate
-
-
-@pytest.fixture(autouse=True)
-def _record_examples(request: pytest.FixtureRequest):
-    """After a property test passed, log how many inputs it fuzzed (tests/figures.py)."""
-    failed = request.session.testsfailed
-    yield
-    examples = EXAMPLES.get(request.node.originalname)
-    if examples is not None and request.session.testsfailed == failed:
-        record(request.node.nodeid, examples=examples, kind="hypothesis")
 
 
 def finite(low: float, high: float) -> st.SearchStrategy[float]:

@@ -13,11 +13,11 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from tests.figures import record
+from tests.figures import fuzz
 from twin.sea import WaveComponents, wave_components
 from twin.sim.base_motion import BaseMotion
 from twin.vessel import (
@@ -28,31 +28,6 @@ from twin.vessel import (
     load_raos,
     vessel_motion,
 )
-
-EXAMPLES: dict[str, int] = {}  # property test → max_examples, logged by `_record_examples`
-
-
-def fuzz(examples: int, deadline: float = 2000.0) -> Callable:
-    """Reproducible hypothesis settings (`examples` inputs, `deadline` [ms] each)."""
-
-    def decorate(test: Callable) -> Callable:
-        EXAMPLES[test.__name__] = examples
-        return settings(max_examples=examples, deadline=deadline, derandomize=True, database=None)(
-            test
-        )
-
-    return decorate
-
-
-@pytest.fixture(autouse=True)
-def _record_examples(request: pytest.FixtureRequest):
-    """After a property test passed, log how many inputs it fuzzed (tests/figures.py)."""
-    failed = request.session.testsfailed
-    yield
-    examples = EXAMPLES.get(request.node.originalname)
-    if examples is not None and request.session.testsfailed == failed:
-        record(request.node.nodeid, examples=examples, kind="hypothesis")
-
 
 VESSELS = ("sov", "asv", "barge")
 RAOS = {name: load_raos(name) for name in VESSELS}
