@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -15,6 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 from fastapi.testclient import TestClient
 
+from tests.web.support import wait_for
 from twin.mechanisms import MECHANISMS
 from twin.planners import PLANNERS, PlannerParameters
 from twin.sea.sea_states import WMO_SEA_STATES
@@ -65,14 +65,17 @@ def live_client(live: LiveSession, tmp_path: Path, token: str | None = None) -> 
     return TestClient(create_app(live, RunStore(tmp_path / "runs.sqlite"), token=token))
 
 
-def wait_done(client: TestClient, run_id: str, timeout: float = 60.0) -> dict[str, Any]:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        run = client.get(f"/api/runs/{run_id}").json()
-        if run["status"] in ("done", "failed"):
-            return run
-        time.sleep(0.1)
-    raise AssertionError(f"run {run_id} not done after {timeout} s: {run}")
+def wait_finished(client: TestClient, path: str, timeout: float = 60.0) -> dict[str, Any]:
+    """GET `path` (a run or a sweep) until it is done or failed; its last answer."""
+    answer: dict[str, Any] = {}
+
+    def finished() -> bool:
+        nonlocal answer
+        answer = client.get(path).json()
+        return answer["status"] in ("done", "failed")
+
+    assert wait_for(finished, timeout, poll=0.1), f"{path} not done after {timeout} s: {answer}"
+    return answer
 
 
 # -- registries ---------------------------------------------------------------------------------
@@ -205,7 +208,7 @@ def test_a_long_run_becomes_a_job_that_completes_and_is_stored(client: TestClien
     run = response.json()
     assert run["status"] in ("queued", "running") and run["metrics"] is None
     assert response.headers["location"] == f"/api/runs/{run['id']}"
-    run = wait_done(client, run["id"])
+    run = wait_finished(client, f"/api/runs/{run['id']}")
     assert run["status"] == "done" and run["progress"] == 1.0
     assert run["metrics"] == simulate(scenario).metrics
     series = client.get(f"/api/runs/{run['id']}/series").json()["series"]
@@ -270,7 +273,7 @@ def test_runs_survive_a_restart_and_interrupted_jobs_rerun(tmp_path: Path) -> No
         with TestClient(app) as second:
             assert second.get(f"/api/runs/{done['id']}").json() == done
             assert second.get(f"/api/runs/{done['id']}/series?format=csv").text == csv_before
-            rerun = wait_done(second, interrupted)
+            rerun = wait_finished(second, f"/api/runs/{interrupted}")
     assert rerun["status"] == "done" and rerun["metrics"] == done["metrics"]
 
 
@@ -280,16 +283,6 @@ def test_runs_survive_a_restart_and_interrupted_jobs_rerun(tmp_path: Path) -> No
 TINY_SWEEP = {"hs": [0.5, 2.0], "tp": [8.0], "planner": ["mtmp"], "seeds": 2, "duration": 2.0}
 
 
-def wait_sweep(client: TestClient, sweep_id: str, timeout: float = 60.0) -> dict[str, Any]:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        sweep = client.get(f"/api/sweeps/{sweep_id}").json()
-        if sweep["status"] in ("done", "failed"):
-            return sweep
-        time.sleep(0.1)
-    raise AssertionError(f"sweep {sweep_id} not done after {timeout} s: {sweep}")
-
-
 def test_a_sweep_is_a_job_with_progress_a_table_and_a_heatmap(client: TestClient) -> None:
     response = client.post("/api/sweeps", json=TINY_SWEEP)
     assert response.status_code == 202, response.text
@@ -297,7 +290,7 @@ def test_a_sweep_is_a_job_with_progress_a_table_and_a_heatmap(client: TestClient
     assert response.headers["location"] == f"/api/sweeps/{queued['id']}"
     assert queued["total"] == 4 and queued["result"] is None
     assert queued["spec"]["hs"] == [0.5, 2.0] and queued["spec"]["tip_error_threshold"] == 0.05
-    sweep = wait_sweep(client, queued["id"])
+    sweep = wait_finished(client, f"/api/sweeps/{queued['id']}")
     assert sweep["status"] == "done", sweep["error"]
     assert (sweep["done"], sweep["progress"]) == (4, 1.0)
     result = sweep["result"]
@@ -344,7 +337,7 @@ def test_sweeps_survive_a_restart_and_interrupted_sweeps_rerun(tmp_path: Path) -
         sweeps = SweepRunner(store, scheduler="in-process")
         app = create_app(LiveSession(), store, jobs=JobRunner(store, workers=1), sweeps=sweeps)
         with TestClient(app) as second:
-            sweep = wait_sweep(second, interrupted)
+            sweep = wait_finished(second, f"/api/sweeps/{interrupted}")
             assert second.get(f"/api/sweeps/{interrupted}/heatmap.png").status_code == 200
     assert sweep["status"] == "done" and len(sweep["result"]["cells"]) == 2
 

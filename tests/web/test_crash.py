@@ -30,6 +30,7 @@ import psutil
 import pyarrow.parquet as pq
 
 from tests.figures import record
+from tests.web.support import wait_for
 from tests.web.test_load import Server
 from twin.web.jobs import SYNC_MAX_STEPS
 
@@ -142,13 +143,6 @@ def peek(path: Path, sql: str) -> int:
         return 0
 
 
-def wait_until(condition: Any, timeout: float) -> None:
-    end = time.monotonic() + timeout
-    while not condition() and time.monotonic() < end:
-        time.sleep(0.02)
-    assert condition(), f"not within {timeout} s"
-
-
 def alive(process: psutil.Process) -> bool:
     try:
         return process.is_running() and process.status() != psutil.STATUS_ZOMBIE
@@ -189,7 +183,7 @@ def test_sigkill_mid_write_keeps_the_store_consistent_and_restart_recovers(
                 half = peek(database, STORED) + 4
                 for _ in range(8):
                     submissions.background(SHORT)
-                wait_until(lambda half=half: peek(database, STORED) >= half, 10)
+                assert wait_for(lambda h=half: peek(database, STORED) >= h, 10, poll=0.02)
                 time.sleep(rng.uniform(0.0, 0.05))
             else:
                 for _ in range(2):  # done (201) before anything dies
@@ -197,7 +191,8 @@ def test_sigkill_mid_write_keeps_the_store_consistent_and_restart_recovers(
                 if not accepted:
                     submissions.post(LONG)  # queued (202): requeued by every restart
                 submissions.background(MEDIUM, SHORT, repeat=True)
-                wait_until(lambda: peek(database, RUNNING) > 0, 20)  # progress being written
+                # progress being written
+                assert wait_for(lambda: peek(database, RUNNING) > 0, 20, poll=0.02)
                 time.sleep(rng.uniform(0.0, 0.5))  # somewhere between two progress writes
             left = kill(server, group=moment != "orphan")
             submissions.join()
