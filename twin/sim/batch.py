@@ -35,7 +35,6 @@ from twin.planners import (
     DifferentialPlanner,
     JointLimitWeights,
     JointPostureTask,
-    PlannerParameters,
     ProductWeights,
     TipTarget,
     get_planner,
@@ -237,9 +236,6 @@ class _HybridBatch:
         self.diagnostics: dict[str, np.ndarray] = {}  # name → (N, n_steps, ...)
         self.faults = np.zeros(len(self.scenarios), dtype=int)
 
-    def parameters(self, s: Scenario) -> PlannerParameters:
-        return PlannerParameters(**s.model_dump(include=set(PlannerParameters.model_fields)))
-
     def targets(self, k0: int, k1: int) -> np.ndarray:
         """`held_target` for samples k0 … k1 − 1, (N, k1 − k0, 18): ᴮR_d row-major, ᴮp_d, twist."""
         T_IB = pose_to_transform(self.poses[:, k0 : k1 + 1])
@@ -254,7 +250,7 @@ class _HybridBatch:
         from twin.sim import batch_kernel as bk
 
         planners = [
-            get_planner(s.planner, "hybrid").build(self.mechanism, self.parameters(s), xi0)
+            get_planner(s.planner, "hybrid").build(self.mechanism, s.parameters(), xi0)
             for s, xi0 in zip(self.scenarios, self.xi0, strict=True)
         ]
         packed = [pack_planner(p) for p in planners]

@@ -53,8 +53,9 @@ SEA_FIELDS = frozenset(
 )  # fmt: skip
 #: Scenario fields that need a new Simulation (a different machine, vessel or clock).
 RESTART_FIELDS = frozenset({"mechanism", "vessel", "dt", "initial_state"})
-#: errors a step turns into a held, flagged sample instead of raising
-NUMERICAL = (ArithmeticError, ValueError, np.linalg.LinAlgError)
+#: errors a step turns into a held, flagged sample instead of raising (ValueError covers
+#: TwinError and numpy's LinAlgError)
+NUMERICAL = (ArithmeticError, ValueError)
 
 
 class Simulation:
@@ -74,7 +75,7 @@ class Simulation:
         state = (
             self.mechanism.working_state if s.initial_state is None else np.array(s.initial_state)
         )
-        parameters = PlannerParameters(**s.model_dump(include=set(PlannerParameters.model_fields)))
+        parameters = s.parameters()
         self.rig, self._metrics = RIGS[s.mechanism](s, self.mechanism, parameters, state)
         self.dt = s.dt
         self.n_steps = round(s.duration / s.dt)
@@ -111,9 +112,7 @@ class Simulation:
             )
         # everything that can fail is built before any state changes
         base_motion = BaseMotion.of(new) if changed & SEA_FIELDS else None
-        parameters = PlannerParameters(
-            **new.model_dump(include=set(PlannerParameters.model_fields))
-        )
+        parameters = new.parameters()
         self.scenario = new
         self.n_steps = round(new.duration / new.dt)
         self.rig.hold_limits = new.joint_limits == "hold"

@@ -134,6 +134,10 @@ class Scenario(PlannerParameters):
             _check_state(self.mechanism, self.initial_state)
         return self
 
+    def parameters(self) -> PlannerParameters:
+        """The planner knobs alone (a scenario is a `PlannerParameters` with more fields)."""
+        return PlannerParameters(**self.model_dump(include=set(PlannerParameters.model_fields)))
+
     def components(self) -> WaveComponents:
         """The sea as wave components: seed 002's regular preset or a seeded spectrum."""
         if self.regular_waves is not None:
