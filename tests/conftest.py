@@ -10,6 +10,8 @@ import pytest
 from tests.figures import record
 from twin.mechanisms import HybridBoardingSystem
 from twin.sim.base_motion import BaseMotion, BaseSamples
+from twin.sim.engine import Simulation
+from twin.sim.kernels.layout import TARGET_V
 
 
 @pytest.fixture
@@ -46,6 +48,27 @@ def nan_sea(monkeypatch: pytest.MonkeyPatch) -> Callable[[float, float], None]:
             return BaseSamples(samples.t, pose, transform)
 
         monkeypatch.setattr(BaseMotion, "sample", sample)
+
+    return inject
+
+
+@pytest.fixture
+def nan_target(monkeypatch: pytest.MonkeyPatch) -> Callable[..., None]:
+    """`nan_target(k, ...)`: every Simulation built afterwards gets a NaN twist in the held
+    target of steps k, … (each lane), so its planner's velocity is not finite there — a
+    planner fault injected into the one engine, whatever the mechanism."""
+
+    def inject(*steps: int) -> None:
+        original = Simulation._with_targets
+
+        def poisoned(self: Simulation, block: object) -> object:
+            block = original(self, block)
+            for k in steps:
+                if 0 <= k - block.start < block.steps:
+                    block.targets[:, k - block.start, TARGET_V:] = np.nan
+            return block
+
+        monkeypatch.setattr(Simulation, "_with_targets", poisoned)
 
     return inject
 

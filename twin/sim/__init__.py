@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from twin.sim.batch import simulate_many
-from twin.sim.engine import Simulation, simulate
+from twin.sim.engine import Simulation, simulate, simulate_many
 from twin.sim.presets import PAPER_PRESETS
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import MAX_DURATION, MAX_STEPS, Scenario

@@ -1,7 +1,21 @@
-"""The simulation engine: `Simulation` steps a scenario, `simulate` runs it to the end.
+"""The one simulation engine: N lanes stepped together by a compiled kernel, chunk by chunk.
 
-`simulate(s)` is `Simulation(s)` stepped to the end, so the live server's stepping and a
-batch run give the same numbers by construction (tested).
+A `Simulation` holds N ≥ 1 scenarios of one mechanism and one dt as arrays (lanes). Each
+chunk of steps it
+
+1. samples every lane's base motion for the chunk (vectorised over the wave components;
+   a non-finite sample holds the last finite one and flags `Fault.BASE_MOTION`),
+2. builds the held targets ᴮT_d and their twists (`twin.sim.target.held_targets`),
+3. calls the mechanism's kernel (`twin.sim.kernels`, compiled by numba): plan, guard,
+   integrate, step after step, writing states, diagnostics and fault bits,
+4. computes what is recorded from the chunk's states at once (`twin.sim.records`) and writes
+   it into the history, a preallocated ring of arrays.
+
+`simulate(s)` is `Simulation(s).run().` and `simulate_many` groups scenarios into
+Simulations; `step()` and `advance(n)` run the same chunks, so stepping one by one, in chunks
+or all at once gives the same numbers (tested). The planner objects of `twin.planners` are
+built by the registry and packed into the kernel's rows: they state the math, the kernel runs
+it, and the tests hold one against the other.
 
 A step never raises for numerical reasons and never records NaN: a non-finite base sample is
 replaced by the last finite one, a planner or kinematics failure holds the mechanism for the
@@ -10,41 +24,39 @@ step, and each such step is flagged (`twin.sim.faults`) and counted in the metri
 
 from __future__ import annotations
 
-from collections import deque
-from collections.abc import Callable
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
-from twin.errors import ConvergenceError, TwinError, UnreachableError
+from twin.errors import TwinError
 from twin.mechanisms import MECHANISMS
-from twin.planners import PlannerParameters
 from twin.sim.base_motion import BaseMotion, BaseSamples
-from twin.sim.faults import HOLDS, Fault, FaultLog, finite_record, hold_invalid, series_faults
-from twin.sim.hybrid_rig import HybridRig
-from twin.sim.metrics import hybrid_metrics
-from twin.sim.platform_rig import PlatformRig, platform_metrics
+from twin.sim.faults import (
+    HOLDS,
+    Fault,
+    FaultLog,
+    hold_invalid,
+    hold_nonfinite,
+    series_faults,
+)
+from twin.sim.history import History
+from twin.sim.kernels import layout
+from twin.sim.lanes import HybridLanes, PlatformLanes, runner, use_numba
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import Scenario
+from twin.sim.target import held_targets
+from twin.spatial import pose_to_transform
 
-#: samples of base motion evaluated at once (vectorised over the wave components)
-CHUNK = 256
-
-
-def _hybrid(scenario: Scenario, mechanism: Any, parameters: PlannerParameters, state: np.ndarray):
-    rig = HybridRig(mechanism, scenario.planner, parameters, state, scenario.dt)
-    return rig, lambda series: hybrid_metrics(series, mechanism)
-
-
-def _platform(scenario: Scenario, mechanism: Any, parameters: PlannerParameters, state: np.ndarray):
-    rig = PlatformRig(mechanism, scenario.planner, parameters, state, scenario.dt)
-    return rig, lambda series: platform_metrics(series, rig.model)
-
-
-#: mechanism name → builder of (rig, metrics function)
-RIGS: dict[str, Callable] = {"hybrid": _hybrid, "upu3up": _platform, "upr4": _platform}
-
+#: steps of base motion and targets prepared at once for a live session (a sea change
+#: re-samples from the current step, so a short block wastes little)
+LIVE_BLOCK = 256
+#: most steps × lanes prepared at once for a batch run (bounds memory: 18 floats of target
+#: and 16 of diagnostics each), and most steps per lane
+BLOCK = 65_536
+MAX_BLOCK = 8192
 
 #: Scenario fields that change the sea: `Simulation.update` re-synthesises it in place.
 SEA_FIELDS = frozenset(
@@ -53,89 +65,114 @@ SEA_FIELDS = frozenset(
 )  # fmt: skip
 #: Scenario fields that need a new Simulation (a different machine, vessel or clock).
 RESTART_FIELDS = frozenset({"mechanism", "vessel", "dt", "initial_state"})
-#: errors a step turns into a held, flagged sample instead of raising (ValueError covers
+#: errors the base motion's evaluation may raise, held like a NaN sea (ValueError covers
 #: TwinError and numpy's LinAlgError)
 NUMERICAL = (ArithmeticError, ValueError)
+#: lane classes by mechanism name
+LANES = {"hybrid": HybridLanes, "upu3up": PlatformLanes, "upr4": PlatformLanes}
+
+
+@dataclass
+class _Block:
+    """Base motion and targets for steps `start` … `start + steps` of every lane.
+
+    Attributes:
+        start: the first step.
+        poses: (N, steps + 1, 6) finite base poses [m, rad].
+        bad: (N, steps + 1) samples that were not finite (held).
+        targets: (N, steps, 18) the held targets (`held_targets`).
+    """
+
+    start: int
+    poses: np.ndarray
+    bad: np.ndarray
+    targets: np.ndarray
+
+    @property
+    def steps(self) -> int:
+        return self.targets.shape[1]
 
 
 class Simulation:
-    """A scenario being stepped: state, time and history.
+    """Scenarios being stepped together: states, time and history as arrays, one lane each.
 
     Args:
-        scenario: a `Scenario` or a dict of its fields (validated).
+        scenarios: a `Scenario` (or a dict of its fields, validated), or a sequence of them:
+            one mechanism and one dt for all; each lane runs to the longest duration and its
+            result keeps its own.
         history_limit: keep only the newest samples (a live session's ring buffer); None
-            keeps all (a batch run).
+            keeps the whole run.
+        engine: "auto" (numba when it imports), "numba", or "python" (the same kernels
+            interpreted: slow, for machines without numba; the same numbers).
+
+    Raises:
+        ValueError: a bad scenario (naming the field), none, or lanes that differ in mechanism
+            or dt.
     """
 
-    def __init__(self, scenario: Scenario | dict, history_limit: int | None = None) -> None:
-        self.scenario = scenario if isinstance(scenario, Scenario) else Scenario(**scenario)
-        s = self.scenario
-        self.base_motion = BaseMotion.of(s)
-        self.mechanism = MECHANISMS[s.mechanism]()
-        state = (
-            self.mechanism.working_state if s.initial_state is None else np.array(s.initial_state)
-        )
-        parameters = s.parameters()
-        self.rig, self._metrics = RIGS[s.mechanism](s, self.mechanism, parameters, state)
-        self.dt = s.dt
-        self.n_steps = round(s.duration / s.dt)
+    def __init__(
+        self,
+        scenarios: Scenario | dict | Sequence[Scenario | dict],
+        history_limit: int | None = None,
+        engine: str = "auto",
+    ) -> None:
+        if isinstance(scenarios, Scenario | dict):
+            scenarios = [scenarios]
+        self.scenarios = [s if isinstance(s, Scenario) else Scenario(**s) for s in scenarios]
+        if not self.scenarios:
+            raise TwinError("Simulation needs at least one scenario; got none")
+        first = self.scenarios[0]
+        for i, s in enumerate(self.scenarios[1:], 1):
+            if (s.mechanism, s.dt) != (first.mechanism, first.dt):
+                raise TwinError(
+                    f"scenario {i}: lanes of one Simulation share mechanism and dt; got "
+                    f"{s.mechanism!r} at dt = {s.dt} beside {first.mechanism!r} at {first.dt}"
+                )
+        self.compiled = use_numba(engine)
+        self.dt = first.dt
+        self.n_lanes = len(self.scenarios)
+        self.n_steps = max(round(s.duration / s.dt) for s in self.scenarios)
         self.k = 0
-        self.faults = FaultLog()
-        self._chunk_start = 0
-        self._last_good = self.base_motion.mount.pose(np.zeros((1, 6)))[0]  # the mount at rest
-        self._base = self._load_chunk(0)
-        self.rig.hold_limits = s.joint_limits == "hold"
-        self.history: deque[dict[str, np.ndarray]] = deque(
-            [self.rig.reset(self._base)], maxlen=history_limit
+        self.mechanism = MECHANISMS[first.mechanism]()
+        self.base_motions = [BaseMotion.of(s) for s in self.scenarios]
+        self._block_size = LIVE_BLOCK if history_limit else min(
+            MAX_BLOCK, max(16, BLOCK // self.n_lanes)
         )
+        x0 = np.stack(
+            [
+                self.mechanism.working_state if s.initial_state is None else s.initial_state
+                for s in self.scenarios
+            ]
+        ).astype(float)
+        at_rest = np.stack([b.mount.pose(np.zeros((1, 6)))[0] for b in self.base_motions])
+        block = self._sample(self.base_motions, 0, at_rest)
+        T_IB0 = pose_to_transform(block.poses[:, 0])
+        self.lanes = LANES[first.mechanism](self.mechanism, x0, T_IB0)
+        self._block = self._with_targets(block)
+        self.x = x0.copy()
+        self.prm, self.memory = self._pack(self.scenarios, self._block, 0)
+        self._run = runner(self.lanes.kind, self.compiled, self.n_lanes)
+        self.faults = [FaultLog() for _ in self.scenarios]
+        self.history = History(history_limit or self.n_steps + 1)
+        first_row = self.lanes.initial_records(self._block.poses[:, :1], self.x)
+        first_row["t"] = np.zeros((self.n_lanes, 1))
+        self.history.append(first_row)
 
-    def update(self, changes: dict[str, Any]) -> set[str]:
-        """Apply changed scenario fields from the next step on, without a reset.
+    # -- readers -----------------------------------------------------------------------------
+    @property
+    def scenario(self) -> Scenario:
+        """Lane 0's scenario (the only one of a one-lane Simulation)."""
+        return self.scenarios[0]
 
-        The whole new scenario is validated first, so a bad value raises a ValueError naming
-        the field and changes nothing. A sea change re-synthesises the sea at the current time
-        (the tip target stays; the planner's closed loop absorbs the jump in base motion); a
-        planner or parameter change rebuilds the planner at the current state.
+    @property
+    def base_motion(self) -> BaseMotion:
+        """Lane 0's base motion."""
+        return self.base_motions[0]
 
-        Returns:
-            The names of the fields whose value changed.
-
-        Raises:
-            ValueError: a bad value, or a field in `RESTART_FIELDS` (start a new Simulation).
-        """
-        new = Scenario(**{**self.scenario.model_dump(), **changes})
-        changed = {k for k in changes if getattr(new, k) != getattr(self.scenario, k)}
-        if changed & RESTART_FIELDS:
-            raise TwinError(
-                f"{sorted(changed & RESTART_FIELDS)} cannot change while running; start a new "
-                f"simulation (fields needing a restart: {sorted(RESTART_FIELDS)})"
-            )
-        # everything that can fail is built before any state changes
-        base_motion = BaseMotion.of(new) if changed & SEA_FIELDS else None
-        parameters = new.parameters()
-        self.scenario = new
-        self.n_steps = round(new.duration / new.dt)
-        self.rig.hold_limits = new.joint_limits == "hold"
-        if base_motion is not None:
-            self.base_motion = base_motion
-            self._base = self._load_chunk(self.k)
-        if changed - SEA_FIELDS - {"duration", "joint_limits"}:
-            self.rig.replan(new.planner, parameters, self._base, self.k - self._chunk_start)
-        return changed
-
-    def _load_chunk(self, start: int) -> BaseSamples:
-        """Base samples for steps start … start + CHUNK (one extra for the step's end), each
-        finite: a sample that is not (or a sea that fails to evaluate) holds the last good
-        base pose and is marked in `_base_bad`."""
-        self._chunk_start = start
-        t = (start + np.arange(CHUNK + 1)) * self.dt
-        try:
-            samples = self.base_motion.sample(t)
-        except NUMERICAL:
-            nan = np.full((t.size, 6), np.nan)
-            samples = BaseSamples(t, nan, np.full((t.size, 4, 4), np.nan))
-        samples, self._base_bad, self._last_good = hold_invalid(samples, self._last_good)
-        return samples
+    @property
+    def held(self) -> np.ndarray:
+        """(N, 4, 4) ᴵT*: each lane's held inertial pose, fixed at t = 0."""
+        return self.lanes.held
 
     @property
     def t(self) -> float:
@@ -146,73 +183,222 @@ class Simulation:
     def done(self) -> bool:
         return self.k >= self.n_steps
 
-    def step(self) -> dict[str, np.ndarray]:
-        """Advance one dt; returns the new sample's record (also appended to `history`).
+    def latest(self, lane: int = 0) -> dict[str, np.ndarray]:
+        """The newest sample's record of a lane (copies)."""
+        return self._select(self.history.latest(lane), lane)
 
-        Never raises for a numerical fault and never records a non-finite number: see the
-        module docstring; the step's `Fault` flags are in `faults` (a `FaultLog`).
-        """
-        local = self.k - self._chunk_start
-        if local >= CHUNK:
-            self._base = self._load_chunk(self.k)
-            local = 0
-        fault, message = Fault(0), ""
-        if self._base_bad[local] or self._base_bad[local + 1]:
-            fault |= Fault.BASE_MOTION
-        try:
-            record = self.rig.advance(self._base, local, self.dt)
-            fault |= self.rig.fault
-        except NUMERICAL as exc:  # hold the mechanism where it is for this step
-            failed = isinstance(exc, ConvergenceError | UnreachableError)
-            fault |= Fault.KINEMATICS if failed else Fault.PLANNER
-            message = f"{type(exc).__name__}: {exc}"
-            record = self.rig.hold(self._base, local)
-        record, replaced = finite_record(record, self.history[-1])
-        if replaced:
-            fault |= Fault.PLANNER
-        record["t"] = np.float64((self.k + 1) * self.dt)  # exact multiples, chunk-independent
-        self.k += 1
-        self.faults.add(float(record["t"]), fault, message)
-        self.history.append(record)
-        return record
+    def series(self, lane: int = 0) -> dict[str, np.ndarray]:
+        """A lane's history, (T, ...) per key, oldest first (copies)."""
+        return self._select(self.history.series(lane), lane)
 
-    def series(self) -> dict[str, np.ndarray]:
-        """The history stacked per key, (N + 1, ...). Planner diagnostics do not exist at t = 0
-        (no step taken yet), nor at a step held before the planner answered; there they
-        repeat the nearest step's values (the first step's, or the previous one's)."""
-        history = list(self.history)
-        first: dict[str, np.ndarray] = {}
-        for rec in history:
-            for key, value in rec.items():
-                first.setdefault(key, value)
-        columns: dict[str, list[np.ndarray]] = {key: [] for key in history[-1]}
-        for key, column in columns.items():
-            value = first[key]
-            for rec in history:
-                value = rec.get(key, value)
-                column.append(value)
-        return {key: np.stack(column) for key, column in columns.items()}
+    def _select(self, record: dict[str, np.ndarray], lane: int) -> dict[str, np.ndarray]:
+        """The keys a lane's planner has: another family's diagnostics are left out."""
+        mine = self.lanes.keys(self.scenarios[lane].planner)
+        every = self.lanes.keys("dwa") | self.lanes.keys("mtmp")
+        return {k: v for k, v in record.items() if k in mine or k not in every}
 
-    def result(self) -> SimulationResult:
-        series = self.series()
-        metrics = self._metrics(series)
-        counts = self.faults.counts
-        metrics["faults"] = self.faults.holds
+    def metrics(self, series: dict[str, np.ndarray], lane: int = 0) -> dict[str, Any]:
+        """A lane's metrics over a series of it (`series(lane)`), its fault counts included."""
+        metrics = self.lanes.metrics(series, lane)
+        log = self.faults[lane]
+        metrics["faults"] = log.holds
         metrics["fault_counts"] = {
-            **{f.name.lower(): counts[f.name.lower()] for f in Fault if f in HOLDS},
+            **{f.name.lower(): log.counts[f.name.lower()] for f in Fault if f in HOLDS},
             **series_faults(series),
         }
-        return SimulationResult(self.scenario, series, metrics)
+        return metrics
+
+    def result(self, lane: int = 0) -> SimulationResult:
+        """A lane's result: its scenario, its series up to its own duration, its metrics."""
+        series = self.series(lane)
+        scenario = self.scenarios[lane]
+        if self.history.complete:
+            end = round(scenario.duration / scenario.dt) + 1
+            series = {k: v[:end] for k, v in series.items()}
+        return SimulationResult(scenario, series, self.metrics(series, lane))
+
+    def results(self) -> list[SimulationResult]:
+        """Every lane's result, in order."""
+        return [self.result(i) for i in range(self.n_lanes)]
+
+    # -- stepping ----------------------------------------------------------------------------
+    def step(self) -> dict[str, np.ndarray]:
+        """Advance one dt; returns lane 0's new record."""
+        self.advance(1)
+        return self.latest()
+
+    def advance(self, n: int) -> int:
+        """Advance up to n steps (fewer at the end of the run); returns the steps taken."""
+        taken = 0
+        while taken < n and not self.done:
+            local = self.k - self._block.start
+            if local >= self._block.steps:
+                last = self._block.poses[:, -1]
+                self._block = self._with_targets(self._sample(self.base_motions, self.k, last))
+                local = 0
+            m = min(n - taken, self._block.steps - local, self.n_steps - self.k)
+            self._chunk(local, m)
+            taken += m
+        return taken
 
     def run(self, progress: bool = False) -> SimulationResult:
-        """Step to the end of the scenario's duration."""
+        """Step to the end of the run; lane 0's result (`results()` has every lane's)."""
         with tqdm(total=self.n_steps - self.k, disable=not progress, unit="step") as bar:
             while not self.done:
-                self.step()
-                bar.update()
+                bar.update(self.advance(self._block_size))
         return self.result()
 
+    def _chunk(self, local: int, m: int) -> None:
+        """Run the kernel over m steps from the block's step `local`, record them."""
+        N, block = self.n_lanes, self._block
+        xs = np.empty((N, m + 1, self.x.shape[1]))
+        xs[:, 0] = self.x
+        diag = np.zeros((N, m, self.lanes.n_diagnostics))
+        faults = np.zeros((N, m), dtype=np.int64)
+        targets = np.ascontiguousarray(block.targets[:, local : local + m])
+        self.lanes.run(self._run, xs, targets, self.prm, self.memory, self.dt, diag, faults)
+        poses = block.poses[:, local + 1 : local + m + 1]
+        records = self.lanes.records(poses, xs[:, 1:], diag, self.dt)
+        faults |= np.where(
+            block.bad[:, local : local + m] | block.bad[:, local + 1 : local + m + 1],
+            layout.FAULT_BASE_MOTION,
+            0,
+        )
+        held = hold_nonfinite(records, self.history.newest())
+        faults |= np.where(held, layout.FAULT_PLANNER, 0)
+        t = (self.k + 1 + np.arange(m)) * self.dt  # exact multiples, chunk-independent
+        records["t"] = np.broadcast_to(t, (N, m))
+        if self.k == 0:  # no step has been taken at t = 0: the first step's diagnostics repeat
+            self.history.backfill_first(records, self.lanes.keys("dwa") | self.lanes.keys("mtmp")
+                                        | {"limit_scale", "clipped", "saturated"})  # fmt: skip
+        self.history.append(records)
+        self.x = xs[:, -1].copy()
+        for lane in np.flatnonzero(faults.any(axis=1)):
+            self.faults[lane].add_chunk(t, faults[lane])
+        self.k += m
 
-def simulate(scenario: Scenario | dict, progress: bool = False) -> SimulationResult:
+    # -- changes -----------------------------------------------------------------------------
+    def update(self, changes: dict[str, Any]) -> set[str]:
+        """Apply changed scenario fields to every lane from the next step on, without a reset.
+
+        Everything is validated and built before anything changes, so a bad value raises a
+        ValueError naming the field and changes nothing. A sea change re-synthesises the sea
+        from the current step (the held pose stays; the planner's closed loop absorbs the jump
+        in base motion); a planner or parameter change rebuilds and repacks the planner at the
+        current state; `joint_limits` switches holding at the limits on or off.
+
+        Returns:
+            The names of the fields whose value changed (in any lane).
+
+        Raises:
+            ValueError: a bad value, or a field in `RESTART_FIELDS` (start a new Simulation).
+        """
+        new = [Scenario(**{**s.model_dump(), **changes}) for s in self.scenarios]
+        changed = {
+            k for k in changes for n, s in zip(new, self.scenarios, strict=True)
+            if getattr(n, k) != getattr(s, k)
+        }  # fmt: skip
+        if changed & RESTART_FIELDS:
+            raise TwinError(
+                f"{sorted(changed & RESTART_FIELDS)} cannot change while running; start a new "
+                f"simulation (fields needing a restart: {sorted(RESTART_FIELDS)})"
+            )
+        base_motions, block = self.base_motions, self._block
+        if changed & SEA_FIELDS:
+            base_motions = [BaseMotion.of(s) for s in new]
+            now = self._block.poses[:, self.k - self._block.start]
+            block = self._with_targets(self._sample(base_motions, self.k, now))
+        replan = bool(changed - SEA_FIELDS - {"duration", "joint_limits"})
+        prm, memory = self.prm.copy(), self.memory.copy()
+        if replan:
+            prm, memory = self._pack(new, block, self.k - block.start)
+        prm[:, layout.P_HOLD] = [float(s.joint_limits == "hold") for s in new]
+        # nothing below raises
+        self.scenarios, self.base_motions, self._block = new, base_motions, block
+        self.prm, self.memory = prm, memory
+        self.n_steps = max(self.n_steps if "duration" not in changed else 0,
+                           max(round(s.duration / s.dt) for s in new))  # fmt: skip
+        return changed
+
+    # -- internals ---------------------------------------------------------------------------
+    def _pack(
+        self, scenarios: Sequence[Scenario], block: _Block, local: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Every lane's planner built, reset at the current state and packed: (prm, memory)."""
+        rows = [
+            self.lanes.pack(i, s, self.x[i], block.targets[i, local])
+            for i, s in enumerate(scenarios)
+        ]
+        return np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows])
+
+    def _sample(
+        self, base_motions: Sequence[BaseMotion], start: int, last_good: np.ndarray
+    ) -> _Block:
+        """Base samples for steps start … start + block (one more for the last step's end),
+        each finite: a sample that is not, or a sea that fails to evaluate, holds the last
+        good pose before it (`hold_invalid`; `last_good` (N, 6) for the first). Targets are
+        added by `_with_targets`."""
+        steps = max(1, min(self._block_size, self.n_steps - start))
+        t = (start + np.arange(steps + 1)) * self.dt
+        poses, bad = [], []
+        for motion, good in zip(base_motions, last_good, strict=True):
+            try:
+                samples = motion.sample(t)
+            except NUMERICAL:
+                samples = BaseSamples(t, np.full((t.size, 6), np.nan), np.zeros((t.size, 4, 4)))
+            samples, invalid, _ = hold_invalid(samples, good)
+            poses.append(samples.pose)
+            bad.append(invalid)
+        return _Block(start, np.stack(poses), np.stack(bad), np.empty((len(poses), steps, 0)))
+
+    def _with_targets(self, block: _Block) -> _Block:
+        block.targets = held_targets(self.lanes.held, pose_to_transform(block.poses), self.dt)
+        return block
+
+
+def simulate(
+    scenario: Scenario | dict, progress: bool = False, engine: str = "auto"
+) -> SimulationResult:
     """Run a scenario to completion; see `SimulationResult` for `.series` and `.metrics`."""
-    return Simulation(scenario).run(progress=progress)
+    return Simulation(scenario, engine=engine).run(progress=progress)
+
+
+#: most scenarios stepped together; larger groups run in Simulations of this size
+MAX_LANES = 256
+
+
+def simulate_many(
+    scenarios: Iterable[Scenario | dict], *, progress: bool = False, engine: str = "auto"
+) -> list[SimulationResult]:
+    """Run many scenarios: the same results as `[simulate(s) for s in scenarios]` (tested),
+    stepped together in lanes — scenarios of one mechanism, dt and number of steps share a
+    `Simulation` (the kernel runs its lanes in parallel threads).
+
+    Args:
+        scenarios: `Scenario`s or dicts of their fields (validated).
+        progress: show a tqdm bar over all steps.
+        engine: as `Simulation`'s.
+
+    Returns:
+        One `SimulationResult` per scenario, in order.
+
+    Raises:
+        ValueError: a bad scenario (naming the field) or an unknown or unavailable engine.
+    """
+    scenarios = [s if isinstance(s, Scenario) else Scenario(**s) for s in scenarios]
+    use_numba(engine)  # an unknown engine fails before any work
+    groups: dict[tuple, list[int]] = {}
+    for i, s in enumerate(scenarios):
+        groups.setdefault((s.mechanism, s.dt, round(s.duration / s.dt)), []).append(i)
+    results: list[SimulationResult | None] = [None] * len(scenarios)
+    total = sum(round(s.duration / s.dt) * 1 for s in scenarios)
+    with tqdm(total=total, disable=not progress, unit="step", unit_scale=True) as bar:
+        for members in groups.values():
+            for start in range(0, len(members), MAX_LANES):
+                lanes = members[start : start + MAX_LANES]
+                sim = Simulation([scenarios[i] for i in lanes], engine=engine)
+                while not sim.done:
+                    bar.update(sim.advance(sim._block_size) * len(lanes))
+                for i, result in zip(lanes, sim.results(), strict=True):
+                    results[i] = result
+    return results  # type: ignore[return-value]

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
+from twin.planners.platform import PlatformModel
 
 #: samples left out at the start (seed 000 §5.3: "the first 10 data points are removed")
 SETTLE = 10
@@ -57,7 +58,7 @@ def efficacy(alpha_top: np.ndarray, alpha_bottom: np.ndarray) -> dict[str, float
 
 
 def hybrid_metrics(series: dict[str, np.ndarray], mechanism: HybridBoardingSystem) -> dict:
-    """Metrics of a hybrid-system run from its series (see `HybridRig.record`)."""
+    """Metrics of a hybrid-system run from its series (`twin.sim.records.hybrid_records`)."""
     xi, legs, t = series["xi"], series["legs"], series["t"]
     lower, upper = mechanism.lower, mechanism.upper
     leg_min, leg_max = mechanism.stewart.leg_min, mechanism.stewart.leg_max
@@ -99,3 +100,56 @@ def hybrid_metrics(series: dict[str, np.ndarray], mechanism: HybridBoardingSyste
         "theta_e_max": finite(np.degrees(_extreme(series["theta_e"][s]))),
         **efficacy(series["alpha_top"], series["alpha_bottom"]),
     }  # fmt: skip
+
+
+def platform_metrics(series: dict[str, np.ndarray], model: PlatformModel) -> dict:
+    """Metrics of a small-platform run from its series (`twin.sim.records.platform_records`).
+
+    Units: state z and legs in the mechanism's unit (mm Upu3Up, m Upr4), angles in degrees,
+    `leg_rate_max` in m/s for both, tip position errors in m, orientation errors in degrees,
+    η in %.
+    """
+    t, state, legs = series["t"], series["state"], series["legs"]
+    s = slice(min(SETTLE, len(t) - 1), None)
+    violated = model.violations(state)
+    bad = np.any(np.stack(list(violated.values())), axis=0)
+    low, high = model.mechanism.state_limits
+    states: dict[str, dict[str, float]] = {}
+    for j, name in enumerate(model.mechanism.state_names):
+        scale = 1.0 if j == 0 else np.degrees(1.0)
+        x = state[:, j]
+        states[name] = {
+            "min": finite(x[s].min() * scale),
+            "max": finite(x[s].max() * scale),
+            "margin": finite(min(x[s].min() - low[j], high[j] - x[s].max()) * scale),
+            "drift": finite(drift(t, x[:, None])[0] * scale),
+        }
+    stroke_low, stroke_high = model.stroke
+    err = series["tip_error"][s]
+    pos_err = np.linalg.norm(err[:, :3], axis=1)
+    rot_err = np.degrees(np.linalg.norm(err[:, 3:], axis=1))
+    metrics = {
+        "violations": int(np.sum(bad)),
+        "limit_violations": {name: int(np.sum(v)) for name, v in violated.items()},
+        "states": states,
+        "legs_min": finite(legs[s].min()),
+        "legs_max": finite(legs[s].max()),
+        "leg_margin": finite(min(legs[s].min() - stroke_low[0], stroke_high[0] - legs[s].max())),
+        "leg_drift": [finite(v) for v in drift(t, legs)],
+        "leg_rate_max": finite(np.abs(series["leg_rates"]).max() * model.unit),
+        "tip_position_error_rms": finite(np.sqrt(np.mean(pos_err**2))),
+        "tip_position_error_max": finite(pos_err.max()),
+        "tip_orientation_error_rms": finite(np.sqrt(np.mean(rot_err**2))),
+        "tip_orientation_error_max": finite(rot_err.max()),
+        "alpha_top_max": finite(np.degrees(series["alpha_top"][s].max())),
+        "alpha_bottom_max": finite(np.degrees(series["alpha_bottom"][s].max())),
+        "clipped": int(np.sum(series["clipped"] > 0)),
+        "saturated": int(np.sum(series["saturated"] > 0)),
+        **efficacy(series["alpha_top"], series["alpha_bottom"]),  # seed 002 eq (29)
+    }
+    if "coupled_displacement" in series:
+        peak = np.abs(series["coupled_displacement"][s]).max(axis=0)  # seed 001 eq (15), mm
+        metrics["coupled_displacement_max"] = {
+            a: finite(v) for a, v in zip("xyz", peak, strict=True)
+        }
+    return metrics

@@ -33,3 +33,22 @@ def tilt(R: np.ndarray, axis: int = 2) -> np.ndarray:
     """Angle [rad] between a body axis (column `axis` of R (..., 3, 3)) and inertial z up."""
     # atan2 of the horizontal and vertical parts resolves small angles that arccos cannot
     return np.arctan2(np.hypot(R[..., 0, axis], R[..., 1, axis]), R[..., 2, axis])
+
+
+def held_targets(held: np.ndarray, T_IB: np.ndarray, dt: float) -> np.ndarray:
+    """`held_target` for a chunk of samples of N lanes at once, packed as the kernels read it.
+
+    Args:
+        held: (N, 4, 4) ᴵT*, each lane's held inertial pose.
+        T_IB: (N, B + 1, 4, 4) the base at samples k … k + B.
+        dt: [s] sample period.
+
+    Returns:
+        (N, B, 18): ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ; ᴮω] [m/s, rad/s] at samples k … k + B − 1
+        (rows `twin.sim.kernels.layout.TARGET_*`).
+    """
+    T = invert_transform(T_IB) @ held[:, None]  # ᴮT_d = ᴵT_B⁻¹ ᴵT*
+    R0, R1 = T[:, :-1, :3, :3], T[:, 1:, :3, :3]
+    v = (T[:, 1:, :3, 3] - T[:, :-1, :3, 3]) / dt
+    w = so3_log(R1 @ np.swapaxes(R0, -1, -2)) / dt
+    return np.concatenate([R0.reshape(*R0.shape[:2], 9), T[:, :-1, :3, 3], v, w], -1)

@@ -1,13 +1,14 @@
-"""Small platforms in the simulation: seed 002 Table 2, speed limit, faults (platform_rig.py)."""
+"""Small platforms in the simulation: seed 002 Table 2, speed limit, faults (the engine's
+platform lanes)."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 import pytest
 
-import twin.sim.platform_rig as platform_rig
 from twin.mechanisms import Upr4, Upu3Up
-from twin.planners import TipTarget
 from twin.sea.regular import REGULAR_PRESETS
 from twin.sim import Scenario, Simulation, SimulationResult, simulate
 from twin.sim.base_motion import BaseMotion, mount_for
@@ -81,7 +82,7 @@ def test_leg_rates_never_exceed_the_actuator_speed(scenario: dict) -> None:
     below it (seed 002 §5: 0.1 m/s), and the limit did bind."""
     sim = Simulation(scenario)
     run = sim.run()
-    limit = sim.scenario.actuator_speed / sim.rig.model.unit  # [native/s]
+    limit = sim.scenario.actuator_speed / sim.lanes.model.unit  # [native/s]
     assert run.metrics["saturated"] > 0
     assert np.max(np.abs(run.series["leg_rates"])) <= limit * (1 + 1e-12)
     assert np.max(np.abs(np.diff(run.series["legs"], axis=0))) / sim.dt <= limit * (1 + 1e-12)
@@ -169,20 +170,12 @@ def test_ik_in_a_slow_sea_keeps_the_top_level(mechanism: str) -> None:
 
 
 def test_nan_target_velocity_holds_the_state_and_counts_a_fault(
-    monkeypatch: pytest.MonkeyPatch,
+    nan_target: Callable[..., None],
 ) -> None:
     """A NaN in the target's twist at one step: the platform holds still, one fault is
     counted, and no NaN reaches the record or the metrics."""
-    real = platform_rig.held_target
     bad_step = 5
-
-    def poisoned(held: np.ndarray, base: object, k: int, dt: float) -> TipTarget:
-        target = real(held, base, k, dt)
-        if k == bad_step:
-            return TipTarget(target.transform, np.full(6, np.nan))
-        return target
-
-    monkeypatch.setattr(platform_rig, "held_target", poisoned)
+    nan_target(bad_step)
     sim = Simulation(dict(mechanism="upr4", planner="pid", regular_waves="state1", duration=1))
     run = sim.run()
     series = run.series

@@ -1,0 +1,195 @@
+"""The one-lane allocation kernel (conv1, conv2, dwa) against `AllocationPlanner`, step by step.
+
+The planner object is the oracle: velocities, position shares, DWA's carried shares and the
+integrated states agree to 1e-9 at every step of a held target on a real sea, from the
+working state and from off-centre starts, compiled by numba and as plain Python.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from tests.conftest import random_hybrid_states
+from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.planners import HYBRID_RATE_LIMITS
+from twin.planners.allocation import AllocationPlanner, reachable_range
+from twin.planners.target import TipTarget
+from twin.sim.base_motion import BaseMotion, BaseSamples
+from twin.sim.kernels import allocation as ak
+from twin.sim.kernels import layout as lay
+from twin.sim.kernels.hybrid import hybrid_constants
+from twin.sim.scenario import Scenario
+from twin.sim.target import held_target
+from twin.spatial import invert_transform, pose_to_transform, se3_log, so3_exp
+
+DT = 0.05  # [s]
+N_STEPS = 100
+TOL = 1e-9
+MECHANISM = HybridBoardingSystem()
+
+#: starts: the working state, off-centre, a low platform near the leg minimum (small reach,
+#: clipped shares) and one whose legs are outside their stroke (reach and shares zero)
+STARTS = {
+    "working": MECHANISM.working_state,
+    "off_centre": np.array([0.1, -0.1, 2.6, 0.02, -0.03, 0.05, 0.1, 0.05, 12.0]),
+    "low": np.array([0.0, 0.0, 1.6, 0.0, 0.0, 0.0, 0.0, 0.0, 13.0]),
+    "legs_outside": np.array([0.6, 0.4, 3.0, 0.1, -0.1, 0.2, -0.2, 0.1, 14.0]),
+}
+
+ENGINES = ["python", pytest.param("numba", marks=pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None, reason="numba not installed"))]  # fmt: skip
+
+#: allocation_velocity(x, target, prm, memory, const, dt, v_out, diag_out) -> int
+Step = Callable[..., int]
+
+CONST = hybrid_constants(MECHANISM, HYBRID_RATE_LIMITS)
+
+
+def target_row(target: TipTarget) -> np.ndarray:
+    """A TipTarget as the kernel's (18,) row (layout.TARGET_*)."""
+    return np.r_[target.transform[:3, :3].ravel(), target.transform[:3, 3], target.twist]
+
+
+@pytest.fixture(scope="module")
+def base() -> BaseSamples:
+    """Sea state 6 on the hybrid mount, N_STEPS + 1 samples at DT."""
+    scenario = Scenario(planner="dwa", sea_state=6, seed=3)
+    return BaseMotion.of(scenario).sample(np.arange(N_STEPS + 1) * DT)
+
+
+@pytest.fixture(scope="module")
+def compiled() -> Step:
+    """allocation_velocity behind a tiny njit wrapper (the runner's call, compiled)."""
+    import numba
+
+    kernel = ak.allocation_velocity
+
+    @numba.njit(error_model="numpy")
+    def step(x, target, prm, memory, const, dt, v_out, diag_out):
+        return kernel(x, target, prm, memory, const, dt, v_out, diag_out)
+
+    return step
+
+
+def stepper(engine: str, request: pytest.FixtureRequest) -> Step:
+    return request.getfixturevalue("compiled") if engine == "numba" else ak.allocation_velocity
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("start", list(STARTS))
+@pytest.mark.parametrize("method", ["conv1", "conv2", "dwa"])
+def test_steps_match_planner(
+    method: str, start: str, engine: str, base: BaseSamples, request: pytest.FixtureRequest
+) -> None:
+    """Velocity, position share, carried share and state equal the planner's, every step."""
+    step = stepper(engine, request)
+    xi = STARTS[start].copy()
+    held = base.transform[0] @ MECHANISM.end_effector(xi)
+    planner = AllocationPlanner(MECHANISM, method)
+    planner.reset(xi, held_target(held, base, 0, DT))
+    prm, memory = ak.pack_allocation(planner, hold=False)
+    if start == "legs_outside":
+        assert np.all(memory[ak.M_SHARE : ak.M_SHARE + 3] == 0.0)  # no reach, no share
+    x = xi.copy()  # the kernel's own trajectory
+    v, diag = np.empty(9), np.full(lay.N_HYBRID_DIAGNOSTICS, np.nan)
+    for k in range(N_STEPS):
+        target = held_target(held, base, k, DT)
+        fault = step(x, target_row(target), prm, memory, CONST, DT, v, diag)
+        out = planner.step(xi, target, DT)
+        assert fault == 0
+        np.testing.assert_allclose(v, out.velocity, rtol=TOL, atol=TOL, err_msg=f"step {k}")
+        share = diag[lay.D_POSITION_SHARE : lay.D_POSITION_SHARE + 3]
+        np.testing.assert_allclose(share, out.diagnostics["position_share"], rtol=0, atol=TOL)
+        assert np.all(np.isnan(diag[lay.D_WEIGHTS : lay.D_SCALE + 1]))
+        np.testing.assert_allclose(memory[ak.M_SHARE : ak.M_SHARE + 3], planner._share, atol=TOL)
+        xi = MECHANISM.integrate(xi, out.velocity, DT)
+        x = MECHANISM.integrate(x, v, DT)
+        np.testing.assert_allclose(x, xi, rtol=TOL, atol=TOL, err_msg=f"state at step {k + 1}")
+
+
+@pytest.mark.parametrize("hold", [False, True])
+@pytest.mark.parametrize("method", ["conv1", "conv2", "dwa"])
+def test_pack_round_trip(method: str, hold: bool, base: BaseSamples) -> None:
+    """pack_allocation's rows give back the planner's reset state."""
+    xi = STARTS["off_centre"]
+    planner = AllocationPlanner(MECHANISM, method)
+    planner.reset(xi, held_target(base.transform[0] @ MECHANISM.end_effector(xi), base, 0, DT))
+    prm, memory = ak.pack_allocation(planner, hold)
+    assert prm.shape == (lay.N_PARAMETERS,) and memory.shape == (lay.N_MEMORY,)
+    assert prm[lay.P_KIND] == lay.KIND_ALLOCATION
+    assert prm[lay.P_HOLD] == (1.0 if hold else 0.0)
+    assert prm[ak.P_METHOD] == ak.METHODS[method]
+    manip_mid, range_mid = planner._mid
+    assert prm[ak.P_MANIP_MID] == manip_mid
+    np.testing.assert_array_equal(prm[ak.P_RANGE_MID : ak.P_RANGE_MID + 3], range_mid)
+    np.testing.assert_array_equal(prm[ak.P_T_P0 : ak.P_T_P0 + 12].reshape(3, 4), planner._T_P0[:3])
+    T_E0_inv = prm[ak.P_T_E0_INV : ak.P_T_E0_INV + 12].reshape(3, 4)
+    np.testing.assert_array_equal(T_E0_inv, planner._T_E0_inv[:3])
+    assert prm[ak.P_YAW0] == pytest.approx(xi[5], abs=1e-12)
+    np.testing.assert_array_equal(prm[ak.P_Q0 : ak.P_Q0 + 3], xi[6:])
+    np.testing.assert_array_equal(memory[ak.M_SHARE : ak.M_SHARE + 3], planner._share)
+    assert not np.any(prm[ak.N_ALLOCATION_PARAMETERS :]) and not np.any(memory[3:])
+
+
+def test_pack_refuses_unreset_or_unknown() -> None:
+    with pytest.raises(ValueError, match="reset"):
+        ak.pack_allocation(AllocationPlanner(MECHANISM, "dwa"), hold=False)
+    planner = AllocationPlanner(MECHANISM, "conv3")
+    xi = MECHANISM.working_state
+    planner.reset(xi, TipTarget(MECHANISM.end_effector(xi), np.zeros(6)))
+    with pytest.raises(ValueError, match="conv3"):
+        ak.pack_allocation(planner, hold=False)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_non_finite_target_is_a_planner_fault(engine: str, request: pytest.FixtureRequest) -> None:
+    step = stepper(engine, request)
+    xi = MECHANISM.working_state
+    planner = AllocationPlanner(MECHANISM, "dwa")
+    planner.reset(xi, TipTarget(MECHANISM.end_effector(xi), np.zeros(6)))
+    prm, memory = ak.pack_allocation(planner, hold=False)
+    target = target_row(TipTarget(MECHANISM.end_effector(xi), np.zeros(6)))
+    target[lay.TARGET_P] = np.nan
+    v, diag = np.empty(9), np.zeros(lay.N_HYBRID_DIAGNOSTICS)
+    assert step(xi, target, prm, memory, CONST, DT, v, diag) == lay.FAULT_PLANNER
+
+
+def test_primitives_match_twin(rng: np.random.Generator) -> None:
+    """Legs, manipulability, reachable range, gangway inverse, so3_exp and se3_log of one lane
+    equal the batched twin functions, inside and outside the leg stroke."""
+    states = np.concatenate([random_hybrid_states(rng, 20), random_hybrid_states(rng, 10, 1.0)])
+    states = np.concatenate([states, np.array(list(STARTS.values()))])
+    vectors, lengths, R, reach, q = np.empty((6, 3)), np.empty(6), np.empty((3, 3)), *(
+        np.empty(3) for _ in range(2))  # fmt: skip
+    for xi in states:
+        T = pose_to_transform(xi[:6])
+        legs = MECHANISM.stewart.legs(xi[:6])
+        ak.leg_vectors_lane(T[:3, :3], T[:3, 3], CONST, vectors, lengths)
+        np.testing.assert_allclose(vectors, legs.vectors, atol=1e-12)
+        np.testing.assert_allclose(lengths, legs.lengths, atol=1e-12)
+        manip = ak.manipulability_lane(T[:3, :3], vectors, lengths, CONST)
+        assert manip == pytest.approx(MECHANISM.manipulability(xi), rel=1e-12)
+        ak.reachable_range_lane(vectors, lengths, CONST, reach)
+        np.testing.assert_allclose(reach, reachable_range(MECHANISM, xi[:6]), atol=1e-12)
+        tip = MECHANISM.gangway.forward(xi[6:])[:3, 3]
+        ak.gangway_inverse_lane(*tip, CONST, q)
+        np.testing.assert_allclose(q, xi[6:], atol=1e-12)
+        ak.so3_exp_lane(*xi[3:6], R)
+        np.testing.assert_allclose(R, so3_exp(xi[3:6]), atol=1e-14)
+        relative = invert_transform(pose_to_transform(states[0, :6])) @ T
+        twist = np.empty(6)
+        ak.se3_log_lane(relative[:3, :3], relative[:3, 3], twist)
+        np.testing.assert_allclose(twist, se3_log(relative), atol=1e-12)
+    ak.so3_exp_lane(1e-10, -2e-10, 3e-10, R)  # the small-angle branch
+    np.testing.assert_allclose(R, so3_exp(np.array([1e-10, -2e-10, 3e-10])), atol=1e-15)
+
+
+def test_runner_is_bound_to_the_kernel() -> None:
+    """Whichever module was imported first, hybrid's runner calls allocation_velocity."""
+    from twin.sim.kernels import hybrid
+
+    assert hybrid.allocation_velocity is ak.allocation_velocity

@@ -1,0 +1,475 @@
+"""The hybrid kernel (`twin.sim.kernels.hybrid`) against its oracles, step by step, to 1e-9.
+
+The oracles are the readable objects: `DifferentialPlanner.step` (PI, WPI, MTMP from the
+registry), the step guard of the former `twin.sim.hybrid_rig.HybridRig.advance` (restated
+below in numpy: `limit_scale`, `advance`) and the `twin.spatial` / `HybridBoardingSystem`
+functions the shared primitives restate. Both the numba runner and the plain-Python one (the
+fallback without numba) are checked.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.errors import TwinError
+from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.planners import PlannerParameters, get_planner
+from twin.planners.differential import DifferentialPlanner
+from twin.planners.registry import HYBRID_RATE_LIMITS
+from twin.planners.target import TipTarget
+from twin.planners.tasks import JointPostureTask, TipPoseTask
+from twin.sim.base_motion import BaseSamples
+from twin.sim.faults import Fault
+from twin.sim.kernels import hybrid as hk
+from twin.sim.kernels import layout
+from twin.sim.target import held_target
+from twin.spatial import matrix_to_rpy, pose_to_transform, rpy_to_matrix, so3_exp, so3_log
+
+numba = pytest.importorskip("numba")
+
+H = HybridBoardingSystem()
+CONST = hk.hybrid_constants(H, HYBRID_RATE_LIMITS)
+DT = 0.01
+TOL = 1e-9
+PLANNERS = ("pi", "wpi", "mtmp")
+
+
+def base_samples(n: int, amplitude: float = 1.0) -> BaseSamples:
+    """A smooth multi-axis base motion, n samples at DT [s] (heave up to 0.6 m, roll 3°)."""
+    t = np.arange(n) * DT
+    pose = amplitude * np.stack(
+        [
+            0.3 * np.sin(1.1 * t),
+            0.2 * np.sin(0.9 * t + 0.3),
+            0.6 * np.sin(0.8 * t + 1.0),
+            0.05 * np.sin(0.7 * t),
+            0.04 * np.sin(0.6 * t + 0.5),
+            0.03 * np.sin(0.5 * t + 0.2),
+        ],
+        -1,
+    )
+    return BaseSamples(t, pose, pose_to_transform(pose))
+
+
+def packed(target: TipTarget) -> np.ndarray:
+    """A `TipTarget` as the kernels' (N_TARGET,) row (layout `TARGET_*`)."""
+    row = np.empty(layout.N_TARGET)
+    row[layout.TARGET_R : layout.TARGET_R + 9] = target.transform[:3, :3].reshape(9)
+    row[layout.TARGET_P : layout.TARGET_P + 3] = target.transform[:3, 3]
+    row[layout.TARGET_V : layout.TARGET_V + 6] = target.twist
+    return row
+
+
+def build(name: str, parameters: PlannerParameters, xi0: np.ndarray) -> DifferentialPlanner:
+    return get_planner(name, "hybrid").build(H, parameters, xi0)
+
+
+#: states (9,) [m, rad]: the working state, off-centre ones, next to joint limits (q1 inside
+#: Algorithm 1's band, q2, d3 and the platform roll near theirs), and one with legs beyond
+#: their stroke (the platform too low: legs shorter than Table 1's 2.58 m)
+STATES = {
+    "working": H.working_state,
+    "off_centre": H.working_state + np.array([0.3, -0.2, 0.25, 0.08, -0.1, 0.15, 0.2, -0.15, 2.0]),
+    "off_centre_2": H.working_state
+    + np.array([-0.5, 0.4, -0.3, -0.2, 0.12, -0.3, -0.35, 0.3, -1.5]),
+    "near_joint_limit": np.r_[
+        0.0, 0.0, 2.475, H.upper[3] - 0.01, 0.0, 0.0, H.upper[6] - 0.02, H.upper[7] - 1e-3, 16.5
+    ],
+    "beyond_leg_limit": H.working_state + np.array([0, 0, -0.9, 0.1, 0.05, 0, 0.1, 0.05, -1.0]),
+}
+
+
+#: bisection steps of the rig's `limit_scale`
+LIMIT_BISECTIONS = 12
+
+
+def limit_scale(
+    mechanism: HybridBoardingSystem, xi: np.ndarray, velocity: np.ndarray, dt: float
+) -> float:
+    """The former `twin.sim.hybrid_rig.limit_scale`, verbatim: the largest s in [0, 1] such that
+    the step s·velocity·dt carries no joint and no leg further past its limit than it already
+    is, bisected 12 times."""
+    now = mechanism.limit_excess(xi) + 1e-12
+
+    def fits(s: float) -> bool:
+        return bool(
+            np.all(mechanism.limit_excess(mechanism.integrate(xi, s * velocity, dt)) <= now)
+        )
+
+    if fits(1.0):
+        return 1.0
+    low, high = 0.0, 1.0
+    for _ in range(LIMIT_BISECTIONS):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if fits(mid) else (low, mid)
+    return low
+
+
+def advance(
+    planner: DifferentialPlanner, x: np.ndarray, target: TipTarget, hold: bool
+) -> tuple[np.ndarray, dict, np.ndarray, float, int]:
+    """The former `HybridRig.advance` on one state: plan, then hold on a non-finite velocity
+    (PLANNER) or shorten the step at a limit in hold mode (JOINT_LIMIT), flag damping
+    (SINGULAR), integrate. Returns (velocity, diagnostics, next xi, limit scale, fault bits)."""
+    out = planner.step(x, target, DT)
+    v = out.velocity
+    bits = Fault.SINGULAR if out.diagnostics.get("damping", 0.0) > 0 else Fault(0)
+    if not np.all(np.isfinite(v)):
+        return v, out.diagnostics, x.copy(), 0.0, int(bits | Fault.PLANNER)
+    scale = limit_scale(H, x, v, DT) if hold else 1.0
+    if scale < 1.0:
+        bits |= Fault.JOINT_LIMIT
+    return v, out.diagnostics, H.integrate(x, scale * v, DT), scale, int(bits)
+
+
+def step_oracle(
+    name: str, parameters: PlannerParameters, x: np.ndarray, target: TipTarget, hold: bool
+) -> tuple[np.ndarray, dict, np.ndarray, float, int]:
+    """`advance` with the registry's planner `name` built at x."""
+    return advance(build(name, parameters, x), x, target, hold)
+
+
+def run_one(
+    runner: object, x: np.ndarray, target: np.ndarray, prm: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """One step of `runner` (run_hybrid's signature) on one lane: (next xi, v·s·dt-free diag,
+    …): returns (next xi (9,), diag (16,), the kernel's velocity (9,), fault bits)."""
+    xs = np.empty((1, 2, 9))
+    xs[0, 0] = x
+    diag = np.full((1, 1, layout.N_HYBRID_DIAGNOSTICS), -7.0)
+    faults = np.full((1, 1), -1, dtype=np.int64)
+    memory = np.zeros((1, layout.N_MEMORY))
+    runner(xs, target[None, None], prm[None], memory, CONST, DT, diag, faults)
+    v = np.empty(9)
+    hk.differential_velocity(
+        x, target, prm, CONST, np.empty((6, 9)), np.empty((6, 6)), np.empty((6, 6)),
+        np.empty(9), v, np.empty(layout.N_HYBRID_DIAGNOSTICS),
+    )  # fmt: skip
+    return xs[0, 1], diag[0, 0], v, int(faults[0, 0])
+
+
+@pytest.fixture(scope="module")
+def compiled() -> object:
+    return hk.compiled_hybrid(False)
+
+
+def assert_diagnostics(diag: np.ndarray, expected: dict) -> None:
+    np.testing.assert_allclose(diag[layout.D_WEIGHTS : layout.D_WEIGHTS + 9], expected["weights"],
+                               rtol=0, atol=TOL)  # fmt: skip
+    for row, key in (
+        (layout.D_SHARE, "null_space_share"),
+        (layout.D_DAMPING, "damping"),
+        (layout.D_SCALE, "velocity_scale"),
+    ):
+        np.testing.assert_allclose(diag[row], expected[key], rtol=0, atol=TOL, err_msg=key)
+
+
+@pytest.mark.parametrize("hold", [False, True], ids=["record", "hold"])
+@pytest.mark.parametrize("name", PLANNERS)
+@pytest.mark.parametrize("state", list(STATES))
+def test_one_step_matches_the_planner_and_the_rig(
+    name: str, hold: bool, state: str, compiled: object
+) -> None:
+    """Velocity, diagnostics, next state, limit scale and faults of one step from each state,
+    for targets from the simulation's held target at several samples of a base motion."""
+    x = STATES[state]
+    base = base_samples(400)
+    held = base.transform[0] @ H.end_effector(H.working_state)  # ᴵT_E*, HybridRig.reset
+    prm = hk.pack_differential(build(name, PlannerParameters(), x), hold)
+    for k in (0, 57, 211, 398):
+        target = held_target(held, base, k, DT)
+        v, expected, x_next, scale, bits = step_oracle(name, PlannerParameters(), x, target, hold)
+        for runner in (compiled, hk.run_hybrid):
+            got_x, diag, got_v, got_bits = run_one(runner, x, packed(target), prm)
+            np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
+            assert_diagnostics(diag, expected)
+            assert diag[layout.D_LIMIT_SCALE] == scale
+            np.testing.assert_allclose(got_x, x_next, rtol=0, atol=TOL)
+            assert got_bits == bits
+
+
+def test_the_states_cover_the_limit_cases() -> None:
+    """The test states are what their names say: one leg beyond its stroke, joints near limits,
+    and the hold mode shortens at least one step from them (checked by the oracle)."""
+    legs = H.leg_lengths(STATES["beyond_leg_limit"])
+    assert np.any(legs < H.stewart.leg_min)
+    assert np.all(H.limit_excess(STATES["beyond_leg_limit"])[:9] == 0)
+    assert np.all(H.limit_excess(STATES["near_joint_limit"]) == 0)
+    assert np.any(H.upper - STATES["near_joint_limit"] < 0.03)
+    base = base_samples(3)
+    target = held_target(base.transform[0] @ H.end_effector(H.working_state), base, 0, DT)
+    shortened = [
+        step_oracle(name, PlannerParameters(), x, target, True)[3] < 1
+        for name in PLANNERS
+        for x in STATES.values()
+    ]
+    assert any(shortened)
+
+
+@pytest.mark.parametrize("hold", [False, True], ids=["record", "hold"])
+@pytest.mark.parametrize("name", PLANNERS)
+def test_chunk_follows_the_rig(name: str, hold: bool, compiled: object) -> None:
+    """A 60-step chunk equals the rig (`advance`) stepping the same base motion from its held
+    tip pose, every step; the plain-Python runner gives the same numbers."""
+    n = 60
+    base = base_samples(n + 1, amplitude=4.0)  # rough enough for the rate limit and Algorithm 1
+    start = STATES["off_centre"]
+    held = base.transform[0] @ H.end_effector(start)  # ᴵT_E*, fixed at reset
+    planner = build(name, PlannerParameters(), start)
+    planner.reset(start, held_target(held, base, 0, DT))
+    targets = np.stack([packed(held_target(held, base, k, DT)) for k in range(n)])
+    prm = hk.pack_differential(planner, hold)
+    runs = {}
+    for label, runner in (("compiled", compiled), ("python", hk.run_hybrid)):
+        xs = np.empty((1, n + 1, 9))
+        xs[0, 0] = start
+        diag = np.empty((1, n, layout.N_HYBRID_DIAGNOSTICS))
+        faults = np.empty((1, n), dtype=np.int64)
+        runner(xs, targets[None], prm[None], np.zeros((1, layout.N_MEMORY)), CONST, DT, diag,
+               faults)  # fmt: skip
+        runs[label] = xs[0], diag[0], faults[0]
+    xs, diag, faults = runs["compiled"]
+    x = start.copy()
+    kinds = Fault(0)
+    for k in range(n):
+        _, expected, x, scale, bits = advance(planner, x, held_target(held, base, k, DT), hold)
+        np.testing.assert_allclose(xs[k + 1], x, rtol=0, atol=TOL, err_msg=f"k={k}")
+        assert_diagnostics(diag[k], expected)
+        assert diag[k, layout.D_LIMIT_SCALE] == pytest.approx(scale, abs=TOL)
+        assert faults[k] == bits
+        kinds |= Fault(bits)
+        x = xs[k + 1].copy()  # the oracle continues from the kernel's state (no drift)
+    assert hold == bool(kinds & Fault.JOINT_LIMIT)  # the chunk reaches a limit
+    for got, want in zip(runs["python"], runs["compiled"], strict=True):
+        np.testing.assert_allclose(got, want, rtol=0, atol=TOL)
+
+
+@pytest.mark.parametrize("name", PLANNERS)
+def test_damping_zero_with_rank_deficient_weights(name: str, compiled: object) -> None:
+    """β = 0 leaves only the gangway (J_W of rank 3); with λ_max = 0 `weighted_pinv` drops the
+    lost singular values (its SVD form): the kernel gives the same numbers, no SINGULAR."""
+    parameters = PlannerParameters(beta=0.0, damping=0.0)
+    base = base_samples(100)
+    held = base.transform[0] @ H.end_effector(H.working_state)
+    for x in (STATES["working"], STATES["off_centre"]):
+        prm = hk.pack_differential(build(name, parameters, x), False)
+        for k in (3, 80):
+            target = held_target(held, base, k, DT)
+            v, expected, x_next, _, bits = step_oracle(name, parameters, x, target, False)
+            for runner in (compiled, hk.run_hybrid):
+                got_x, diag, got_v, got_bits = run_one(runner, x, packed(target), prm)
+                np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
+                assert_diagnostics(diag, expected)
+                np.testing.assert_allclose(got_x, x_next, rtol=0, atol=TOL)
+                assert got_bits == bits
+    if name != "pi":  # β reaches the weights: the platform does not move
+        assert np.all(got_v[:6] == 0)
+
+
+@pytest.mark.parametrize("beta", [0.0, 2e-5])
+@pytest.mark.parametrize("name", ["wpi", "mtmp"])
+def test_damping_engages_near_a_singularity(name: str, beta: float, compiled: object) -> None:
+    """σ_min(J_W) < ε (β → 0 starves the platform): λ > 0, the SINGULAR bit, same numbers; at
+    β = 2e-5 λ lies strictly between 0 and λ_max (the smooth part of the filter)."""
+    parameters = PlannerParameters(beta=beta)
+    base = base_samples(50)
+    held = base.transform[0] @ H.end_effector(H.working_state)
+    x = STATES["off_centre"]
+    target = held_target(held, base, 20, DT)
+    v, expected, x_next, _, bits = step_oracle(name, parameters, x, target, True)
+    assert bits & Fault.SINGULAR
+    assert 0 < expected["damping"] <= parameters.damping
+    if beta > 0:
+        assert expected["damping"] < parameters.damping
+    prm = hk.pack_differential(build(name, parameters, x), True)
+    for runner in (compiled, hk.run_hybrid):
+        got_x, diag, got_v, got_bits = run_one(runner, x, packed(target), prm)
+        np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
+        assert_diagnostics(diag, expected)
+        np.testing.assert_allclose(got_x, x_next, rtol=0, atol=TOL)
+        assert got_bits == bits == layout.FAULT_SINGULAR | (bits & layout.FAULT_JOINT_LIMIT)
+
+
+@pytest.mark.parametrize("row", [layout.TARGET_R + 4, layout.TARGET_P + 1, layout.TARGET_W + 2])
+@pytest.mark.parametrize("name", PLANNERS)
+def test_nan_target_holds_the_state(name: str, row: int, compiled: object) -> None:
+    """A NaN in the target: the planner's velocity is not finite, so the lane is held (same
+    xi), FAULT_PLANNER, limit scale 0, and the planner's weights still reported."""
+    base = base_samples(10)
+    held = base.transform[0] @ H.end_effector(H.working_state)
+    x = STATES["off_centre"]
+    target = packed(held_target(held, base, 2, DT))
+    target[row] = np.nan
+    prm = hk.pack_differential(build(name, PlannerParameters(), x), True)
+    oracle = build(name, PlannerParameters(), x).step(
+        x,
+        TipTarget(
+            np.r_[np.c_[target[:9].reshape(3, 3), target[9:12]], [[0, 0, 0, 1.0]]], target[12:]
+        ),
+        DT,
+    )
+    assert not np.all(np.isfinite(oracle.velocity))
+    for runner in (compiled, hk.run_hybrid):
+        got_x, diag, got_v, bits = run_one(runner, x, target, prm)
+        assert np.array_equal(got_x, x)
+        assert bits & layout.FAULT_PLANNER
+        assert not bits & layout.FAULT_JOINT_LIMIT
+        assert diag[layout.D_LIMIT_SCALE] == 0.0
+        np.testing.assert_allclose(diag[:9], oracle.diagnostics["weights"], rtol=0, atol=TOL)
+        assert np.array_equal(np.isfinite(got_v), np.isfinite(oracle.velocity))
+
+
+def test_lanes_are_independent_in_the_parallel_runner(compiled: object) -> None:
+    """Six lanes (three planners × record/hold, different starts) in one parallel call equal
+    each lane run alone by the serial runner."""
+    parallel = hk.compiled_hybrid(True)
+    n, lanes = 25, [(name, hold) for name in PLANNERS for hold in (False, True)]
+    base = base_samples(n + 1, amplitude=3.0)
+    starts = list(STATES.values())
+    xs = np.empty((len(lanes), n + 1, 9))
+    targets = np.empty((len(lanes), n, layout.N_TARGET))
+    prm = np.empty((len(lanes), layout.N_PARAMETERS))
+    for i, (name, hold) in enumerate(lanes):
+        xs[i, 0] = starts[i % len(starts)]
+        held = base.transform[0] @ H.end_effector(xs[i, 0])
+        targets[i] = [packed(held_target(held, base, k, DT)) for k in range(n)]
+        prm[i] = hk.pack_differential(build(name, PlannerParameters(), xs[i, 0]), hold)
+    memory = np.zeros((len(lanes), layout.N_MEMORY))
+    diag = np.empty((len(lanes), n, layout.N_HYBRID_DIAGNOSTICS))
+    faults = np.empty((len(lanes), n), dtype=np.int64)
+    parallel(xs, targets, prm, memory, CONST, DT, diag, faults)
+    for i in range(len(lanes)):
+        one_xs, one_diag = xs[i : i + 1].copy(), np.empty_like(diag[i : i + 1])
+        one_faults = np.empty_like(faults[i : i + 1])
+        compiled(one_xs, targets[i : i + 1], prm[i : i + 1], memory[i : i + 1], CONST, DT,
+                 one_diag, one_faults)  # fmt: skip
+        np.testing.assert_allclose(one_xs[0], xs[i], rtol=0, atol=TOL)
+        np.testing.assert_allclose(one_diag[0, :, :12], diag[i, :, :12], rtol=0, atol=TOL)
+        assert np.array_equal(one_faults[0], faults[i])
+
+
+# ------------------------------------------------------------------------- shared primitives
+
+
+@numba.njit(cache=True)
+def _primitives(
+    x: np.ndarray, v: np.ndarray, R: np.ndarray, dt: float, const: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+           float]:  # fmt: skip
+    """Every shared primitive compiled, on one input."""
+    T, w, rpy, R_out = np.empty((4, 4)), np.empty(3), np.empty(3), np.empty((3, 3))
+    x_next, legs, excess = np.empty(9), np.empty(6), np.empty(15)
+    hk.tip_transform(x, const, T)
+    hk.so3_log_lane(R, w)
+    hk.matrix_to_rpy_lane(R, rpy)
+    hk.rpy_to_matrix_lane(x[3], x[4], x[5], R_out)
+    hk.integrate_hybrid(x, v, dt, x_next)
+    hk.leg_lengths_lane(x, const, legs)
+    hk.limit_excess_lane(x, const, excess)
+    return T, w, rpy, R_out, x_next, legs, excess, hk.limit_scale_lane(x, v, dt, const)
+
+
+def _primitives_python(
+    x: np.ndarray, v: np.ndarray, R: np.ndarray, dt: float, const: np.ndarray
+) -> tuple:
+    return _primitives.py_func(x, v, R, dt, const)
+
+
+@pytest.mark.parametrize("run", [_primitives, _primitives_python], ids=["compiled", "python"])
+def test_primitives_match_the_mechanism(run: object, rng: np.random.Generator) -> None:
+    """tip_transform, so3_log_lane (small, generic and near-π angles), matrix_to_rpy_lane,
+    rpy_to_matrix_lane, integrate_hybrid, leg_lengths_lane, limit_excess_lane and
+    limit_scale_lane (exactly) against `twin.spatial` / `HybridBoardingSystem` / `limit_scale`."""
+    spread = np.r_[0.4, 0.4, 0.4, 0.3, 0.3, 0.3, 0.3, 0.3, 2.0]
+    axis = np.array([1.0, 2.0, -2.0]) / 3.0
+    rotations = [1e-9 * axis, 1e-7 * axis, 0.3 * axis, 2.0 * axis, (np.pi - 1e-6) * axis]
+    rotations += [np.pi * np.array([0.0, 0.0, 1.0]), (np.pi - 5e-5) * np.array([0.6, -0.8, 0])]
+    shortened = 0
+    for i in range(40):
+        x = H.working_state + rng.normal(size=9) * spread
+        v = rng.normal(size=9) * (30.0 if i % 2 else 0.3)
+        R = so3_exp(rotations[i % len(rotations)] if i < 14 else rng.normal(size=3))
+        T, w, rpy, R_out, x_next, legs, excess, scale = run(x, v, R, DT, CONST)
+        np.testing.assert_allclose(T, H.end_effector(x), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(w, so3_log(R), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(rpy, matrix_to_rpy(R), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(R_out, rpy_to_matrix(x[3:6]), rtol=0, atol=1e-15)
+        np.testing.assert_allclose(x_next, H.integrate(x, v, DT), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(legs, H.leg_lengths(x), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(excess, H.limit_excess(x), rtol=0, atol=1e-12)
+        assert scale == limit_scale(H, x, v, DT)
+        shortened += scale < 1
+    assert shortened > 3  # the bisection ran
+
+
+def test_constants_and_fault_bits() -> None:
+    """`hybrid_constants` rows, the fault bits equal `Fault`'s, the bisection count the rig's."""
+    assert CONST.shape == (layout.N_HYBRID_CONSTANTS,)
+    np.testing.assert_array_equal(CONST[layout.C_LOWER : layout.C_LOWER + 9], H.lower)
+    np.testing.assert_array_equal(CONST[layout.C_UPPER : layout.C_UPPER + 9], H.upper)
+    np.testing.assert_array_equal(CONST[layout.C_RATE : layout.C_RATE + 9], HYBRID_RATE_LIMITS)
+    assert (CONST[layout.C_D1], CONST[layout.C_A1]) == (H.gangway.d1, H.gangway.a1)
+    hinges = CONST[layout.C_BASE_HINGES : layout.C_BASE_HINGES + 18].reshape(6, 3)
+    np.testing.assert_array_equal(hinges, H.layout.base_hinges)
+    hinges = CONST[layout.C_PLATFORM_HINGES : layout.C_PLATFORM_HINGES + 18].reshape(6, 3)
+    np.testing.assert_array_equal(hinges, H.layout.platform_hinges)
+    assert (CONST[layout.C_LEG_MIN], CONST[layout.C_LEG_MAX]) == (2.58, 4.18)
+    assert layout.FAULT_BASE_MOTION == Fault.BASE_MOTION
+    assert layout.FAULT_PLANNER == Fault.PLANNER
+    assert layout.FAULT_KINEMATICS == Fault.KINEMATICS
+    assert layout.FAULT_JOINT_LIMIT == Fault.JOINT_LIMIT
+    assert layout.FAULT_SINGULAR == Fault.SINGULAR
+    assert hk.LIMIT_BISECTIONS == LIMIT_BISECTIONS
+    assert hk.P_DIFFERENTIAL_END <= layout.N_PARAMETERS
+
+
+# ------------------------------------------------------------------------------------ packing
+
+
+def test_every_registry_planner_packs(rng: np.random.Generator) -> None:
+    """PI, WPI and MTMP pack for defaults, the range ends and random parameters in range; the
+    row holds the knobs where the kernel reads them."""
+    fields = PlannerParameters.model_fields
+    corners = [PlannerParameters(), PlannerParameters(damping=0.0, beta=0.0),
+               PlannerParameters(beta=1.0, l=0.0, k_e=0.0, k_a2=0.0)]  # fmt: skip
+    for _ in range(20):
+        values = {}
+        for key in ("k_e", "beta", "l", "k_c", "sigma", "q1_rate_max", "k_a2", "damping"):
+            low = max(m.ge for m in fields[key].metadata if hasattr(m, "ge")) if any(
+                hasattr(m, "ge") for m in fields[key].metadata) else 1e-3  # fmt: skip
+            high = next(m.le for m in fields[key].metadata if hasattr(m, "le"))
+            values[key] = float(rng.uniform(low, high))
+        corners.append(PlannerParameters(**values))
+    for parameters in corners:
+        for name in PLANNERS:
+            planner = build(name, parameters, H.working_state)
+            prm = hk.pack_differential(planner, name == "mtmp")
+            assert prm.shape == (layout.N_PARAMETERS,)
+            assert np.all(np.isfinite(prm))
+            assert prm[layout.P_KIND] == layout.KIND_DIFFERENTIAL
+            assert prm[layout.P_HOLD] == (name == "mtmp")
+            assert prm[hk.P_GAIN] == parameters.k_e
+            assert prm[hk.P_DAMPING] == parameters.damping
+            assert prm[hk.P_JOINT_LIMITS] == prm[hk.P_SLEW] == (name == "mtmp")
+            assert prm[hk.P_POSTURE_INDEX] == (7 if name == "mtmp" else -1)
+            np.testing.assert_array_equal(prm[hk.P_RATE : hk.P_RATE + 9], HYBRID_RATE_LIMITS)
+
+
+def test_packing_refuses_what_the_kernel_cannot_run() -> None:
+    """TwinError for parts the kernel does not implement, instead of wrong numbers."""
+    mtmp = build("mtmp", PlannerParameters(), H.working_state)
+    tip = TipPoseTask(H)
+    task = JointPostureTask(index=7, setpoint=0.0)
+    refused = [
+        DifferentialPlanner(tip, secondary=(task, task)),
+        DifferentialPlanner(tip, weights=lambda q: np.ones(q.shape)),
+        DifferentialPlanner(tip, epsilon=0.0),
+        get_planner("dwa", "hybrid").build(H, PlannerParameters(), H.working_state),
+        DifferentialPlanner(
+            tip, weights=type(mtmp.weights)((mtmp.weights.parts[1], mtmp.weights.parts[1]))
+        ),
+    ]
+    for planner in refused:
+        with pytest.raises(TwinError):
+            hk.pack_differential(planner, False)

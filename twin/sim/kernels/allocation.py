@@ -1,0 +1,437 @@
+r"""The position-level planners of seed 004 (conv1, conv2, dwa) as a one-lane compiled kernel.
+
+`allocation_velocity` is `twin.planners.allocation.AllocationPlanner.step` written on one lane
+(floats and small arrays, `register_jitable`): the runner `twin.sim.kernels.hybrid.run_hybrid`
+calls it under numba, and without numba it runs as plain Python on the same numbers. The
+planner object stays the readable statement and the tests' oracle (to 1e-9, step after step).
+
+Each step splits the compensating motion C = ᴮT_E,d(t + dt) · ᴮT_E(0)⁻¹ (seed 000 §5.1)
+between the Stewart platform and the gangway and solves the gangway's analytic inverse
+(seed 004 eqs (7)-(8)) for the tip position; DWA's position shares [λ_p w_i]³ (seed 004 §3.2)
+come from the Stewart manipulability (seed 004 §3.1 b) and the closed-form reachable range
+(seed 004 §3.1 c) of the previous step's pose, carried in the lane's `memory`.
+
+`prm` rows from `P_FAMILY` on (constant for the lane; packed by `pack_allocation`):
+
+- `P_METHOD`: `METHOD_CONV1`, `METHOD_CONV2` or `METHOD_DWA`;
+- `P_MANIP_MID`, `P_RANGE_MID` (3): Stewart manipulability [-] and reachable range Δx, Δy,
+  Δz [m] at the working state, DWA's normalisers;
+- `P_T_P0` (12): ᴮT_P(0) rows 0-2 row-major (ᴮR_P | ᴮp_P [m]), the platform at reset;
+- `P_T_E0_INV` (12): ᴮT_E(0)⁻¹ rows 0-2 row-major, the inverse tip pose at reset;
+- `P_YAW0`: [rad] the platform yaw at reset (the slew joint takes the yaw, dwa);
+- `P_Q0` (3): [rad, rad, m] the gangway joints at reset (conv1 keeps them).
+
+`memory` rows: `M_SHARE` (3), DWA's position shares for the next step (seed 004's t − 1).
+
+Import order: this module imports the shared one-lane primitives from
+`twin.sim.kernels.hybrid` at its top; `hybrid` reaches `allocation_velocity` lazily
+(`hybrid.bind_allocation`, at the end of its import and before compiling), and this module
+calls `bind_allocation` again at its end, so either import order binds the runner.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+import twin.sim.kernels.hybrid as hybrid_kernel
+from twin.sim.kernels.hybrid import matrix_to_rpy_lane, rpy_to_matrix_lane, so3_log_lane
+from twin.sim.kernels.layout import (
+    C_A1,
+    C_BASE_HINGES,
+    C_D1,
+    C_LEG_MAX,
+    C_LEG_MIN,
+    C_PLATFORM_HINGES,
+    D_DAMPING,
+    D_POSITION_SHARE,
+    D_SCALE,
+    D_SHARE,
+    D_WEIGHTS,
+    FAULT_PLANNER,
+    KIND_ALLOCATION,
+    N_MEMORY,
+    N_PARAMETERS,
+    P_FAMILY,
+    P_HOLD,
+    P_KIND,
+    TARGET_P,
+    TARGET_R,
+    TARGET_V,
+    TARGET_W,
+)
+from twin.spatial import matrix_to_rpy
+
+if TYPE_CHECKING:
+    from twin.planners.allocation import AllocationPlanner
+
+try:  # numba is optional: without it these are plain Python functions on one lane
+    from numba.extending import register_jitable
+except ImportError:  # pragma: no cover - exercised where numba is not installed
+
+    def register_jitable(function: Callable) -> Callable:
+        """Identity: the function runs as plain Python."""
+        return function
+
+
+#: Methods (prm[P_METHOD]).
+METHOD_CONV1, METHOD_CONV2, METHOD_DWA = 0, 1, 2
+METHODS = {"conv1": METHOD_CONV1, "conv2": METHOD_CONV2, "dwa": METHOD_DWA}
+#: prm rows of the allocation family (see the module docstring).
+P_METHOD = P_FAMILY
+P_MANIP_MID = P_FAMILY + 1
+P_RANGE_MID = P_FAMILY + 2
+P_T_P0 = P_FAMILY + 5
+P_T_E0_INV = P_FAMILY + 17
+P_YAW0 = P_FAMILY + 29
+P_Q0 = P_FAMILY + 30
+N_ALLOCATION_PARAMETERS = P_FAMILY + 33
+#: memory rows: DWA's position shares (3).
+M_SHARE = 0
+N_ALLOCATION_MEMORY = 3
+assert N_ALLOCATION_PARAMETERS <= N_PARAMETERS and N_ALLOCATION_MEMORY <= N_MEMORY
+
+
+# ---------------------------------------------------------------------------------------------
+# Primitives of the allocation planners
+# ---------------------------------------------------------------------------------------------
+
+
+@register_jitable
+def so3_exp_lane(w0: float, w1: float, w2: float, R_out: np.ndarray) -> None:
+    """Rodrigues (`twin.spatial.so3_exp`): rotation vector [rad] → R_out (3, 3)."""
+    theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    if theta < 1e-8:
+        a, b = 1.0 - theta**2 / 6.0, 0.5 - theta**2 / 24.0
+    else:
+        a, b = math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta**2
+    # I + a K + b K², K = skew(w), K² = w wᵀ − |w|² I
+    R_out[0, 0] = 1.0 + b * (-w2 * w2 - w1 * w1)
+    R_out[1, 1] = 1.0 + b * (-w2 * w2 - w0 * w0)
+    R_out[2, 2] = 1.0 + b * (-w1 * w1 - w0 * w0)
+    R_out[0, 1], R_out[1, 0] = -a * w2 + b * w0 * w1, a * w2 + b * w0 * w1
+    R_out[0, 2], R_out[2, 0] = a * w1 + b * w0 * w2, -a * w1 + b * w0 * w2
+    R_out[1, 2], R_out[2, 1] = -a * w0 + b * w1 * w2, a * w0 + b * w1 * w2
+
+
+@register_jitable
+def se3_log_lane(R: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """`twin.spatial.se3_log` of the transform [R (3, 3), p (3,) [m]]: body twist [v; ω]
+    (6,) [m, rad] into out, with V⁻¹ of Lynch & Park eq (3.92)."""
+    w = np.empty(3)
+    so3_log_lane(R, w)
+    w0, w1, w2 = w[0], w[1], w[2]
+    theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    if theta < 1e-6:
+        d = 1.0 / 12.0 + theta**2 / 720.0
+    else:
+        d = (1.0 - theta * math.sin(theta) / (2.0 * (1.0 - math.cos(theta)))) / theta**2
+    # V⁻¹ = I − K/2 + d K², K = skew(w)
+    k00, k11, k22 = -w2 * w2 - w1 * w1, -w2 * w2 - w0 * w0, -w1 * w1 - w0 * w0
+    k01, k02, k12 = w0 * w1, w0 * w2, w1 * w2
+    out[0] = (1.0 + d * k00) * p[0] + (0.5 * w2 + d * k01) * p[1] + (-0.5 * w1 + d * k02) * p[2]
+    out[1] = (-0.5 * w2 + d * k01) * p[0] + (1.0 + d * k11) * p[1] + (0.5 * w0 + d * k12) * p[2]
+    out[2] = (0.5 * w1 + d * k02) * p[0] + (-0.5 * w0 + d * k12) * p[1] + (1.0 + d * k22) * p[2]
+    out[3], out[4], out[5] = w0, w1, w2
+
+
+@register_jitable
+def gangway_inverse_lane(
+    px: float, py: float, pz: float, const: np.ndarray, q_out: np.ndarray
+) -> None:
+    """Gangway joints [q1, q2, d3] [rad, rad, m] into q_out (3,) that put the tip at ᴾp
+    [m] in the platform frame: seed 004 eqs (7)-(8) as `twin.mechanisms.gangway.Gangway.inverse`
+    writes them (d3 = hypot(p_x/cos θ1 − a1, d1 − p_z), never singular), unchecked."""
+    rho = math.hypot(px, py) - const[C_A1]
+    height = const[C_D1] - pz
+    q_out[0] = math.atan2(py, px)
+    q_out[1] = math.atan2(rho, height) - math.pi / 2
+    q_out[2] = math.hypot(rho, height)
+
+
+@register_jitable
+def leg_vectors_lane(
+    R: np.ndarray,
+    p: np.ndarray,
+    const: np.ndarray,
+    vectors_out: np.ndarray,
+    lengths_out: np.ndarray,
+) -> None:
+    """Stewart legs of the platform pose [ᴮR_P (3, 3), ᴮp_P (3,) [m]] (seed 000 eqs (4)-(5),
+    `twin.mechanisms.legs.legs`): l_i = ᴮR_P ᴾP_i + ᴮp_P − ᴮB_i into vectors_out (6, 3) [m],
+    in B, and |l_i| into lengths_out (6,) [m]."""
+    for i in range(6):
+        h0 = const[C_PLATFORM_HINGES + 3 * i]
+        h1 = const[C_PLATFORM_HINGES + 3 * i + 1]
+        h2 = const[C_PLATFORM_HINGES + 3 * i + 2]
+        s = 0.0
+        for k in range(3):
+            arm = R[k, 0] * h0 + R[k, 1] * h1 + R[k, 2] * h2
+            v = arm + p[k] - const[C_BASE_HINGES + 3 * i + k]
+            vectors_out[i, k] = v
+            s += v * v
+        lengths_out[i] = math.sqrt(s)
+
+
+@register_jitable
+def manipulability_lane(
+    R: np.ndarray, vectors: np.ndarray, lengths: np.ndarray, const: np.ndarray
+) -> float:
+    """Yoshikawa's sqrt(det(J Jᵀ)) = |det J| [-] of the Stewart leg Jacobian J (6, 6), rows
+    [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ] (`twin.mechanisms.legs.twist_jacobian`; seed 004 §3.1 b,
+    SPEC erratum 7), by Gaussian elimination with partial pivoting.
+
+    Args:
+        R: (3, 3) ᴮR_P; vectors, lengths: the legs (`leg_vectors_lane`) [m].
+    """
+    J = np.empty((6, 6))
+    for i in range(6):
+        h0 = const[C_PLATFORM_HINGES + 3 * i]
+        h1 = const[C_PLATFORM_HINGES + 3 * i + 1]
+        h2 = const[C_PLATFORM_HINGES + 3 * i + 2]
+        a0 = R[0, 0] * h0 + R[0, 1] * h1 + R[0, 2] * h2
+        a1 = R[1, 0] * h0 + R[1, 1] * h1 + R[1, 2] * h2
+        a2 = R[2, 0] * h0 + R[2, 1] * h1 + R[2, 2] * h2
+        length = lengths[i]
+        n0, n1, n2 = vectors[i, 0] / length, vectors[i, 1] / length, vectors[i, 2] / length
+        J[i, 0], J[i, 1], J[i, 2] = n0, n1, n2
+        J[i, 3], J[i, 4], J[i, 5] = a1 * n2 - a2 * n1, a2 * n0 - a0 * n2, a0 * n1 - a1 * n0
+    det = 1.0
+    for j in range(6):
+        pivot = j
+        for i in range(j + 1, 6):
+            if abs(J[i, j]) > abs(J[pivot, j]):
+                pivot = i
+        if pivot != j:
+            det = -det
+            for k in range(j, 6):
+                J[j, k], J[pivot, k] = J[pivot, k], J[j, k]
+        d = J[j, j]
+        det *= d
+        if d == 0.0:
+            return 0.0
+        for i in range(j + 1, 6):
+            f = J[i, j] / d
+            for k in range(j + 1, 6):
+                J[i, k] -= f * J[j, k]
+    return abs(det)
+
+
+@register_jitable
+def reachable_range_lane(
+    vectors: np.ndarray, lengths: np.ndarray, const: np.ndarray, out: np.ndarray
+) -> None:
+    r"""Δx_p, Δy_p, Δz_p [m] into out (3,): per position axis, the length of the interval of
+    offsets s (other five pose coordinates held) whose six legs stay inside their stroke —
+    seed 004 §3.1 c's "space search" in closed form (`twin.planners.allocation.reachable_range`).
+
+    Leg i at offset s along axis k has |l_i + s e_k|² = s² + 2 b s + c, b = l_i,k, c = |l_i|²:
+    l_max bounds s to −b ± sqrt(b² − c + l_max²); l_min cuts out −b ± sqrt(b² − c + l_min²),
+    on one side of s = 0 for a feasible pose. Zero when the pose itself is outside.
+
+    Args:
+        vectors: (6, 3) [m] leg vectors in B; lengths: (6,) [m] (`leg_vectors_lane`).
+    """
+    leg_min, leg_max = const[C_LEG_MIN], const[C_LEG_MAX]
+    inside = True
+    for i in range(6):
+        inside = inside and lengths[i] >= leg_min and lengths[i] <= leg_max
+    for k in range(3):
+        upper_min, lower_max = math.inf, -math.inf
+        for i in range(6):
+            b = vectors[i, k]
+            c = lengths[i] ** 2
+            reach = math.sqrt(max(b**2 - c + leg_max**2, 0.0))
+            upper, lower = -b + reach, -b - reach
+            hole = b**2 - c + leg_min**2
+            if hole > 0:
+                half = math.sqrt(hole)
+                if -b > 0:
+                    upper = min(upper, -b - half)
+                else:
+                    lower = max(lower, -b + half)
+            upper_min = min(upper_min, upper)
+            lower_max = max(lower_max, lower)
+        out[k] = max(upper_min - lower_max, 0.0) if inside else 0.0
+
+
+@register_jitable
+def shares_lane(
+    R: np.ndarray, p: np.ndarray, prm: np.ndarray, const: np.ndarray, out: np.ndarray
+) -> None:
+    """DWA's position shares [λ_p w_i]³ (3,) into out, clipped to [0, 1] (seed 004 §3.2,
+    docs/planners.md), for the platform pose [ᴮR_P (3, 3), ᴮp_P (3,) [m]]: λ_p the
+    manipulability over the working state's, w_i the reachable range over the working
+    state's (`AllocationPlanner.shares`)."""
+    vectors, lengths, reach = np.empty((6, 3)), np.empty(6), np.empty(3)
+    leg_vectors_lane(R, p, const, vectors, lengths)
+    lam = manipulability_lane(R, vectors, lengths, const) / prm[P_MANIP_MID]
+    reachable_range_lane(vectors, lengths, const, reach)
+    for k in range(3):
+        out[k] = min(max(lam * (reach[k] / prm[P_RANGE_MID + k]), 0.0), 1.0) ** 3
+
+
+# ---------------------------------------------------------------------------------------------
+# The planner step
+# ---------------------------------------------------------------------------------------------
+
+
+@register_jitable
+def allocation_velocity(
+    x: np.ndarray,
+    target: np.ndarray,
+    prm: np.ndarray,
+    memory: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    v_out: np.ndarray,
+    diag_out: np.ndarray,
+) -> int:
+    """`AllocationPlanner.step` on one lane: the velocity that reaches, in one dt, the state
+    holding the tip at the target predicted one dt ahead (seed 004 §3).
+
+    The prediction is T_d(t + dt) ≈ [exp(ω dt) R_d, p_d + v dt] (seed 004 §1); the platform
+    pose that alone would hold the tip is T_full = T_d(t + dt) ᴮT_E(0)⁻¹ ᴮT_P(0) (seed 000
+    §5.1). conv1 moves the platform to T_full and keeps the gangway; conv2 gives the platform
+    T_full's rotation and the gangway the position; dwa gives the platform T_full's roll and
+    pitch, the reset yaw (the slew takes the yaw) and the share [λ_p w_i]³ of each position
+    axis. The gangway then solves seed 004 eqs (7)-(8) for the tip position in P.
+
+    Args:
+        x: (9,) xi [m, rad]: platform pose in B, then q1, q2 [rad], d3 [m].
+        target: (18,) `layout.TARGET_*`: ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ_d; ᴮω_d]
+            [m/s, rad/s] in B.
+        prm: (N_PARAMETERS,) the lane's row (`pack_allocation`).
+        memory: (N_MEMORY,) the lane's state: DWA's shares at `M_SHARE`, read and updated.
+        const: (N_HYBRID_CONSTANTS,) `layout.C_*` hybrid constants.
+        dt: [s] control period.
+        v_out: (9,) written: platform body twist [ᴾṖ; ω_P] in P [m/s, rad/s], then q̇1, q̇2
+            [rad/s], ḋ3 [m/s] (`HybridBoardingSystem.integrate`).
+        diag_out: (N_HYBRID_DIAGNOSTICS,) written: at `D_POSITION_SHARE` (3) the position
+            shares used (dwa), 1 (conv1) or 0 (conv2); the differential planners' rows
+            (`D_WEIGHTS` … `D_SCALE`) NaN; `D_LIMIT_SCALE` is the runner's.
+
+    Returns:
+        Fault bits: `FAULT_PLANNER` when the velocity is not finite, else 0.
+    """
+    method = int(prm[P_METHOD])
+    # the target one dt ahead, T_a = [exp(ω dt) R_d, p_d + v dt]
+    E, Rd, Ra = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    w = TARGET_W
+    so3_exp_lane(target[w] * dt, target[w + 1] * dt, target[w + 2] * dt, E)
+    for i in range(3):
+        for j in range(3):
+            Rd[i, j] = target[TARGET_R + 3 * i + j]
+    pa = np.empty(3)
+    for i in range(3):
+        for j in range(3):
+            Ra[i, j] = E[i, 0] * Rd[0, j] + E[i, 1] * Rd[1, j] + E[i, 2] * Rd[2, j]
+        pa[i] = target[TARGET_P + i] + target[TARGET_V + i] * dt
+    # compensating motion C = T_a ᴮT_E(0)⁻¹, then T_full = C ᴮT_P(0)
+    Rc, pc = np.empty((3, 3)), np.empty(3)
+    for i in range(3):
+        for j in range(4):
+            s = 0.0
+            for k in range(3):
+                s += Ra[i, k] * prm[P_T_E0_INV + 4 * k + j]
+            if j < 3:
+                Rc[i, j] = s
+            else:
+                pc[i] = s + pa[i]
+    RP, pP = np.empty((3, 3)), np.empty(3)
+    for i in range(3):
+        for j in range(4):
+            s = 0.0
+            for k in range(3):
+                s += Rc[i, k] * prm[P_T_P0 + 4 * k + j]
+            if j < 3:
+                RP[i, j] = s
+            else:
+                pP[i] = s + pc[i]
+    if method == METHOD_CONV2:
+        for i in range(3):
+            pP[i] = prm[P_T_P0 + 4 * i + 3]
+    elif method == METHOD_DWA:
+        rpy = np.empty(3)
+        matrix_to_rpy_lane(RP, rpy)
+        rpy_to_matrix_lane(rpy[0], rpy[1], prm[P_YAW0], RP)  # the slew takes the yaw
+        for i in range(3):
+            p0 = prm[P_T_P0 + 4 * i + 3]
+            pP[i] = p0 + memory[M_SHARE + i] * (pP[i] - p0)
+    # gangway joints: conv1 keeps them, else seed 004 eqs (7)-(8) for the tip in P
+    q = np.empty(3)
+    if method == METHOD_CONV1:
+        for i in range(3):
+            q[i] = prm[P_Q0 + i]
+    else:
+        d0, d1, d2 = pa[0] - pP[0], pa[1] - pP[1], pa[2] - pP[2]
+        gangway_inverse_lane(
+            RP[0, 0] * d0 + RP[1, 0] * d1 + RP[2, 0] * d2,
+            RP[0, 1] * d0 + RP[1, 1] * d1 + RP[2, 1] * d2,
+            RP[0, 2] * d0 + RP[1, 2] * d1 + RP[2, 2] * d2,
+            const,
+            q,
+        )
+    if method == METHOD_DWA:
+        for i in range(3):
+            diag_out[D_POSITION_SHARE + i] = memory[M_SHARE + i]  # the shares used
+        shares_lane(RP, pP, prm, const, memory[M_SHARE : M_SHARE + 3])  # next step's: t − 1
+    else:
+        one = 1.0 if method == METHOD_CONV1 else 0.0
+        for i in range(3):
+            diag_out[D_POSITION_SHARE + i] = one
+    # twist of ᴮT_P(xi)⁻¹ T_P over dt: the body twist that reaches T_P in one step
+    Rx, Rrel, prel = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
+    rpy_to_matrix_lane(x[3], x[4], x[5], Rx)
+    for i in range(3):
+        for j in range(3):
+            Rrel[i, j] = Rx[0, i] * RP[0, j] + Rx[1, i] * RP[1, j] + Rx[2, i] * RP[2, j]
+        prel[i] = Rx[0, i] * (pP[0] - x[0]) + Rx[1, i] * (pP[1] - x[1]) + Rx[2, i] * (pP[2] - x[2])
+    se3_log_lane(Rrel, prel, v_out)
+    finite = True
+    for i in range(9):
+        if i < 6:
+            v_out[i] = v_out[i] / dt
+        else:
+            v_out[i] = (q[i - 6] - x[i]) / dt
+        finite = finite and math.isfinite(v_out[i])
+    return 0 if finite else FAULT_PLANNER
+
+
+def pack_allocation(planner: AllocationPlanner, hold: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(prm (N_PARAMETERS,), memory (N_MEMORY,)) of one lane from an `AllocationPlanner` after
+    its `reset(xi, target)`: the method, DWA's working-state normalisers, the reset poses
+    ᴮT_P(0) and ᴮT_E(0)⁻¹, the reset yaw [rad] and gangway joints; memory the shares.
+
+    Args:
+        planner: reset, for one lane (unbatched state).
+        hold: the lane holds its joint limits (`Scenario.joint_limits == "hold"`).
+    """
+    if planner._T_P0 is None:
+        raise ValueError("pack_allocation: reset the AllocationPlanner first")
+    if planner.method not in METHODS:
+        raise ValueError(f"method: unknown {planner.method!r}; allowed: {list(METHODS)}")
+    prm = np.zeros(N_PARAMETERS)
+    prm[P_KIND] = KIND_ALLOCATION
+    prm[P_HOLD] = 1.0 if hold else 0.0
+    prm[P_METHOD] = METHODS[planner.method]
+    manip_mid, range_mid = planner._mid
+    prm[P_MANIP_MID] = manip_mid
+    prm[P_RANGE_MID : P_RANGE_MID + 3] = range_mid
+    prm[P_T_P0 : P_T_P0 + 12] = np.asarray(planner._T_P0)[:3, :].ravel()
+    prm[P_T_E0_INV : P_T_E0_INV + 12] = np.asarray(planner._T_E0_inv)[:3, :].ravel()
+    prm[P_YAW0] = matrix_to_rpy(np.asarray(planner._T_P0)[:3, :3])[2]
+    prm[P_Q0 : P_Q0 + 3] = planner._q0
+    memory = np.zeros(N_MEMORY)
+    memory[M_SHARE : M_SHARE + 3] = planner._share
+    return prm, memory
+
+
+# `twin.sim.kernels.hybrid` binds its runner's `allocation_velocity` when it can import this
+# module; when this module is imported first, that import fails part-way (this module is still
+# initialising), so bind it now that `allocation_velocity` exists: either import order works,
+# compiled or plain.
+hybrid_kernel.bind_allocation()

@@ -1,0 +1,860 @@
+r"""The hybrid boarding system's compiled kernel: one lane (one scenario) at a time.
+
+Every function here handles ONE lane: floats and small numpy arrays, written in a style numba
+compiles (`register_jitable`) and plain Python runs unchanged (the fallback when numba is
+missing; the same arithmetic, so the same numbers to the last ulp or so of `math`).
+
+- Shared primitives (also used by `twin.sim.kernels.allocation`): ᴮR_P from roll-pitch-yaw,
+  the tip ᴮT_E, so(3) log, matrix → rpy, `HybridBoardingSystem.integrate`, leg lengths, limit
+  excess and the hold-mode step limit `limit_scale_lane` (the former `HybridRig`'s
+  `limit_scale`, restated in numpy as the oracle of tests/sim/kernels/test_hybrid_kernel.py).
+- The differential planners PI, WPI and MTMP (`DifferentialPlanner.step`, seed 000 eqs
+  (26)-(40), Algorithm 1, the rate limit): `pack_differential` writes a planner's knobs into a
+  `prm` row, `differential_velocity` is one step.
+- `run_hybrid`: N lanes × B steps, dispatching on prm[P_KIND] and applying the guard of the
+  former `HybridRig.advance` (hold on a non-finite velocity, shorten a step at a limit in
+  `hold` mode).
+
+The solve runs in the platform frame P instead of the base frame B: with D = diag(ᴮR_P, ᴮR_P),
+the task Jacobian of seed 000 eq (24) is J = D K where
+
+    K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]]      (ᴾp_E the tip in P, J_s the gangway's eq (11)),
+
+and D is orthogonal, so J_W⁺ ẋ = W Kᵀ (K W Kᵀ + λ²I)⁻¹ Dᵀ ẋ and σ(J W^½) = σ(K W^½): the same
+planner as `twin.planners.differential` to rounding. The damping test of `weighted_pinv`
+(σ_min of J W^½ against ε) runs as a Cholesky factorisation of K W Kᵀ − ε²(1 + 10⁻⁶) I: when
+it succeeds σ_min > ε, λ = 0 and the undamped solve is that Cholesky factor's. Only where it
+fails (near a singularity, or a rank-deficient J_W when β = 0) is the SVD of K W^½ taken, and
+the solve is then `weighted_pinv`'s own SVD form (damped gains s / (s² + λ²), singular values
+below s_max·9·eps dropped), so damping = 0 on a rank-deficient J_W gives its numbers too.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import math
+import types
+from collections.abc import Callable
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+
+from twin.sim.kernels.layout import (
+    C_A1,
+    C_BASE_HINGES,
+    C_D1,
+    C_LEG_MAX,
+    C_LEG_MIN,
+    C_LOWER,
+    C_PLATFORM_HINGES,
+    C_RATE,
+    C_UPPER,
+    D_DAMPING,
+    D_LIMIT_SCALE,
+    D_SCALE,
+    D_SHARE,
+    D_WEIGHTS,
+    FAULT_JOINT_LIMIT,
+    FAULT_PLANNER,
+    FAULT_SINGULAR,
+    KIND_ALLOCATION,
+    KIND_DIFFERENTIAL,
+    N_HYBRID_CONSTANTS,
+    N_PARAMETERS,
+    P_FAMILY,
+    P_HOLD,
+    P_KIND,
+)
+
+try:  # numba is optional: without it these are plain Python functions, run lane by lane
+    from numba import prange
+    from numba.extending import register_jitable
+except ImportError:  # pragma: no cover - exercised where numba is not installed
+    prange = range
+
+    def register_jitable(function: Callable) -> Callable:
+        """Identity: the function runs as plain Python."""
+        return function
+
+
+HALF_PI = math.pi / 2
+#: bisection steps of `limit_scale_lane`: the step is shortened to within 2⁻¹² of the limit
+LIMIT_BISECTIONS = 12
+#: slack [m, rad] on the limit excess a step may keep
+LIMIT_SLACK = 1e-12
+
+
+def hybrid_constants(mechanism: object, rate_limit: np.ndarray) -> np.ndarray:
+    """The hybrid runner's `const` (N_HYBRID_CONSTANTS,), rows as in `twin.sim.kernels.layout`.
+
+    Args:
+        mechanism: the `HybridBoardingSystem`.
+        rate_limit: (9,) [m/s, rad/s] virtual-joint rate limits (`HYBRID_RATE_LIMITS`).
+
+    Returns:
+        Table 6 joint limits (absolute, SPEC erratum 3), the rate limits, gangway d1 and a1
+        (Table 1), base hinges ᴮB_i and platform hinges ᴾP_i (6 × 3 row-major, seed 000
+        eqs (1)-(2)) [m], the leg stroke [m] (Table 1).
+    """
+    const = np.zeros(N_HYBRID_CONSTANTS)
+    const[C_LOWER : C_LOWER + 9] = mechanism.lower
+    const[C_UPPER : C_UPPER + 9] = mechanism.upper
+    const[C_RATE : C_RATE + 9] = np.asarray(rate_limit, dtype=float)
+    const[C_D1], const[C_A1] = mechanism.gangway.d1, mechanism.gangway.a1
+    layout = mechanism.layout
+    const[C_BASE_HINGES : C_BASE_HINGES + 18] = np.asarray(layout.base_hinges).reshape(18)
+    platform = np.asarray(layout.platform_hinges)
+    const[C_PLATFORM_HINGES : C_PLATFORM_HINGES + 18] = platform.reshape(18)
+    const[C_LEG_MIN], const[C_LEG_MAX] = mechanism.stewart.leg_min, mechanism.stewart.leg_max
+    return const
+
+
+# ---------------------------------------------------------------------------------------------
+# Shared primitives (imported by twin.sim.kernels.allocation: keep names and signatures).
+# ---------------------------------------------------------------------------------------------
+
+
+@register_jitable
+def rpy_to_matrix_lane(roll: float, pitch: float, yaw: float, R_out: np.ndarray) -> None:
+    """ᴮR_P = Rz(yaw) Ry(pitch) Rx(roll) (seed 000 eq (3), `twin.spatial.rpy_to_matrix`).
+
+    Args:
+        roll, pitch, yaw: [rad].
+        R_out: (3, 3) written.
+    """
+    cf, ct, cp = math.cos(roll), math.cos(pitch), math.cos(yaw)
+    sf, st, sp = math.sin(roll), math.sin(pitch), math.sin(yaw)
+    R_out[0, 0] = cp * ct
+    R_out[0, 1] = cp * st * sf - sp * cf
+    R_out[0, 2] = cp * st * cf + sp * sf
+    R_out[1, 0] = sp * ct
+    R_out[1, 1] = sp * st * sf + cp * cf
+    R_out[1, 2] = sp * st * cf - cp * sf
+    R_out[2, 0] = -st
+    R_out[2, 1] = ct * sf
+    R_out[2, 2] = ct * cf
+
+
+@register_jitable
+def gangway_tip_lane(q1: float, q2: float, d3: float, const: np.ndarray, G_out: np.ndarray) -> None:
+    """ᴾT_E, the gangway tip in the platform frame (Table 2 with θ2 = q2 + 90°, SPEC erratum 3;
+    seed 000 eq (10), `Gangway.forward`) in closed form.
+
+    Args:
+        q1, q2: [rad] slew and luff; d3: [m] gangway length.
+        const: hybrid constants (d1, a1).
+        G_out: (4, 4) written.
+    """
+    s1, c1 = math.sin(q1), math.cos(q1)
+    s2, c2 = math.sin(q2 + HALF_PI), math.cos(q2 + HALF_PI)
+    reach = const[C_A1] + d3 * s2
+    G_out[0, 0], G_out[0, 1], G_out[0, 2], G_out[0, 3] = c1 * c2, s1, c1 * s2, c1 * reach
+    G_out[1, 0], G_out[1, 1], G_out[1, 2], G_out[1, 3] = s1 * c2, -c1, s1 * s2, s1 * reach
+    G_out[2, 0], G_out[2, 1], G_out[2, 2], G_out[2, 3] = s2, 0.0, -c2, const[C_D1] - d3 * c2
+    G_out[3, 0], G_out[3, 1], G_out[3, 2], G_out[3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@register_jitable
+def tip_transform(x: np.ndarray, const: np.ndarray, T_out: np.ndarray) -> None:
+    """ᴮT_E = ᴮT_P ᴾT_E, the gangway tip in the Stewart base frame (seed 000 eq (14),
+    `HybridBoardingSystem.end_effector`).
+
+    Args:
+        x: (9,) xi [m, rad].
+        const: hybrid constants.
+        T_out: (4, 4) written.
+    """
+    R = np.empty((3, 3))
+    rpy_to_matrix_lane(x[3], x[4], x[5], R)
+    G = np.empty((4, 4))
+    gangway_tip_lane(x[6], x[7], x[8], const, G)
+    for i in range(3):
+        for j in range(4):
+            T_out[i, j] = R[i, 0] * G[0, j] + R[i, 1] * G[1, j] + R[i, 2] * G[2, j]
+        T_out[i, 3] += x[i]
+    T_out[3, 0], T_out[3, 1], T_out[3, 2], T_out[3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@register_jitable
+def so3_log_lane(R: np.ndarray, w_out: np.ndarray) -> None:
+    """Rotation vector [rad] of the rotation matrix R (3, 3), angle in [0, π]
+    (`twin.spatial.so3_log`, including its near-π branch); written to w_out (3,)."""
+    cos = (R[0, 0] + R[1, 1] + R[2, 2] - 1.0) / 2.0
+    cos = min(max(cos, -1.0), 1.0)
+    theta = math.acos(cos)
+    v0, v1, v2 = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
+    if theta < 1e-6:
+        scale = 0.5 + theta**2 / 12.0
+    else:
+        scale = theta / (2.0 * math.sin(theta))
+    w_out[0], w_out[1], w_out[2] = scale * v0, scale * v1, scale * v2
+    if theta > math.pi - 1e-4:
+        # the antisymmetric part vanishes near π: the axis is the symmetric part's largest row
+        s00, s11, s22 = R[0, 0] - cos, R[1, 1] - cos, R[2, 2] - cos
+        s01, s02 = (R[0, 1] + R[1, 0]) / 2.0, (R[0, 2] + R[2, 0]) / 2.0
+        s12 = (R[1, 2] + R[2, 1]) / 2.0
+        a0, a1, a2 = s00, s01, s02  # np.argmax: the first largest diagonal entry
+        if s11 > s00 and s11 >= s22:
+            a0, a1, a2 = s01, s11, s12
+        elif s22 > s00 and s22 > s11:
+            a0, a1, a2 = s02, s12, s22
+        norm = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        a0, a1, a2 = a0 / norm, a1 / norm, a2 / norm
+        sign = -1.0 if a0 * v0 + a1 * v1 + a2 * v2 < 0 else 1.0
+        w_out[0], w_out[1], w_out[2] = sign * a0 * theta, sign * a1 * theta, sign * a2 * theta
+
+
+@register_jitable
+def matrix_to_rpy_lane(R: np.ndarray, out: np.ndarray) -> None:
+    """[roll, pitch, yaw] [rad] of R (3, 3) on pitch ∈ (−π/2, π/2) (`twin.spatial.matrix_to_rpy`);
+    written to out (3,)."""
+    out[0] = math.atan2(R[2, 1], R[2, 2])
+    out[1] = math.atan2(-R[2, 0], math.hypot(R[2, 1], R[2, 2]))
+    out[2] = math.atan2(R[1, 0], R[0, 0])
+
+
+@register_jitable
+def integrate_hybrid(x: np.ndarray, v: np.ndarray, dt: float, x_out: np.ndarray) -> None:
+    """xi after the virtual-joint velocity v held for dt (`HybridBoardingSystem.integrate`).
+
+    The platform pose moves on SE(3) by the exponential map of its body twist,
+    ᴮT_P ← ᴮT_P exp([ᴾṖ; ω_P] dt) (`twin.spatial.se3_exp`: Rodrigues, and V(ω) v for the
+    translation, Lynch & Park eq (3.88)); the gangway joints add q̇ dt (Euler).
+
+    Args:
+        x: (9,) xi [m, rad].
+        v: (9,) [ᴾṖ [m/s]; ω_P [rad/s] (in P); q̇1, q̇2 [rad/s]; ḋ3 [m/s]].
+        dt: [s].
+        x_out: (9,) written; may be x itself.
+    """
+    R = np.empty((3, 3))
+    rpy_to_matrix_lane(x[3], x[4], x[5], R)
+    vx, vy, vz = v[0] * dt, v[1] * dt, v[2] * dt
+    wx, wy, wz = v[3] * dt, v[4] * dt, v[5] * dt
+    theta = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if theta < 1e-8:
+        a = 1.0 - theta**2 / 6.0
+        b = 0.5 - theta**2 / 24.0
+        c = 1.0 / 6.0 - theta**2 / 120.0
+    else:
+        a = math.sin(theta) / theta
+        b = (1.0 - math.cos(theta)) / theta**2
+        c = (theta - math.sin(theta)) / theta**3
+    # S = skew(ω dt), S² = [k_ij]; exp(S) = I + a S + b S², V = I + b S + c S²
+    k00, k11, k22 = -wz * wz - wy * wy, -wz * wz - wx * wx, -wy * wy - wx * wx
+    k01, k02, k12 = wx * wy, wx * wz, wy * wz
+    E = np.empty((3, 3))
+    E[0, 0], E[0, 1], E[0, 2] = 1.0 + b * k00, -a * wz + b * k01, a * wy + b * k02
+    E[1, 0], E[1, 1], E[1, 2] = a * wz + b * k01, 1.0 + b * k11, -a * wx + b * k12
+    E[2, 0], E[2, 1], E[2, 2] = -a * wy + b * k02, a * wx + b * k12, 1.0 + b * k22
+    t0 = (1.0 + c * k00) * vx + (-b * wz + c * k01) * vy + (b * wy + c * k02) * vz
+    t1 = (b * wz + c * k01) * vx + (1.0 + c * k11) * vy + (-b * wx + c * k12) * vz
+    t2 = (-b * wy + c * k02) * vx + (b * wx + c * k12) * vy + (1.0 + c * k22) * vz
+    N = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            N[i, j] = R[i, 0] * E[0, j] + R[i, 1] * E[1, j] + R[i, 2] * E[2, j]
+    p0 = R[0, 0] * t0 + R[0, 1] * t1 + R[0, 2] * t2 + x[0]
+    p1 = R[1, 0] * t0 + R[1, 1] * t1 + R[1, 2] * t2 + x[1]
+    p2 = R[2, 0] * t0 + R[2, 1] * t1 + R[2, 2] * t2 + x[2]
+    q1, q2, d3 = x[6] + v[6] * dt, x[7] + v[7] * dt, x[8] + v[8] * dt
+    x_out[0], x_out[1], x_out[2] = p0, p1, p2
+    x_out[3] = math.atan2(N[2, 1], N[2, 2])  # twin.spatial.matrix_to_rpy
+    x_out[4] = math.atan2(-N[2, 0], math.hypot(N[2, 1], N[2, 2]))
+    x_out[5] = math.atan2(N[1, 0], N[0, 0])
+    x_out[6], x_out[7], x_out[8] = q1, q2, d3
+
+
+@register_jitable
+def leg_lengths_lane(x: np.ndarray, const: np.ndarray, out: np.ndarray) -> None:
+    """Stewart leg lengths l_i = |ᴮR_P ᴾP_i + ᴮO_P − ᴮB_i| [m] (seed 000 eqs (4)-(5),
+    `HybridBoardingSystem.leg_lengths`) of xi x (9,); written to out (6,)."""
+    R = np.empty((3, 3))
+    rpy_to_matrix_lane(x[3], x[4], x[5], R)
+    for i in range(6):
+        P0 = const[C_PLATFORM_HINGES + 3 * i]
+        P1 = const[C_PLATFORM_HINGES + 3 * i + 1]
+        P2 = const[C_PLATFORM_HINGES + 3 * i + 2]
+        l0 = R[0, 0] * P0 + R[0, 1] * P1 + R[0, 2] * P2 + x[0] - const[C_BASE_HINGES + 3 * i]
+        l1 = R[1, 0] * P0 + R[1, 1] * P1 + R[1, 2] * P2 + x[1] - const[C_BASE_HINGES + 3 * i + 1]
+        l2 = R[2, 0] * P0 + R[2, 1] * P1 + R[2, 2] * P2 + x[2] - const[C_BASE_HINGES + 3 * i + 2]
+        out[i] = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+
+
+@register_jitable
+def positive_part(d: float) -> float:
+    """max(d, 0) that keeps a NaN (as `np.maximum`)."""
+    return 0.0 if d <= 0.0 else d
+
+
+@register_jitable
+def limit_excess_lane(x: np.ndarray, const: np.ndarray, out: np.ndarray) -> None:
+    """How far each virtual joint (Table 6) and each leg (Table 1) is past its limit, 0 inside
+    (`HybridBoardingSystem.limit_excess`): out (15,) [m, rad], the 9 joints then the 6 legs."""
+    for i in range(9):
+        out[i] = positive_part(const[C_LOWER + i] - x[i]) + positive_part(x[i] - const[C_UPPER + i])
+    legs = np.empty(6)
+    leg_lengths_lane(x, const, legs)
+    low, high = const[C_LEG_MIN], const[C_LEG_MAX]
+    for i in range(6):
+        out[9 + i] = positive_part(low - legs[i]) + positive_part(legs[i] - high)
+
+
+@register_jitable
+def step_fits(
+    x: np.ndarray,
+    v: np.ndarray,
+    s: float,
+    dt: float,
+    const: np.ndarray,
+    now: np.ndarray,
+    trial: np.ndarray,
+    scaled: np.ndarray,
+    excess: np.ndarray,
+) -> bool:
+    """Whether the step s·v·dt carries no joint and no leg past `now` (limit_scale's `fits`);
+    trial (9,), scaled (9,) and excess (15,) are scratch."""
+    for j in range(9):
+        scaled[j] = s * v[j]
+    integrate_hybrid(x, scaled, dt, trial)
+    limit_excess_lane(trial, const, excess)
+    for i in range(15):
+        if not excess[i] <= now[i]:
+            return False
+    return True
+
+
+@register_jitable
+def limit_scale_lane(x: np.ndarray, v: np.ndarray, dt: float, const: np.ndarray) -> float:
+    """The largest s in [0, 1] such that the step s·v·dt carries no joint and no leg further
+    past its limit than it already is (a joint at its limit stops there; one beyond it, e.g. a
+    start outside the limits, may only come back), to within 2⁻¹² by 12 bisections; the limit
+    excess may grow by at most 1e-12 (the former `HybridRig`'s `limit_scale`, exactly).
+
+    Args:
+        x: (9,) xi [m, rad]; v: (9,) velocity (`integrate_hybrid`); dt: [s].
+        const: hybrid constants.
+    """
+    now = np.empty(15)
+    limit_excess_lane(x, const, now)
+    for i in range(15):
+        now[i] = now[i] + LIMIT_SLACK
+    trial, scaled, excess = np.empty(9), np.empty(9), np.empty(15)
+    if step_fits(x, v, 1.0, dt, const, now, trial, scaled, excess):
+        return 1.0
+    low, high = 0.0, 1.0
+    for _ in range(LIMIT_BISECTIONS):
+        mid = 0.5 * (low + high)
+        if step_fits(x, v, mid, dt, const, now, trial, scaled, excess):
+            low = mid
+        else:
+            high = mid
+    return low
+
+
+# ---------------------------------------------------------------------------------------------
+# The differential planners PI, WPI, MTMP (seed 000 eqs (26)-(40), Algorithm 1).
+# ---------------------------------------------------------------------------------------------
+
+#: This family's rows of `prm` (from layout.P_FAMILY on), written by `pack_differential`:
+#: k_e [1/s] (eq (34)); the β split β^l per joint (eqs (27)-(30), 1 without weights, 9); the
+#: joint-limit weight scale (1, k_c on the telescope, eq (37), 9); the posture task's joint
+#: index (−1: none), gain k_a [1/s] and set-point q̃ (eqs (39)-(40)); Algorithm 1 on (1) / off
+#: (0), its σ [rad], q̇1,max [rad/s], q1,min and q1,max [rad]; λ_max and ε of the damped solve
+#: (`weighted_pinv`); λ of eq (34); joint-limit weights on/off (eqs (35)-(37)); the rate
+#: limit on/off and its per-joint maxima [m/s, rad/s] (9, `VelocityLimit`).
+P_GAIN, P_SPLIT, P_SCALE = P_FAMILY, P_FAMILY + 1, P_FAMILY + 10
+P_POSTURE_INDEX, P_POSTURE_GAIN, P_POSTURE_SET = P_FAMILY + 19, P_FAMILY + 20, P_FAMILY + 21
+P_SLEW, P_SIGMA, P_SLEW_RATE = P_FAMILY + 22, P_FAMILY + 23, P_FAMILY + 24
+P_Q1_MIN, P_Q1_MAX = P_FAMILY + 25, P_FAMILY + 26
+P_DAMPING, P_EPSILON, P_SECONDARY = P_FAMILY + 27, P_FAMILY + 28, P_FAMILY + 29
+P_JOINT_LIMITS, P_RATE_LIMITED, P_RATE = P_FAMILY + 30, P_FAMILY + 31, P_FAMILY + 32
+P_DIFFERENTIAL_END = P_RATE + 9  # first row not used by this family
+
+#: machine epsilon of float64 (`np.finfo(float).eps`), `weighted_pinv`'s rank cut-off
+EPS = 2.220446049250313e-16
+
+
+def _flat_weights(weights: object) -> list:
+    """The factors of a weight object, nested `ProductWeights` flattened."""
+    from twin.planners.weights import ProductWeights
+
+    if weights is None:
+        return []
+    if isinstance(weights, ProductWeights):
+        return [part for inner in weights.parts for part in _flat_weights(inner)]
+    return [weights]
+
+
+def pack_differential(planner: object, hold: bool) -> np.ndarray:
+    """A `DifferentialPlanner` as its lane's `prm` row (N_PARAMETERS,).
+
+    Args:
+        planner: the planner (`get_planner("pi" | "wpi" | "mtmp", "hybrid").build(...)`, or one
+            composed from the same parts).
+        hold: the lane holds its joint limits (`Scenario.joint_limits == "hold"`).
+
+    Raises:
+        TwinError: the planner has a part the kernel does not implement (a tip task other than
+            `TipPoseTask` on a hybrid system, weights other than `BetaSplit` and one
+            `JointLimitWeights` with the mechanism's limits, more than one or another kind of
+            secondary task, Algorithm 1 on other columns than 5 and 6, ε ≤ 0).
+    """
+    from twin.errors import TwinError
+    from twin.mechanisms.hybrid import HybridBoardingSystem
+    from twin.planners.differential import DifferentialPlanner
+    from twin.planners.tasks import JointPostureTask, TipPoseTask
+    from twin.planners.weights import BetaSplit, JointLimitWeights
+
+    def refuse(what: str) -> TwinError:
+        return TwinError(f"planner: the compiled hybrid kernel cannot run {what}")
+
+    if not isinstance(planner, DifferentialPlanner):
+        raise refuse(f"a {type(planner).__name__} as a differential planner")
+    tip = planner.tip
+    if not isinstance(tip, TipPoseTask) or not isinstance(tip.mechanism, HybridBoardingSystem):
+        raise refuse(f"the primary task {tip!r:.80}: only TipPoseTask on the hybrid system")
+    prm = np.zeros(N_PARAMETERS)
+    prm[P_KIND], prm[P_HOLD] = KIND_DIFFERENTIAL, 1.0 if hold else 0.0
+    prm[P_GAIN] = tip.gain
+    split, limits = np.ones(9), []
+    for part in _flat_weights(planner.weights):
+        if isinstance(part, BetaSplit):
+            split = split * part(np.zeros(9))
+        elif isinstance(part, JointLimitWeights):
+            limits.append(part)
+        else:
+            raise refuse(f"the weight {part!r:.80}")
+    prm[P_SPLIT : P_SPLIT + 9] = split
+    prm[P_SCALE : P_SCALE + 9] = 1.0
+    if limits:
+        mechanism = tip.mechanism
+        same = np.array_equal(limits[0].lower, mechanism.lower) and np.array_equal(
+            limits[0].upper, mechanism.upper
+        )
+        if len(limits) > 1 or not same or np.shape(limits[0].scale) != (9,):
+            raise refuse("joint-limit weights other than one set on the mechanism's limits")
+        prm[P_SCALE : P_SCALE + 9] = limits[0].scale
+        prm[P_JOINT_LIMITS] = 1.0
+    prm[P_POSTURE_INDEX] = -1.0
+    if len(planner.secondary) > 1:
+        raise refuse(f"{len(planner.secondary)} secondary tasks (one posture task at most)")
+    for task in planner.secondary:
+        if not isinstance(task, JointPostureTask) or task.n != 9 or not 0 <= task.index < 9:
+            raise refuse(f"the secondary task {task!r:.80}")
+        prm[P_POSTURE_INDEX] = task.index
+        prm[P_POSTURE_GAIN], prm[P_POSTURE_SET] = task.gain, task.setpoint
+    slew = planner.slew_priority
+    if slew is not None:
+        if slew.yaw_index != 5 or slew.slew_index != 6:
+            raise refuse("Algorithm 1 on other columns than the platform yaw (5) and slew (6)")
+        prm[P_SLEW] = 1.0
+        prm[P_SIGMA], prm[P_SLEW_RATE] = slew.sigma, slew.rate_max
+        prm[P_Q1_MIN], prm[P_Q1_MAX] = slew.q1_min, slew.q1_max
+    if not planner.epsilon > 0:
+        raise refuse(f"epsilon = {planner.epsilon!r} (must be > 0)")
+    prm[P_DAMPING], prm[P_EPSILON] = planner.damping_max, planner.epsilon
+    prm[P_SECONDARY] = planner.secondary_weight
+    if planner.velocity_limit is not None:
+        maximum = np.broadcast_to(np.asarray(planner.velocity_limit.maximum, dtype=float), (9,))
+        prm[P_RATE_LIMITED] = 1.0
+        prm[P_RATE : P_RATE + 9] = maximum
+    return prm
+
+
+@register_jitable
+def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
+    """Lower Cholesky factor of A − shift·I (A (6, 6) symmetric) into L (6, 6).
+
+    Returns whether A − shift·I is positive definite (every pivot > 0; False on a NaN).
+    """
+    for j in range(6):
+        d = A[j, j] - shift
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, 6):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / L[j, j]
+    return True
+
+
+@register_jitable
+def cholesky_pinv_apply(
+    K: np.ndarray, w: np.ndarray, L: np.ndarray, c: np.ndarray, out: np.ndarray
+) -> None:
+    """out (9,) = W Kᵀ (K W Kᵀ)⁻¹ c, the undamped J_W⁺ (seed 000 eq (31)) in P applied to c (6,),
+    with L L ᵀ = K W Kᵀ (`cholesky_lane`) and W = diag(w)."""
+    y = np.empty(6)
+    for i in range(6):  # L z = c
+        s = c[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+    for i in range(5, -1, -1):  # Lᵀ y = z
+        s = y[i]
+        for k in range(i + 1, 6):
+            s -= L[k, i] * y[k]
+        y[i] = s / L[i, i]
+    for j in range(9):
+        s = 0.0
+        for a in range(6):
+            s += K[a, j] * y[a]
+        out[j] = w[j] * s
+
+
+@register_jitable
+def svd_pinv_apply(
+    U: np.ndarray, gain: np.ndarray, Vt: np.ndarray, sqrt_w: np.ndarray, c: np.ndarray,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    """out (9,) = W^½ V diag(gain) Uᵀ c: `weighted_pinv`'s SVD form of J_W⁺ (in P) applied to
+    c (6,), with K W^½ = U S Vᵀ and gain_k = s_k / (s_k² + λ²) (0 for a dropped s_k)."""
+    g = np.empty(6)
+    for k in range(6):
+        s = 0.0
+        for a in range(6):
+            s += U[a, k] * c[a]
+        g[k] = gain[k] * s
+    for j in range(9):
+        s = 0.0
+        for k in range(6):
+            s += Vt[k, j] * g[k]
+        out[j] = sqrt_w[j] * s
+
+
+@register_jitable
+def differential_velocity(
+    x: np.ndarray,
+    target: np.ndarray,
+    prm: np.ndarray,
+    const: np.ndarray,
+    K: np.ndarray,
+    A: np.ndarray,
+    L: np.ndarray,
+    w: np.ndarray,
+    v_out: np.ndarray,
+    diag_out: np.ndarray,
+) -> int:
+    """One lane of `DifferentialPlanner.step`: the velocity of seed 000 eq (34),
+
+        ξ̇ = J_W⁺ (ẋ_d + k_e e) + λ (I − J_W⁺ J) J_aᵀ k_a (q̃ − q_i),
+
+    then Algorithm 1 (`SlewPriority`) and the common rate scale (`VelocityLimit`).
+
+    Args:
+        x: (9,) xi [m, rad] at sample k.
+        target: (18,) the held target in B (layout `TARGET_*`): ᴮR_d row-major, ᴮp_d [m],
+            twist ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s].
+        prm: (N_PARAMETERS,) the lane's row (`pack_differential`).
+        const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
+        K: (6, 9), A, L: (6, 6), w: (9,) scratch (overwritten; w ends as diag(W⁻¹)).
+        v_out: (9,) written: the velocity [ᴾṖ [m/s]; ω_P [rad/s] in P; q̇1, q̇2 [rad/s];
+            ḋ3 [m/s]], exactly `DifferentialPlanner.step(...).velocity` (to rounding).
+        diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written (weights, null-space
+            share, damping λ, rate scale); the other families' rows are left alone.
+
+    Returns:
+        Fault bits: FAULT_SINGULAR when the damping λ > 0.
+    """
+    # ᴮT_P, ᴾT_E and ᴮT_E = ᴮT_P ᴾT_E (seed 000 eq (14))
+    R = np.empty((3, 3))
+    rpy_to_matrix_lane(x[3], x[4], x[5], R)
+    G = np.empty((4, 4))
+    gangway_tip_lane(x[6], x[7], x[8], const, G)
+    E = np.empty((3, 4))
+    for i in range(3):
+        for j in range(4):
+            E[i, j] = R[i, 0] * G[0, j] + R[i, 1] * G[1, j] + R[i, 2] * G[2, j]
+        E[i, 3] += x[i]
+
+    # e = [p_d − p; log(R_d Rᵀ)] in B (twin.spatial.pose_error, SPEC erratum 6) and the
+    # demand ẋ_d + k_e e (eq (34)), turned into P: b = Dᵀ (ẋ_d + k_e e)
+    M = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            M[i, j] = (
+                target[3 * i] * E[j, 0] + target[3 * i + 1] * E[j, 1] + target[3 * i + 2] * E[j, 2]
+            )
+    log = np.empty(3)
+    so3_log_lane(M, log)
+    k_e = prm[P_GAIN]
+    demand = np.empty(6)
+    for i in range(3):
+        demand[i] = target[12 + i] + k_e * (target[9 + i] - E[i, 3])
+        demand[3 + i] = target[15 + i] + k_e * log[i]
+    b = np.empty(6)
+    for i in range(3):
+        b[i] = R[0, i] * demand[0] + R[1, i] * demand[1] + R[2, i] * demand[2]
+        b[3 + i] = R[0, i] * demand[3] + R[1, i] * demand[4] + R[2, i] * demand[5]
+
+    # K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]] (eq (24) with D factored out; J_s eq (11))
+    for a in range(6):
+        for j in range(9):
+            K[a, j] = 1.0 if a == j else 0.0
+    gx, gy, gz = G[0, 3], G[1, 3], G[2, 3]
+    K[0, 4], K[0, 5], K[1, 3], K[1, 5], K[2, 3], K[2, 4] = gz, -gy, -gz, gx, gy, -gx
+    s1, c1 = math.sin(x[6]), math.cos(x[6])
+    s2, c2 = math.sin(x[7] + HALF_PI), math.cos(x[7] + HALF_PI)
+    d3, a1 = x[8], const[C_A1]
+    K[0, 6], K[0, 7], K[0, 8] = -a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2
+    K[1, 6], K[1, 7], K[1, 8] = a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2
+    K[2, 7], K[2, 8] = d3 * s2, -c2
+    K[3, 7], K[4, 7], K[5, 6] = s1, -c1, 1.0
+
+    # diag(W⁻¹): β split (eqs (27)-(30)) × joint-limit weights (eqs (35)-(37), SPEC erratum 4)
+    joint_limits = prm[P_JOINT_LIMITS] > 0.0
+    for i in range(9):
+        if joint_limits:
+            lower, upper = const[C_LOWER + i], const[C_UPPER + i]
+            span = upper - lower
+            q = min(max(x[i], lower + 1e-3 * span), upper - 1e-3 * span)
+            gradient = span * (2 * q - upper - lower) / ((upper - q) * (q - lower))
+            w[i] = prm[P_SPLIT + i] * (prm[P_SCALE + i] / (1.0 + abs(gradient)))
+        else:
+            w[i] = prm[P_SPLIT + i]
+
+    # A = K W Kᵀ; the damping test of weighted_pinv as a Cholesky factorisation (module doc)
+    for a in range(6):
+        for c in range(a + 1):
+            s = 0.0
+            for j in range(9):
+                s += K[a, j] * w[j] * K[c, j]
+            A[a, c] = s
+            A[c, a] = s
+    epsilon = prm[P_EPSILON]
+    posture = int(prm[P_POSTURE_INDEX])
+    column = np.zeros(6)
+    wanted = 0.0
+    if posture >= 0:  # J J_aᵀ ζ̇_a in P: K's posture column times k_a (q̃ − q_i) (eqs (39)-(40))
+        wanted = prm[P_POSTURE_GAIN] * (prm[P_POSTURE_SET] - x[posture])
+        for a in range(6):
+            column[a] = K[a, posture] * wanted
+    primary, back = np.empty(9), np.zeros(9)
+    lam2 = 0.0
+    if cholesky_lane(A, epsilon**2 * (1.0 + 1e-6), L) and cholesky_lane(A, 0.0, L):
+        # σ_min(J W^½) > ε: λ = 0, J_W⁺ = W Kᵀ (K W Kᵀ)⁻¹ Dᵀ (eq (31))
+        cholesky_pinv_apply(K, w, L, b, primary)
+        if posture >= 0:
+            cholesky_pinv_apply(K, w, L, column, back)
+    else:
+        # weighted_pinv's SVD form: λ² = (1 − (σ_min/ε)²) λ_max², gains s / (s² + λ²)
+        sqrt_w = np.empty(9)
+        KW = np.empty((6, 9))
+        for j in range(9):
+            sqrt_w[j] = math.sqrt(w[j])
+        for a in range(6):
+            for j in range(9):
+                KW[a, j] = K[a, j] * sqrt_w[j]
+        U, sv, Vt = np.linalg.svd(KW, full_matrices=False)
+        ratio = min(max(sv[5] / epsilon, 0.0), 1.0)
+        lam2 = (1.0 - ratio**2) * prm[P_DAMPING] ** 2
+        gain = np.empty(6)
+        for k in range(6):
+            kept = sv[k] > sv[0] * 9 * EPS
+            gain[k] = 1.0 / (sv[k] + lam2 / sv[k]) if kept else 0.0
+        svd_pinv_apply(U, gain, Vt, sqrt_w, b, primary)
+        if posture >= 0:
+            svd_pinv_apply(U, gain, Vt, sqrt_w, column, back)
+
+    # v = J_W⁺ ẋ + λ (I − J_W⁺ J) J_aᵀ ζ̇_a (eq (34); J_a⁺ = J_aᵀ for a selector row)
+    weight = prm[P_SECONDARY]
+    null2 = 0.0
+    for j in range(9):
+        null = 0.0
+        if posture >= 0:
+            null = weight * ((wanted if j == posture else 0.0) - back[j])
+        null2 += null * null
+        v_out[j] = primary[j] + null
+
+    if prm[P_SLEW] > 0.0:  # Algorithm 1 (twin.planners.limits.SlewPriority)
+        q1, q1_min, q1_max = x[6], prm[P_Q1_MIN], prm[P_Q1_MAX]
+        sigma, rate = prm[P_SIGMA], prm[P_SLEW_RATE]
+        total = v_out[5] + v_out[6]  # w_1sum
+        if q1 >= q1_min + sigma and q1 <= q1_max - sigma:  # lines 2-7
+            slew = rate if total > rate else (-rate if total < -rate else total)
+        elif q1 > q1_min and q1 < q1_min + sigma:  # lines 8-9
+            slew = 0.5 * total * (1.0 + math.cos((q1_min + sigma - q1) / sigma * math.pi))
+        elif q1 > q1_max - sigma and q1 < q1_max:  # lines 10-11
+            slew = 0.5 * total * (1.0 + math.cos((q1 - q1_max + sigma) / sigma * math.pi))
+        else:
+            slew = 0.0
+        v_out[5] = total - slew
+        v_out[6] = slew
+
+    scale = 1.0
+    if prm[P_RATE_LIMITED] > 0.0:  # VelocityLimit: one scale, the direction kept
+        most, nan = 1.0, False
+        for j in range(9):
+            ratio_j = abs(v_out[j]) / prm[P_RATE + j]
+            if ratio_j != ratio_j:
+                nan = True
+            elif ratio_j > most:
+                most = ratio_j
+        scale = math.nan if nan else 1.0 / most
+        for j in range(9):
+            v_out[j] = v_out[j] * scale
+    norm2 = 0.0
+    for j in range(9):
+        norm2 += v_out[j] * v_out[j]
+        diag_out[D_WEIGHTS + j] = w[j]
+    norm = math.sqrt(norm2)
+    diag_out[D_SHARE] = math.sqrt(null2) / (1e-12 if norm < 1e-12 else norm)
+    damping = math.sqrt(lam2)
+    diag_out[D_DAMPING] = damping
+    diag_out[D_SCALE] = scale
+    return FAULT_SINGULAR if damping > 0.0 else 0
+
+
+# ---------------------------------------------------------------------------------------------
+# The runner: N lanes × B steps and the guard of the former HybridRig.advance.
+# ---------------------------------------------------------------------------------------------
+
+
+@register_jitable
+def allocation_missing(
+    x: np.ndarray,
+    target: np.ndarray,
+    prm: np.ndarray,
+    memory: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    v_out: np.ndarray,
+    diag_out: np.ndarray,
+) -> int:
+    """Stands in for `twin.sim.kernels.allocation.allocation_velocity` when that module cannot
+    be imported: a NaN velocity, which the runner's guard turns into a held state."""
+    for j in range(9):
+        v_out[j] = math.nan
+    return FAULT_PLANNER
+
+
+#: the allocation family's step (`bind_allocation`)
+allocation_velocity = allocation_missing
+
+
+def run_hybrid(
+    xs: np.ndarray,
+    targets: np.ndarray,
+    prm: np.ndarray,
+    memory: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    diag: np.ndarray,
+    faults: np.ndarray,
+) -> None:
+    """Step N lanes of the hybrid system through a chunk of B samples.
+
+    Per lane and step: the planner of prm[n, P_KIND] gives the velocity v (differential:
+    `differential_velocity`; allocation: `twin.sim.kernels.allocation.allocation_velocity`);
+    a non-finite v holds the mechanism (FAULT_PLANNER, D_LIMIT_SCALE = 0); otherwise a lane
+    with prm[n, P_HOLD] > 0 shortens the step to s = `limit_scale_lane` (FAULT_JOINT_LIMIT when
+    s < 1), D_LIMIT_SCALE = s, and xi integrates s·v for dt (`integrate_hybrid`).
+
+    Args:
+        xs: (N, B + 1, 9) xi [m, rad]; row 0 the chunk's start, rows 1 … B written.
+        targets: (N, B, N_TARGET) the held target in B at each step (layout `TARGET_*`).
+        prm: (N, N_PARAMETERS) each lane's planner row.
+        memory: (N, N_MEMORY) each lane's planner state, read and written (allocation).
+        const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
+        dt: [s] control period.
+        diag: (N, B, N_HYBRID_DIAGNOSTICS) written.
+        faults: (N, B) int64 written: the step's fault bits (`twin.sim.faults.Fault`).
+    """
+    n_steps = targets.shape[1]
+    for n in prange(xs.shape[0]):
+        K, A, L = np.empty((6, 9)), np.empty((6, 6)), np.empty((6, 6))
+        w, v = np.empty(9), np.empty(9)
+        kind = prm[n, P_KIND]
+        hold = prm[n, P_HOLD] > 0.0
+        for k in range(n_steps):
+            x, x_next, d = xs[n, k], xs[n, k + 1], diag[n, k]
+            if kind == KIND_DIFFERENTIAL:
+                bits = differential_velocity(x, targets[n, k], prm[n], const, K, A, L, w, v, d)
+            elif kind == KIND_ALLOCATION:
+                bits = allocation_velocity(x, targets[n, k], prm[n], memory[n], const, dt, v, d)
+            else:  # not a hybrid planner: held, as a planner fault
+                for j in range(9):
+                    v[j] = math.nan
+                bits = FAULT_PLANNER
+            finite = True
+            for j in range(9):
+                finite = finite and math.isfinite(v[j])
+            if not finite:  # a planner fault holds the mechanism still
+                bits |= FAULT_PLANNER
+                d[D_LIMIT_SCALE] = 0.0
+                for j in range(9):
+                    x_next[j] = x[j]
+            else:
+                s = 1.0
+                if hold:
+                    s = limit_scale_lane(x, v, dt, const)
+                    if s < 1.0:
+                        bits |= FAULT_JOINT_LIMIT
+                d[D_LIMIT_SCALE] = s
+                for j in range(9):
+                    v[j] = s * v[j]
+                integrate_hybrid(x, v, dt, x_next)
+            faults[n, k] = bits
+
+
+def bind_allocation() -> None:
+    """Point `run_hybrid` at `twin.sim.kernels.allocation.allocation_velocity` when it can be
+    imported (at import of this module, and again before compiling: the allocation module
+    imports this one, so when it is imported first the binding waits for `compiled_hybrid`)."""
+    global allocation_velocity
+    try:
+        from twin.sim.kernels.allocation import allocation_velocity as found
+    except ImportError:
+        return
+    allocation_velocity = found
+
+
+#: modules whose register_jitable functions `run_hybrid` compiles in (`kernel_stamp`)
+KERNEL_MODULES = (
+    "twin.sim.kernels.hybrid",
+    "twin.sim.kernels.layout",
+    "twin.sim.kernels.allocation",
+)
+
+
+def kernel_stamp() -> str:
+    """First 12 hex digits of the SHA-256 of the sources of `KERNEL_MODULES` (those found)."""
+    digest = hashlib.sha256()
+    for name in KERNEL_MODULES:
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.origin is not None and Path(spec.origin).is_file():
+            digest.update(Path(spec.origin).read_bytes())
+    return digest.hexdigest()[:12]
+
+
+@cache
+def compiled_hybrid(parallel: bool) -> Callable:
+    """`run_hybrid` compiled by numba, parallel over lanes or serial (one thread, e.g. one per
+    Dask worker), cached on disk; the plain `run_hybrid` when numba is not installed.
+
+    numba's on-disk cache keys a function by its name, its own file's time stamp and its
+    signature: not by `parallel`, nor by the files of the functions it calls. The runner is
+    therefore compiled from a copy named `run_hybrid_<parallel|serial>_<kernel_stamp()>`, so
+    the two modes do not overwrite each other's entry and an edit of the allocation kernel
+    (another file) is not served a stale machine code.
+    """
+    bind_allocation()
+    try:
+        import numba
+    except ImportError:  # pragma: no cover - exercised where numba is not installed
+        return run_hybrid
+    name = f"run_hybrid_{'parallel' if parallel else 'serial'}_{kernel_stamp()}"
+    function = types.FunctionType(run_hybrid.__code__, run_hybrid.__globals__, name)
+    function.__qualname__ = name
+    function.__doc__ = run_hybrid.__doc__
+    return numba.njit(parallel=parallel, cache=True, error_model="numpy")(function)
+
+
+bind_allocation()

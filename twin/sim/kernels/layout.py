@@ -1,0 +1,47 @@
+"""The rows of the arrays the engine hands the compiled kernels: one contract, three kernels.
+
+A `Simulation` holds N lanes (one scenario each) as arrays; per chunk of B steps it calls a
+kernel runner with
+
+- `xs` (N, B + 1, S): the mechanism state, row 0 the chunk's start, rows 1 … B written;
+- `targets` (N, B, 18): the held target in the base frame at each step (`TARGET_*` rows);
+- `prm` (N, N_PARAMETERS): each lane's planner knobs, packed from its planner object;
+- `memory` (N, N_MEMORY): each lane's planner state carried from step to step (DWA's shares,
+  a PID's integral, …), read and written by the kernel;
+- `const`: the mechanism's constants;
+- `diag` (N, B, …) and `faults` (N, B) int64: written, one row per step.
+
+Row 0 of `prm` names the lane's planner family (`KIND_*`), row 1 whether the lane holds its
+joint limits (1.0) or only records passing them (0.0); the rest belongs to the family's kernel.
+"""
+
+from __future__ import annotations
+
+#: Target rows: ᴮR_d row-major (9), ᴮp_d [m] (3), twist ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s] (6).
+TARGET_R, TARGET_P, TARGET_V, TARGET_W = 0, 9, 12, 15
+N_TARGET = 18
+
+#: Planner families (prm[P_KIND]).
+KIND_DIFFERENTIAL, KIND_ALLOCATION, KIND_PLATFORM = 0, 1, 2
+#: Common prm rows; a family's own rows start at P_FAMILY.
+P_KIND, P_HOLD, P_FAMILY = 0, 1, 2
+N_PARAMETERS = 48
+N_MEMORY = 48
+
+#: Fault bits, the values of `twin.sim.faults.Fault` (tested equal), as plain ints for numba.
+FAULT_BASE_MOTION, FAULT_PLANNER, FAULT_KINEMATICS = 1, 2, 4
+FAULT_JOINT_LIMIT, FAULT_SINGULAR = 8, 16
+
+#: Hybrid-system constants (`const` of the hybrid runner): Table 6 joint limits, rate limits,
+#: gangway d1 and a1 (Table 1), the Stewart hinges (6 × 3 row-major, base hinges in B,
+#: platform hinges in P; seed 000 eqs (1)-(2)) and the leg stroke (Table 1).
+C_LOWER, C_UPPER, C_RATE, C_D1, C_A1 = 0, 9, 18, 27, 28
+C_BASE_HINGES, C_PLATFORM_HINGES, C_LEG_MIN, C_LEG_MAX = 29, 47, 65, 66
+N_HYBRID_CONSTANTS = 67
+
+#: Hybrid diagnostics rows (diag (N, B, N_HYBRID_DIAGNOSTICS)): the weights diag(W⁻¹) (9),
+#: null-space share, damping λ, rate-limit scale (differential planners); the position
+#: shares (3, allocation planners); the fraction of the step taken (1: all; `hold` mode).
+#: The engine hands diag in zeroed; a kernel leaves another family's rows alone (no NaN).
+D_WEIGHTS, D_SHARE, D_DAMPING, D_SCALE, D_POSITION_SHARE, D_LIMIT_SCALE = 0, 9, 10, 11, 12, 15
+N_HYBRID_DIAGNOSTICS = 16

@@ -1,0 +1,272 @@
+"""A mechanism's lanes in the engine: its kernel, its constants, its planners packed, its record.
+
+The engine (`twin.sim.engine.Simulation`) is the same for every mechanism: it samples the
+base, builds the held targets, calls a compiled kernel over a chunk and keeps the history.
+What differs — the state, the kernel, how a planner object becomes kernel rows, what is
+recorded and judged — is one class per kind of mechanism here.
+
+Planner objects (`twin.planners`) are built by the registry as always and packed into rows of
+`prm` and `memory` (`twin.sim.kernels.layout`): the objects state the math and configure the
+kernel, which runs it.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+from twin.errors import TwinError
+from twin.mechanisms import HybridBoardingSystem
+from twin.planners import (
+    HYBRID_RATE_LIMITS,
+    AllocationPlanner,
+    DifferentialPlanner,
+    PlatformModel,
+    PlatformPlanner,
+    TipTarget,
+    get_planner,
+)
+from twin.sim.kernels import layout
+from twin.sim.metrics import hybrid_metrics, platform_metrics
+from twin.sim.records import hybrid_records, landing_frame, platform_records
+from twin.sim.scenario import Scenario
+from twin.spatial import pose_to_transform
+
+#: the engines: "numba" (compiled), "python" (the same kernels interpreted, lane by lane: for
+#: machines where numba cannot import; the same numbers), "auto" (numba when it imports)
+ENGINES = ("auto", "numba", "python")
+
+
+def numba_available() -> bool:
+    """Whether the compiled engine can run (numba importable)."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def use_numba(engine: str) -> bool:
+    """Whether `engine` compiles; a TwinError for an unknown or unavailable one."""
+    if engine == "numpy":  # the name of the interpreted engine before there was one engine
+        engine = "python"
+    if engine not in ENGINES:
+        raise TwinError(f"engine: unknown {engine!r}; allowed: {list(ENGINES)}")
+    if engine == "numba" and not numba_available():
+        raise TwinError("engine: 'numba' needs the numba package (pip install numba)")
+    return engine == "numba" or (engine == "auto" and numba_available())
+
+
+@cache
+def _threads() -> int:
+    import numba
+
+    return numba.get_num_threads()
+
+
+def runner(kind: str, compiled: bool, lanes: int) -> Any:
+    """The chunk runner of `kind` ("hybrid" or "platform"): compiled, parallel over lanes when
+    there are several and numba has several threads, or the plain Python function."""
+    from twin.sim.kernels import hybrid, platform
+
+    module = hybrid if kind == "hybrid" else platform
+    plain = module.run_hybrid if kind == "hybrid" else module.run_platform
+    if not compiled:
+        return plain
+    factory = module.compiled_hybrid if kind == "hybrid" else module.compiled_platform
+    return factory(lanes > 1 and _threads() > 1)
+
+
+def tip_target(row: np.ndarray) -> TipTarget:
+    """A `TipTarget` from a packed target row (18,) (`layout.TARGET_*`)."""
+    T = np.eye(4)
+    T[:3, :3] = row[layout.TARGET_R : layout.TARGET_R + 9].reshape(3, 3)
+    T[:3, 3] = row[layout.TARGET_P : layout.TARGET_P + 3]
+    return TipTarget(T, np.array(row[layout.TARGET_V : layout.TARGET_V + 6]))
+
+
+class HybridLanes:
+    """The hybrid boarding system's lanes: state xi (9,) [m, rad] (seed 000 eq (14)).
+
+    Args:
+        mechanism: the hybrid system.
+        x0: (N, 9) states at t = 0 (set-points such as MTMP's q̃2 stay at these, eq (40)).
+        T_IB0: (N, 4, 4) the base at t = 0, where each lane's held tip pose ᴵT_E* is fixed.
+    """
+
+    kind = "hybrid"
+    state_key = "xi"
+
+    def __init__(self, mechanism: HybridBoardingSystem, x0: np.ndarray, T_IB0: np.ndarray):
+        from twin.sim.kernels.hybrid import hybrid_constants
+
+        self.mechanism = mechanism
+        self.x0 = np.array(x0, dtype=float)
+        self.held = T_IB0 @ mechanism.end_effector(self.x0)
+        self.landing, self.gangway0 = landing_frame(T_IB0, self.x0, mechanism)
+        self.const = hybrid_constants(mechanism, HYBRID_RATE_LIMITS)
+        self.n_diagnostics = layout.N_HYBRID_DIAGNOSTICS
+        self.extra: np.ndarray | None = None  # the small platforms' actuator lengths
+
+    def pack(
+        self, lane: int, scenario: Scenario, x: np.ndarray, target: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Build the lane's planner from the registry, reset it at state x and target row
+        (18,), and pack it: (prm row, memory row)."""
+        from twin.sim.kernels.allocation import pack_allocation
+        from twin.sim.kernels.hybrid import pack_differential
+
+        spec = get_planner(scenario.planner, "hybrid")
+        planner = spec.build(self.mechanism, scenario.parameters(), self.x0[lane])
+        planner.reset(x, tip_target(target))
+        hold = scenario.joint_limits == "hold"
+        if isinstance(planner, DifferentialPlanner):
+            return pack_differential(planner, hold), np.zeros(layout.N_MEMORY)
+        if isinstance(planner, AllocationPlanner):
+            return pack_allocation(planner, hold)
+        raise TwinError(f"planner {scenario.planner!r}: no kernel packs {type(planner).__name__}")
+
+    def run(
+        self,
+        run: Any,
+        xs: np.ndarray,
+        targets: np.ndarray,
+        prm: np.ndarray,
+        memory: np.ndarray,
+        dt: float,
+        diag: np.ndarray,
+        faults: np.ndarray,
+    ) -> None:
+        """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says)."""
+        run(xs, targets, prm, memory, self.const, dt, diag, faults)
+
+    def records(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float) -> dict:
+        """Records (N, T, …) of states xs (N, T, 9) on base poses (N, T, 6), with the steps'
+        diagnostics (N, T, N_HYBRID_DIAGNOSTICS)."""
+        del dt  # Unused: nothing recorded is a rate.
+        out = hybrid_records(self.mechanism, poses, xs, self.held, self.landing, self.gangway0)
+        out["weights"] = diag[..., layout.D_WEIGHTS : layout.D_WEIGHTS + 9]
+        out["null_space_share"] = diag[..., layout.D_SHARE]
+        out["damping"] = diag[..., layout.D_DAMPING]
+        out["velocity_scale"] = diag[..., layout.D_SCALE]
+        out["position_share"] = diag[..., layout.D_POSITION_SHARE : layout.D_POSITION_SHARE + 3]
+        out["limit_scale"] = diag[..., layout.D_LIMIT_SCALE]
+        return out
+
+    def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
+        """Records (N, 1, …) at t = 0 (diagnostics zero: the engine repeats the first step's)."""
+        diag = np.zeros((len(x), 1, self.n_diagnostics))
+        return self.records(poses, x[:, None], diag, 1.0)
+
+    def keys(self, planner: str) -> set[str]:
+        """The diagnostics a planner has: the differential ones' or the allocation ones'."""
+        differential = {"weights", "null_space_share", "damping", "velocity_scale"}
+        allocation = {"position_share"}
+        return allocation if planner in ("dwa", "conv1", "conv2") else differential
+
+    def metrics(self, series: dict[str, np.ndarray], lane: int) -> dict:
+        del lane  # Unused: every lane is the same machine.
+        return hybrid_metrics(series, self.mechanism)
+
+
+class PlatformLanes:
+    """The 3UPU_UP's or 4-UPR's lanes: state (z, α, β) (seed 001 / seed 002) and actuator
+    lengths [native: mm for the Upu3Up, m for the Upr4].
+
+    Args:
+        mechanism: the Upu3Up or Upr4.
+        x0: (N, 3) states at t = 0 (the Upr4 holds each lane's z, seed 002 §4).
+        T_IB0: (N, 4, 4) the base at t = 0: each lane holds the top level at its inertial
+            position then, with the base's heading.
+    """
+
+    kind = "platform"
+    state_key = "state"
+
+    def __init__(self, mechanism: Any, x0: np.ndarray, T_IB0: np.ndarray):
+        from twin.sim.kernels.platform import N_PLATFORM_DIAGNOSTICS, platform_constants
+
+        self.mechanism = mechanism
+        self.x0 = np.array(x0, dtype=float)
+        self.models = [PlatformModel(mechanism, z_hold=float(z)) for z in self.x0[:, 0]]
+        self.model = self.models[0]
+        top = T_IB0 @ self.model.transform(self.x0)
+        yaw = np.arctan2(T_IB0[:, 1, 0], T_IB0[:, 0, 0])
+        zero = np.zeros(len(yaw))
+        self.held = pose_to_transform(np.stack([*top[:, :3, 3].T, zero, zero, yaw], -1))
+        self.const = platform_constants(self.model)
+        self.n_diagnostics = N_PLATFORM_DIAGNOSTICS
+        n = self.model.n_legs
+        self.extra = np.zeros((len(self.x0), 4))
+        self.extra[:, :n] = self.model.leg_lengths(self.x0)
+        self._legs = self.extra[:, None]
+
+    def pack(
+        self, lane: int, scenario: Scenario, x: np.ndarray, target: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Build the lane's planner at state x, reset it at its actuator lengths and target
+        row (18,), and pack it: (prm row, memory row)."""
+        from twin.sim.kernels.platform import pack_platform
+
+        spec = get_planner(scenario.planner, self.models[lane].name)
+        planner: PlatformPlanner = spec.build(self.mechanism, scenario.parameters(), x)
+        n = self.model.n_legs
+        planner.reset(self.extra[lane, :n].copy(), tip_target(target))
+        return pack_platform(planner, scenario.joint_limits == "hold")
+
+    def run(
+        self,
+        run: Any,
+        xs: np.ndarray,
+        targets: np.ndarray,
+        prm: np.ndarray,
+        memory: np.ndarray,
+        dt: float,
+        diag: np.ndarray,
+        faults: np.ndarray,
+    ) -> None:
+        """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says)."""
+        legs = np.empty((xs.shape[0], xs.shape[1], 4))
+        legs[:, 0] = self.extra
+        run(xs, legs, targets, prm, memory, self.const, dt, diag, faults)
+        self._legs = legs  # read by `records`
+
+    def records(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float) -> dict:
+        """Records (N, T, …) of the chunk just run (`run` keeps its actuator lengths)."""
+        from twin.sim.kernels.platform import D_CLIPPED, D_SATURATED
+
+        n = self.model.n_legs
+        legs = self._legs[:, :, :n]
+        rates = np.diff(legs, axis=1) / dt
+        self.extra = self._legs[:, -1].copy()
+        lanes = [
+            platform_records(m, poses[i : i + 1], xs[i : i + 1], legs[i : i + 1, 1:],
+                             rates[i : i + 1], self.held[i : i + 1])
+            for i, m in enumerate(self.models)
+        ]  # fmt: skip
+        out = {key: np.concatenate([r[key] for r in lanes]) for key in lanes[0]}
+        out["clipped"] = diag[..., D_CLIPPED]
+        out["saturated"] = diag[..., D_SATURATED]
+        return out
+
+    def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
+        """Records (N, 1, …) at t = 0: the start, nothing moved yet."""
+        n = self.model.n_legs
+        lanes = [
+            platform_records(m, poses[i : i + 1], x[i : i + 1, None], self.extra[i : i + 1, None, :n],
+                             np.zeros((1, 1, n)), self.held[i : i + 1])
+            for i, m in enumerate(self.models)
+        ]  # fmt: skip
+        out = {key: np.concatenate([r[key] for r in lanes]) for key in lanes[0]}
+        out["clipped"] = np.zeros((len(x), 1))
+        out["saturated"] = np.zeros((len(x), 1))
+        return out
+
+    def keys(self, planner: str) -> set[str]:
+        del planner  # Unused: both laws record the same.
+        return set()
+
+    def metrics(self, series: dict[str, np.ndarray], lane: int) -> dict:
+        return platform_metrics(series, self.models[lane])

@@ -1,0 +1,159 @@
+"""What a run records at each sample, computed for a whole chunk of samples at once.
+
+The kernels step the state; everything recorded that does not feed back — leg lengths, the
+tip's error against its held pose, attitude angles, manipulability — is computed here from
+the states and base poses of a chunk, vectorised over lanes and time, each transform once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from twin.mechanisms import HybridBoardingSystem
+from twin.mechanisms.legs import LegState, twist_jacobian
+from twin.mechanisms.upu3up import Upu3Up
+from twin.planners.platform import PlatformModel
+from twin.sim.target import tilt
+from twin.spatial import invert_transform, pose_error, pose_to_transform
+
+
+def gangway_tip(mechanism: HybridBoardingSystem, q: np.ndarray) -> np.ndarray:
+    """ᴾT_E (..., 4, 4) of gangway joints q (..., 3) [rad, rad, m]: seed 000 Table 2 (θ2 = q2 +
+    90°, SPEC erratum 3) multiplied out in closed form (`Gangway.forward` multiplies three DH
+    matrices), equal to it to rounding (tested)."""
+    s1, c1 = np.sin(q[..., 0]), np.cos(q[..., 0])
+    s2, c2 = np.sin(q[..., 1] + np.pi / 2), np.cos(q[..., 1] + np.pi / 2)
+    d3, gangway = q[..., 2], mechanism.gangway
+    G = np.zeros((*q.shape[:-1], 4, 4))
+    G[..., 0, :] = np.stack([c1 * c2, s1, c1 * s2, c1 * (gangway.a1 + d3 * s2)], -1)
+    G[..., 1, :] = np.stack([s1 * c2, -c1, s1 * s2, s1 * (gangway.a1 + d3 * s2)], -1)
+    G[..., 2, :] = np.stack([s2, np.zeros_like(s2), -c2, gangway.d1 - d3 * c2], -1)
+    G[..., 3, 3] = 1.0
+    return G
+
+
+def landing_frame(T_IB: np.ndarray, xi: np.ndarray, mechanism: HybridBoardingSystem) -> tuple[
+    np.ndarray, np.ndarray
+]:
+    """Seed 004's landing frame at t = 0: inertial, x along the horizontal gangway direction.
+
+    Args:
+        T_IB: (..., 4, 4) ᴵT_B at t = 0; xi: (..., 9) the state at t = 0.
+
+    Returns:
+        (L (..., 3, 3) rotating inertial vectors into it, the gangway vector g₀ (..., 3) in it).
+    """
+    g = gangway_direction(T_IB, xi, mechanism)
+    heading = np.arctan2(g[..., 1], g[..., 0])
+    c, s = np.cos(heading), np.sin(heading)
+    L = np.zeros((*heading.shape, 3, 3))
+    L[..., 0, 0], L[..., 0, 1], L[..., 1, 0], L[..., 1, 1], L[..., 2, 2] = c, s, -s, c, 1.0
+    return L, (L @ g[..., None])[..., 0]
+
+
+def gangway_direction(
+    T_IB: np.ndarray, xi: np.ndarray, mechanism: HybridBoardingSystem
+) -> np.ndarray:
+    """Inertial vector (..., 3) [m] from the luff pivot (DH frame 2) to the tip: d3 along the
+    tip's z axis (seed 000 Table 2), turned by ᴵR_B ᴮR_P."""
+    G = gangway_tip(mechanism, xi[..., 6:])
+    R_IP = T_IB[..., :3, :3] @ pose_to_transform(xi[..., :6])[..., :3, :3]
+    return (R_IP @ (xi[..., 8:9, None] * G[..., :3, 2:3]))[..., 0]
+
+
+def hybrid_records(
+    mechanism: HybridBoardingSystem,
+    poses: np.ndarray,
+    xi: np.ndarray,
+    held: np.ndarray,
+    landing: np.ndarray,
+    gangway0: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """The hybrid system's record at T samples of N lanes.
+
+    Args:
+        mechanism: the hybrid system.
+        poses: (N, T, 6) inertial base poses [m, rad].
+        xi: (N, T, 9) virtual joints [m, rad].
+        held: (N, 4, 4) ᴵT_E*, the held tip pose.
+        landing, gangway0: (N, 3, 3) and (N, 3), `landing_frame` at t = 0.
+
+    Returns:
+        base_pose, xi, legs, tip_error (tip pose error against ᴮT_d, [m, rad] in B),
+        manipulability, phi_e, theta_e (seed 004 §3.1 a: the gangway's azimuth and elevation
+        change since t = 0 [rad]), alpha_top (tilt of the tip's "up" axis from its held
+        direction [rad]), alpha_bottom (the base's tilt [rad]), each (N, T, ...).
+    """
+    T_IB = pose_to_transform(poses)
+    T_P = pose_to_transform(xi[..., :6])
+    G = gangway_tip(mechanism, xi[..., 6:])
+    T_E = T_P @ G  # HybridBoardingSystem.end_effector, seed 000 eq (14)
+    R_IP = T_IB[..., :3, :3] @ T_P[..., :3, :3]
+    g = (R_IP @ (xi[..., 8:9, None] * G[..., :3, 2:3]))[..., 0]
+    g = (landing[:, None] @ g[..., None])[..., 0]
+    g0 = gangway0[:, None]
+    up0 = held[:, None, :3, 0]  # the tip's x axis is "up" at q = 0
+    up = (T_IB[..., :3, :3] @ T_E[..., :3, 0:1])[..., 0]
+    # StewartPlatform.legs and .manipulability, the arms as one (6, 3) @ (3, 3) per sample
+    layout = mechanism.layout
+    arms = layout.platform_hinges @ np.swapaxes(T_P[..., :3, :3], -1, -2)
+    vectors = arms + T_P[..., None, :3, 3] - layout.base_hinges
+    lengths = np.linalg.norm(vectors, axis=-1)
+    J = twist_jacobian(LegState(vectors, lengths, vectors / lengths[..., None], arms))
+    return {
+        "base_pose": poses,
+        "xi": xi,
+        "legs": lengths,
+        "tip_error": pose_error(invert_transform(T_IB) @ held[:, None], T_E),
+        "manipulability": np.sqrt(np.abs(np.linalg.det(J @ np.swapaxes(J, -1, -2)))),
+        "phi_e": np.arctan2(g[..., 1], g[..., 0]) - np.arctan2(g0[..., 1], g0[..., 0]),
+        "theta_e": np.arctan2(g[..., 2], g[..., 0]) - np.arctan2(g0[..., 2], g0[..., 0]),
+        "alpha_top": np.arctan2(
+            np.linalg.norm(np.cross(up, up0), axis=-1), np.sum(up * up0, axis=-1)
+        ),
+        "alpha_bottom": tilt(T_IB[..., :3, :3]),
+    }
+
+
+def platform_records(
+    model: PlatformModel,
+    poses: np.ndarray,
+    state: np.ndarray,
+    legs: np.ndarray,
+    rates: np.ndarray,
+    held: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """A small platform's record at T samples of N lanes.
+
+    Args:
+        model: the platform.
+        poses: (N, T, 6) inertial base poses [m, rad].
+        state: (N, T, 3) platform states [native, rad, rad] (mm for the Upu3Up).
+        legs: (N, T, n) actuator lengths [native].
+        rates: (N, T, n) actuator rates over the step that ended at each sample [native/s].
+        held: (N, 4, 4) ᴵT*, the held level top pose [m].
+
+    Returns:
+        base_pose, state, desired_state (the state whose top matches the held pose, unclipped),
+        legs, leg_rates, tip_error (top pose error against the desired state's top [m, rad]),
+        alpha_top, alpha_bottom (tilts from inertial z [rad]) and, for the Upu3Up,
+        coupled_displacement (seed 001 eq (15) [mm]); each (N, T, ...).
+    """
+    T_IB = pose_to_transform(poses)
+    T_BP = model.transform(state)
+    desired = model.desired_state(invert_transform(T_IB) @ held[:, None])
+    records = {
+        "base_pose": poses,
+        "state": state,
+        "desired_state": desired,
+        "legs": legs,
+        "leg_rates": rates,
+        "tip_error": pose_error(model.transform(desired), T_BP),
+        "alpha_top": tilt(T_IB[..., :3, :3] @ T_BP[..., :3, :3]),
+        "alpha_bottom": tilt(T_IB[..., :3, :3]),
+    }
+    if isinstance(model.mechanism, Upu3Up):
+        records["coupled_displacement"] = model.mechanism.coupled_displacement(
+            state[..., 0], state[..., 1], state[..., 2]
+        )
+    return records
