@@ -7,8 +7,11 @@
   the initial scene; CPU per update is the process's CPU time (simulation, render thread and
   websocket server together) over the render frames drawn in that window.
 - **REST**: `POST /api/runs` of a 60 s scenario (1200 steps, under the synchronous cap, so the
-  answer comes when the run is done) against uvicorn in a thread, from C concurrent httpx
-  clients in threads; p50 and p99 over every request.
+  answer comes when the run is done: stored, simulated in a worker process, its metrics read
+  back) against uvicorn in a thread, from C concurrent httpx clients in threads; p50 and p99
+  over every request. Every client connects from 127.0.0.1, so the app's per-address
+  submission limit (`run_rate`, `run_burst`) is lifted: it would answer 429, which is what
+  it is for, not latency.
 """
 
 from __future__ import annotations
@@ -104,13 +107,17 @@ def live_rows(row: Row, window: float = LIVE_WINDOW) -> None:
         session.stop()
 
 
-def rest_rows(row: Row, requests_1: int = 5, requests_20: int = 1) -> None:
-    """p50/p99 latency of POST /api/runs (60 s scenario) at 1 and 20 concurrent clients."""
+def rest_rows(
+    row: Row, requests_1: int = 20, requests_20: int = 2, targets: tuple[float, float] = (0.1, 1.0)
+) -> None:
+    """p50 of POST /api/runs (60 s scenario) with one client, p99 with 20 concurrent clients,
+    against `targets` [s] (issue 12: p50 ≤ 100 ms, p99 ≤ 1 s)."""
     for name in ("uvicorn.error", "httpx"):  # the root logger is at INFO (wavespectra)
         logging.getLogger(name).setLevel(logging.WARNING)
     with tempfile.TemporaryDirectory() as folder, RunStore(Path(folder) / "r.sqlite") as store:
         jobs = JobRunner(store)
-        app = create_app(LiveSession(), store, jobs=jobs)
+        # one address for every client: lift the per-address limit (see the module's doc)
+        app = create_app(LiveSession(), store, jobs=jobs, run_rate=1e9, run_burst=10**9)
         port = free_port()
         server = uvicorn.Server(
             uvicorn.Config(app, host="127.0.0.1", port=port, access_log=False, log_level="warning")
@@ -121,9 +128,6 @@ def rest_rows(row: Row, requests_1: int = 5, requests_20: int = 1) -> None:
             url = f"http://127.0.0.1:{port}"
             while not server.started:
                 time.sleep(0.05)
-            with httpx.Client(base_url=url, timeout=300) as warm:  # spawn and warm both workers
-                for _ in range(jobs.workers):
-                    warm.post("/api/runs", json={**REST_BODY, "duration": 1.0}).raise_for_status()
 
             def client(n: int) -> list[float]:
                 latencies = []
@@ -134,16 +138,26 @@ def rest_rows(row: Row, requests_1: int = 5, requests_20: int = 1) -> None:
                         latencies.append(time.perf_counter() - start)
                 return latencies
 
+            # every worker spawned, its imports done and its compiled kernels loaded: a few
+            # rounds of concurrent requests, so each worker gets at least one
+            with ThreadPoolExecutor(2 * jobs.workers) as pool:
+                for _ in range(3):
+                    list(pool.map(client, [2] * (2 * jobs.workers)))
+
             for clients, each in ((1, requests_1), (20, requests_20)):
                 with ThreadPoolExecutor(clients) as pool:
                     latencies = np.concatenate(list(pool.map(client, [each] * clients)))
                 p50, p99 = np.percentile(latencies, [50, 99])
-                row(
+                label = (
                     f"REST: POST /api/runs (60 s run), {clients} client"
                     + ("s" if clients > 1 else "")
-                    + f", {len(latencies)} requests, {jobs.workers} workers",
-                    f"p50 {p50:.2f} s, p99 {p99:.2f} s",
+                    + f", {len(latencies)} requests, {jobs.workers} workers"
                 )
+                if clients == 1:
+                    met, target = p50 <= targets[0], f"p50 ≤ {1e3 * targets[0]:.0f} ms"
+                else:
+                    met, target = p99 <= targets[1], f"p99 ≤ {targets[1]:g} s"
+                row(label, f"p50 {1e3 * p50:.0f} ms, p99 {1e3 * p99:.0f} ms", target, met)
         finally:
             server.should_exit = True
             thread.join(timeout=10)

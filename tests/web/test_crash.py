@@ -32,7 +32,6 @@ import pyarrow.parquet as pq
 from tests.figures import record
 from tests.web.support import wait_for
 from tests.web.test_load import Server
-from twin.web.jobs import SYNC_MAX_STEPS
 
 #: [s] the whole test must end within this
 BUDGET = 90.0
@@ -40,16 +39,13 @@ BUDGET = 90.0
 KILLS = ("progress", "orphan", "burst")
 #: a 2 s run: synchronous, 201 once done
 SHORT = {"mechanism": "upr4", "planner": "pid", "n_components": 16, "duration": 2.0}
-#: a run long enough (800 steps, 1-2 s) to be caught running, writing progress every 0.5 s
-MEDIUM = {"mechanism": "upr4", "planner": "pid", "n_components": 16, "duration": 40.0}
-#: just over the synchronous cap: answered 202 at once, run in the background (~20 s)
-LONG = {
-    "mechanism": "upr4",
-    "planner": "pid",
-    "n_components": 16,
-    "dt": 0.005,
-    "duration": (SYNC_MAX_STEPS + 100) * 0.005,
-}
+#: over the synchronous cap, and long enough to be caught running, writing progress every
+#: 0.5 s: the most steps a scenario may have, on the finest sea (200,000 steps, 2,048 wave
+#: components: 1-2 s on the compiled engine)
+MEDIUM = {"mechanism": "upr4", "planner": "pid", "n_components": 2048, "dt": 0.005,
+          "duration": 1000.0}  # fmt: skip
+#: answered 202 at once, run in the background
+LONG = {**MEDIUM, "mechanism": "hybrid", "planner": "mtmp"}
 STATUSES = {"queued", "running", "done", "failed"}
 #: runs stored; runs a worker is running and has written progress into
 STORED = "SELECT COUNT(*) FROM runs"

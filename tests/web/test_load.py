@@ -441,7 +441,7 @@ def test_live_history_is_a_ring_buffer_through_patches_and_restarts() -> None:
     ):
         session.patch(patch)
         session.step(HISTORY // 20)
-        assert session._sim.history.maxlen == HISTORY, patch  # the bound survives restarts
+        assert session._sim.history.capacity == HISTORY, patch  # the bound survives restarts
     session.step(HISTORY)
     assert len(session.series()["t"]) == HISTORY
     assert session.snapshot()["t"] > HISTORY * session.scenario.dt

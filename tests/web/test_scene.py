@@ -15,6 +15,7 @@ from tests.web.support import free_port, wait_for
 from twin.assets import asset_path
 from twin.mechanisms.urdf import joint_configuration
 from twin.planners import PlannerParameters
+from twin.sim.kernels.layout import P_HOLD
 from twin.sim.live import LiveSession
 from twin.spatial import matrix_to_wxyz, pose_to_transform
 from twin.web.frame import read_frame
@@ -293,7 +294,7 @@ def test_joint_limits_dropdown_switches_hold_and_record(
     viewer: Viewer, session: LiveSession
 ) -> None:
     """The live session starts holding at the limits; the dropdown switches without a reset."""
-    assert session.scenario.joint_limits == "hold" and session._sim.rig.hold_limits
+    assert session.scenario.joint_limits == "hold" and session._sim.prm[0, P_HOLD] == 1.0
     viewer.gui.inputs["joint_limits"].value = "record"
-    assert session.scenario.joint_limits == "record" and not session._sim.rig.hold_limits
+    assert session.scenario.joint_limits == "record" and session._sim.prm[0, P_HOLD] == 0.0
     assert session.version == 0

@@ -155,8 +155,7 @@ class Simulation:
         self.faults = [FaultLog() for _ in self.scenarios]
         self.history = History(history_limit or self.n_steps + 1)
         first_row = self.lanes.initial_records(self._block.poses[:, :1], self.x)
-        first_row["t"] = np.zeros((self.n_lanes, 1))
-        self.history.append(first_row)
+        self.history.append({"t": np.zeros((self.n_lanes, 1)), **first_row})
 
     # -- readers -----------------------------------------------------------------------------
     @property

@@ -237,32 +237,31 @@ class PlatformLanes:
         """Records (N, T, …) of the chunk just run (`run` keeps its actuator lengths)."""
         from twin.sim.kernels.platform import D_CLIPPED, D_SATURATED
 
-        n = self.model.n_legs
-        legs = self._legs[:, :, :n]
-        rates = np.diff(legs, axis=1) / dt
+        legs = self._legs[:, :, : self.model.n_legs]
         self.extra = self._legs[:, -1].copy()
-        lanes = [
-            platform_records(m, poses[i : i + 1], xs[i : i + 1], legs[i : i + 1, 1:],
-                             rates[i : i + 1], self.held[i : i + 1])
-            for i, m in enumerate(self.models)
-        ]  # fmt: skip
-        out = {key: np.concatenate([r[key] for r in lanes]) for key in lanes[0]}
+        out = self._lanes(poses, xs, legs[:, 1:], np.diff(legs, axis=1) / dt)
         out["clipped"] = diag[..., D_CLIPPED]
         out["saturated"] = diag[..., D_SATURATED]
         return out
 
     def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
         """Records (N, 1, …) at t = 0: the start, nothing moved yet."""
-        n = self.model.n_legs
-        lanes = [
-            platform_records(m, poses[i : i + 1], x[i : i + 1, None], self.extra[i : i + 1, None, :n],
-                             np.zeros((1, 1, n)), self.held[i : i + 1])
-            for i, m in enumerate(self.models)
-        ]  # fmt: skip
-        out = {key: np.concatenate([r[key] for r in lanes]) for key in lanes[0]}
+        legs = self.extra[:, None, : self.model.n_legs]
+        out = self._lanes(poses, x[:, None], legs, np.zeros_like(legs))
         out["clipped"] = np.zeros((len(x), 1))
         out["saturated"] = np.zeros((len(x), 1))
         return out
+
+    def _lanes(
+        self, poses: np.ndarray, state: np.ndarray, legs: np.ndarray, rates: np.ndarray
+    ) -> dict[str, np.ndarray]:
+        """`platform_records` lane by lane (each lane's model holds its own z), stacked."""
+        lanes = [
+            platform_records(m, poses[i : i + 1], state[i : i + 1], legs[i : i + 1],
+                             rates[i : i + 1], self.held[i : i + 1])
+            for i, m in enumerate(self.models)
+        ]  # fmt: skip
+        return {key: np.concatenate([r[key] for r in lanes]) for key in lanes[0]}
 
     def keys(self, planner: str) -> set[str]:
         del planner  # Unused: both laws record the same.

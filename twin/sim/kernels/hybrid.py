@@ -31,16 +31,14 @@ below s_max·9·eps dropped), so damping = 0 on a rank-deficient J_W gives its n
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
 import math
-import types
 from collections.abc import Callable
 from functools import cache
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from twin.sim.kernels.compile import compile_runner
 from twin.sim.kernels.layout import (
     C_A1,
     C_BASE_HINGES,
@@ -68,6 +66,10 @@ from twin.sim.kernels.layout import (
     P_KIND,
 )
 
+if TYPE_CHECKING:
+    from twin.mechanisms.hybrid import HybridBoardingSystem
+    from twin.planners.differential import DifferentialPlanner
+
 try:  # numba is optional: without it these are plain Python functions, run lane by lane
     from numba import prange
     from numba.extending import register_jitable
@@ -86,7 +88,7 @@ LIMIT_BISECTIONS = 12
 LIMIT_SLACK = 1e-12
 
 
-def hybrid_constants(mechanism: object, rate_limit: np.ndarray) -> np.ndarray:
+def hybrid_constants(mechanism: HybridBoardingSystem, rate_limit: np.ndarray) -> np.ndarray:
     """The hybrid runner's `const` (N_HYBRID_CONSTANTS,), rows as in `twin.sim.kernels.layout`.
 
     Args:
@@ -388,7 +390,7 @@ def _flat_weights(weights: object) -> list:
     return [weights]
 
 
-def pack_differential(planner: object, hold: bool) -> np.ndarray:
+def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
     """A `DifferentialPlanner` as its lane's `prm` row (N_PARAMETERS,).
 
     Args:
@@ -400,7 +402,9 @@ def pack_differential(planner: object, hold: bool) -> np.ndarray:
         TwinError: the planner has a part the kernel does not implement (a tip task other than
             `TipPoseTask` on a hybrid system, weights other than `BetaSplit` and one
             `JointLimitWeights` with the mechanism's limits, more than one or another kind of
-            secondary task, Algorithm 1 on other columns than 5 and 6, ε ≤ 0).
+            secondary task, Algorithm 1 on other columns than 5 and 6) or knobs outside the
+            kernel's domain (ε ≤ 0, σ ≤ 0, a rate limit ≤ 0, a negative weight: where numpy
+            would give inf or NaN, plain Python would raise).
     """
     from twin.errors import TwinError
     from twin.mechanisms.hybrid import HybridBoardingSystem
@@ -438,6 +442,9 @@ def pack_differential(planner: object, hold: bool) -> np.ndarray:
             raise refuse("joint-limit weights other than one set on the mechanism's limits")
         prm[P_SCALE : P_SCALE + 9] = limits[0].scale
         prm[P_JOINT_LIMITS] = 1.0
+    weights = prm[P_SPLIT : P_SCALE + 9]
+    if not np.all(np.isfinite(weights) & (weights >= 0)):
+        raise refuse(f"weights {weights.tolist()!r:.120} (finite and ≥ 0 only)")
     prm[P_POSTURE_INDEX] = -1.0
     if len(planner.secondary) > 1:
         raise refuse(f"{len(planner.secondary)} secondary tasks (one posture task at most)")
@@ -450,6 +457,8 @@ def pack_differential(planner: object, hold: bool) -> np.ndarray:
     if slew is not None:
         if slew.yaw_index != 5 or slew.slew_index != 6:
             raise refuse("Algorithm 1 on other columns than the platform yaw (5) and slew (6)")
+        if not slew.sigma > 0:
+            raise refuse(f"Algorithm 1 with σ = {slew.sigma!r} (must be > 0)")
         prm[P_SLEW] = 1.0
         prm[P_SIGMA], prm[P_SLEW_RATE] = slew.sigma, slew.rate_max
         prm[P_Q1_MIN], prm[P_Q1_MAX] = slew.q1_min, slew.q1_max
@@ -459,6 +468,8 @@ def pack_differential(planner: object, hold: bool) -> np.ndarray:
     prm[P_SECONDARY] = planner.secondary_weight
     if planner.velocity_limit is not None:
         maximum = np.broadcast_to(np.asarray(planner.velocity_limit.maximum, dtype=float), (9,))
+        if not np.all(maximum > 0):
+            raise refuse(f"the rate limits {maximum.tolist()!r:.120} (must be > 0)")
         prm[P_RATE_LIMITED] = 1.0
         prm[P_RATE : P_RATE + 9] = maximum
     return prm
@@ -490,7 +501,7 @@ def cholesky_pinv_apply(
     K: np.ndarray, w: np.ndarray, L: np.ndarray, c: np.ndarray, out: np.ndarray
 ) -> None:
     """out (9,) = W Kᵀ (K W Kᵀ)⁻¹ c, the undamped J_W⁺ (seed 000 eq (31)) in P applied to c (6,),
-    with L L ᵀ = K W Kᵀ (`cholesky_lane`) and W = diag(w)."""
+    with L Lᵀ = K W Kᵀ (`cholesky_lane`) and W = diag(w)."""
     y = np.empty(6)
     for i in range(6):  # L z = c
         s = c[i]
@@ -816,7 +827,7 @@ def bind_allocation() -> None:
     allocation_velocity = found
 
 
-#: modules whose register_jitable functions `run_hybrid` compiles in (`kernel_stamp`)
+#: modules whose register_jitable functions `run_hybrid` compiles in
 KERNEL_MODULES = (
     "twin.sim.kernels.hybrid",
     "twin.sim.kernels.layout",
@@ -824,37 +835,12 @@ KERNEL_MODULES = (
 )
 
 
-def kernel_stamp() -> str:
-    """First 12 hex digits of the SHA-256 of the sources of `KERNEL_MODULES` (those found)."""
-    digest = hashlib.sha256()
-    for name in KERNEL_MODULES:
-        spec = importlib.util.find_spec(name)
-        if spec is not None and spec.origin is not None and Path(spec.origin).is_file():
-            digest.update(Path(spec.origin).read_bytes())
-    return digest.hexdigest()[:12]
-
-
 @cache
 def compiled_hybrid(parallel: bool) -> Callable:
     """`run_hybrid` compiled by numba, parallel over lanes or serial (one thread, e.g. one per
-    Dask worker), cached on disk; the plain `run_hybrid` when numba is not installed.
-
-    numba's on-disk cache keys a function by its name, its own file's time stamp and its
-    signature: not by `parallel`, nor by the files of the functions it calls. The runner is
-    therefore compiled from a copy named `run_hybrid_<parallel|serial>_<kernel_stamp()>`, so
-    the two modes do not overwrite each other's entry and an edit of the allocation kernel
-    (another file) is not served a stale machine code.
-    """
+    Dask worker), cached on disk (`compile_runner`); the plain `run_hybrid` without numba."""
     bind_allocation()
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - exercised where numba is not installed
-        return run_hybrid
-    name = f"run_hybrid_{'parallel' if parallel else 'serial'}_{kernel_stamp()}"
-    function = types.FunctionType(run_hybrid.__code__, run_hybrid.__globals__, name)
-    function.__qualname__ = name
-    function.__doc__ = run_hybrid.__doc__
-    return numba.njit(parallel=parallel, cache=True, error_model="numpy")(function)
+    return compile_runner(run_hybrid, parallel, KERNEL_MODULES)
 
 
 bind_allocation()

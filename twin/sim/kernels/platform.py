@@ -43,6 +43,7 @@ import numpy as np
 
 from twin.mechanisms.upu3up import _STATE_SLACK, Upu3Up
 from twin.planners.platform import FIT_MAX_ITER, FIT_TOL, PlatformModel, PlatformPlanner
+from twin.sim.kernels.compile import compile_runner
 from twin.sim.kernels.layout import (
     FAULT_JOINT_LIMIT,
     FAULT_KINEMATICS,
@@ -629,10 +630,8 @@ def run_platform(
 
 @cache
 def compiled_platform(parallel: bool) -> Callable:
-    """`run_platform` compiled by numba, parallel over lanes or serial; cached on disk after
-    the first compilation. Without numba, `run_platform` itself (plain Python)."""
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - exercised where numba is not installed
-        return run_platform
-    return numba.njit(parallel=parallel, cache=True, error_model="numpy")(run_platform)
+    """`run_platform` compiled by numba, parallel over lanes or serial, cached on disk
+    (`compile_runner`); the plain `run_platform` without numba."""
+    return compile_runner(
+        run_platform, parallel, ("twin.sim.kernels.platform", "twin.sim.kernels.layout")
+    )

@@ -1,0 +1,41 @@
+"""Compiling a kernel runner with numba, cached on disk under a name that changes with its code.
+
+numba's on-disk cache keys a function by its name, its own file's time stamp and its
+signature: not by `parallel`, nor by the files of the functions it calls. A runner is
+therefore compiled from a copy named `<name>_<parallel|serial>_<stamp>`, the stamp hashing the
+sources of every module whose functions it compiles in, so the two modes do not overwrite each
+other's entry and an edit in another kernel file is never served stale machine code.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import types
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+
+def source_stamp(modules: Sequence[str]) -> str:
+    """First 12 hex digits of the SHA-256 of the modules' sources (those found)."""
+    digest = hashlib.sha256()
+    for name in modules:
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.origin is not None and Path(spec.origin).is_file():
+            digest.update(Path(spec.origin).read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def compile_runner(runner: Callable, parallel: bool, modules: Sequence[str]) -> Callable:
+    """`runner` compiled by numba (parallel over lanes or serial), cached on disk; the plain
+    `runner` when numba cannot be imported (the interpreted engine: the same numbers)."""
+    try:
+        import numba
+    except ImportError:  # pragma: no cover - exercised where numba is not installed
+        return runner
+    mode = "parallel" if parallel else "serial"
+    name = f"{runner.__name__}_{mode}_{source_stamp(modules)}"
+    function = types.FunctionType(runner.__code__, runner.__globals__, name)
+    function.__qualname__ = name
+    function.__doc__ = runner.__doc__
+    return numba.njit(parallel=parallel, cache=True, error_model="numpy")(function)
