@@ -24,6 +24,7 @@ step, and each such step is flagged (`twin.sim.faults`) and counted in the metri
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -401,3 +402,23 @@ def simulate_many(
                 for i, result in zip(lanes, sim.results(), strict=True):
                     results[i] = result
     return results  # type: ignore[return-value]
+
+
+def warm(engine: str = "auto") -> float:
+    """Compile every kernel runner, serial and parallel, or load it from numba's disk cache
+    (seconds on a first start, a fraction of one after): a few steps of every planner family
+    of every kind of mechanism. A server calls it before serving, a worker before its first run.
+
+    Returns:
+        [s] the wall time it took.
+    """
+    start = time.perf_counter()
+    short = {"duration": 0.1}
+    for lanes in (
+        [{**short, "planner": "mtmp"}],
+        [{**short, "planner": "mtmp"}, {**short, "planner": "dwa"}],
+        [{**short, "mechanism": "upr4"}],
+        [{**short, "mechanism": "upr4"}, {**short, "mechanism": "upr4", "planner": "ik"}],
+    ):
+        Simulation(lanes, engine=engine).run()
+    return time.perf_counter() - start

@@ -26,6 +26,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from twin.sim import Scenario, Simulation
+from twin.sim.engine import warm
 from twin.web.store import RunStore
 
 #: most steps a synchronous run may take: 600 s at the default dt = 0.05 s, 20-30 s of compute
@@ -91,7 +92,9 @@ def _exit_with_parent(parent: int) -> None:
 
 
 def _warm() -> None:
-    """Nothing: submitting it makes the pool spawn a worker and import the simulation."""
+    """Spawn a worker, import the simulation and load the compiled kernels (`warm`), so the
+    first run a worker takes is as fast as the next."""
+    warm()
 
 
 class JobRunner:
@@ -124,7 +127,7 @@ class JobRunner:
         """
         self._closing = False
         for _ in range(self.workers):
-            self._executor().submit(_warm)  # the first run then skips the ~2 s process start
+            self._executor().submit(_warm)  # the first run then skips process start and JIT
         recovered = self.store.requeue_unfinished()
         for run_id in recovered:
             self.submit(run_id)

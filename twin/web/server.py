@@ -8,6 +8,7 @@ from pathlib import Path
 import uvicorn
 
 from twin.errors import TwinError
+from twin.sim.engine import warm
 from twin.sim.live import LiveSession
 from twin.web.api import create_app
 from twin.web.store import RunStore
@@ -67,6 +68,7 @@ def serve(
             "live session and submit runs. Set TWIN_TOKEN (e.g. TWIN_TOKEN=$(openssl rand -hex "
             "16)) or bind 127.0.0.1"
         )
+    print(f"twin: compiled kernels ready in {warm():.1f} s", flush=True)
     store = RunStore(Path(data_dir) / DATABASE)
     session = LiveSession()
     session.start()
