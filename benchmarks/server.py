@@ -99,7 +99,7 @@ def live_rows(row: Row, window: float = LIVE_WINDOW) -> None:
                 f"{statistics.mean(rates):.1f}/s per client (min {min(rates):.1f})",
             )
             row(
-                f"  CPU per update, {clients} client" + ("s" if clients > 1 else ""),
+                f"live server: CPU per update, {clients} client" + ("s" if clients > 1 else ""),
                 f"{1e3 * cpu_per_update:.1f} ms ({updates / (window + 1.0):.1f} frames/s drawn)",
             )
     finally:

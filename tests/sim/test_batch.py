@@ -3,6 +3,10 @@ scenario, compiled or interpreted."""
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -127,3 +131,34 @@ def test_order_and_mixed_groups_are_kept() -> None:
 def test_bad_requests_name_the_field(kwargs: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         simulate_many([{"beta": 2.0}] if not kwargs else [{}], **kwargs)
+
+
+NO_NUMBA = [
+    {"planner": "mtmp", "sea_state": 5, "duration": 1.0, "joint_limits": "hold"},
+    {"planner": "dwa", "sea_state": 5, "duration": 1.0},
+    {"mechanism": "upr4", "duration": 1.0},
+    {"mechanism": "upu3up", "planner": "ik", "duration": 1.0},
+]
+
+
+def test_where_numba_cannot_import_the_engine_gives_the_same_numbers(tmp_path) -> None:
+    """A Python in which `import numba` fails runs the same kernels interpreted: every
+    recorded series equals the compiled engine's to 1e-9."""
+    out = tmp_path / "runs.npz"
+    code = (
+        "import sys, json, numpy as np; sys.modules['numba'] = None\n"
+        "from twin.sim import simulate\n"
+        "from twin.sim.lanes import numba_available\n"
+        "assert not numba_available()\n"
+        f"runs = [simulate(s) for s in json.loads({json.dumps(json.dumps(NO_NUMBA))})]\n"
+        "np.savez(sys.argv[1], **{f'{i}/{k}': v for i, r in enumerate(runs)"
+        " for k, v in r.series.items()})\n"
+    )
+    subprocess.run([sys.executable, "-c", code, str(out)], check=True, timeout=300)
+    interpreted = np.load(out)
+    for i, scenario in enumerate(NO_NUMBA):
+        compiled = simulate(scenario, engine="numba" if numba_available() else "python")
+        for key, value in compiled.series.items():
+            np.testing.assert_allclose(
+                interpreted[f"{i}/{key}"], value, rtol=1e-9, atol=1e-9, err_msg=f"{i}/{key}"
+            )

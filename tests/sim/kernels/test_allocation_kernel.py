@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import random_hybrid_states
+from tests.sim.oracle import pack_target
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners import HYBRID_RATE_LIMITS
 from twin.planners.allocation import AllocationPlanner, reachable_range
@@ -47,11 +48,6 @@ ENGINES = ["python", pytest.param("numba", marks=pytest.mark.skipif(
 Step = Callable[..., int]
 
 CONST = hybrid_constants(MECHANISM, HYBRID_RATE_LIMITS)
-
-
-def target_row(target: TipTarget) -> np.ndarray:
-    """A TipTarget as the kernel's (18,) row (layout.TARGET_*)."""
-    return np.r_[target.transform[:3, :3].ravel(), target.transform[:3, 3], target.twist]
 
 
 @pytest.fixture(scope="module")
@@ -98,7 +94,7 @@ def test_steps_match_planner(
     v, diag = np.empty(9), np.full(lay.N_HYBRID_DIAGNOSTICS, np.nan)
     for k in range(N_STEPS):
         target = held_target(held, base, k, DT)
-        fault = step(x, target_row(target), prm, memory, CONST, DT, v, diag)
+        fault = step(x, pack_target(target), prm, memory, CONST, DT, v, diag)
         out = planner.step(xi, target, DT)
         assert fault == 0
         np.testing.assert_allclose(v, out.velocity, rtol=TOL, atol=TOL, err_msg=f"step {k}")
@@ -152,7 +148,7 @@ def test_non_finite_target_is_a_planner_fault(engine: str, request: pytest.Fixtu
     planner = AllocationPlanner(MECHANISM, "dwa")
     planner.reset(xi, TipTarget(MECHANISM.end_effector(xi), np.zeros(6)))
     prm, memory = ak.pack_allocation(planner, hold=False)
-    target = target_row(TipTarget(MECHANISM.end_effector(xi), np.zeros(6)))
+    target = pack_target(TipTarget(MECHANISM.end_effector(xi), np.zeros(6)))
     target[lay.TARGET_P] = np.nan
     v, diag = np.empty(9), np.zeros(lay.N_HYBRID_DIAGNOSTICS)
     assert step(xi, target, prm, memory, CONST, DT, v, diag) == lay.FAULT_PLANNER

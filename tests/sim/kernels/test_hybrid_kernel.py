@@ -1,10 +1,10 @@
 """The hybrid kernel (`twin.sim.kernels.hybrid`) against its oracles, step by step, to 1e-9.
 
 The oracles are the readable objects: `DifferentialPlanner.step` (PI, WPI, MTMP from the
-registry), the step guard of the former `twin.sim.hybrid_rig.HybridRig.advance` (restated
-below in numpy: `limit_scale`, `advance`) and the `twin.spatial` / `HybridBoardingSystem`
-functions the shared primitives restate. Both the numba runner and the plain-Python one (the
-fallback without numba) are checked.
+registry), the step guard of the former `twin.sim.hybrid_rig.HybridRig.advance` (restated in
+numpy in `tests.sim.oracle`: `limit_scale`, `hybrid_advance`) and the `twin.spatial` /
+`HybridBoardingSystem` functions the shared primitives restate. Both the numba runner and the
+plain-Python one (the fallback without numba) are checked.
 """
 
 from __future__ import annotations
@@ -14,6 +14,14 @@ import itertools
 import numpy as np
 import pytest
 
+from tests.sim.oracle import (
+    LIMIT_BISECTIONS,
+    HybridStep,
+    hybrid_advance,
+    limit_scale,
+    pack_target,
+    unpack_target,
+)
 from twin.errors import TwinError
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners import PlannerParameters, get_planner
@@ -56,15 +64,6 @@ def base_samples(n: int, amplitude: float = 1.0) -> BaseSamples:
     return BaseSamples(t, pose, pose_to_transform(pose))
 
 
-def packed(target: TipTarget) -> np.ndarray:
-    """A `TipTarget` as the kernels' (N_TARGET,) row (layout `TARGET_*`)."""
-    row = np.empty(layout.N_TARGET)
-    row[layout.TARGET_R : layout.TARGET_R + 9] = target.transform[:3, :3].reshape(9)
-    row[layout.TARGET_P : layout.TARGET_P + 3] = target.transform[:3, 3]
-    row[layout.TARGET_V : layout.TARGET_V + 6] = target.twist
-    return row
-
-
 def build(name: str, parameters: PlannerParameters, xi0: np.ndarray) -> DifferentialPlanner:
     return get_planner(name, "hybrid").build(H, parameters, xi0)
 
@@ -83,47 +82,11 @@ STATES = {
 }
 
 
-#: bisection steps of the rig's `limit_scale`
-LIMIT_BISECTIONS = 12
-
-
-def limit_scale(
-    mechanism: HybridBoardingSystem, xi: np.ndarray, velocity: np.ndarray, dt: float
-) -> float:
-    """The former `twin.sim.hybrid_rig.limit_scale`, verbatim: the largest s in [0, 1] such that
-    the step s·velocity·dt carries no joint and no leg further past its limit than it already
-    is, bisected 12 times."""
-    now = mechanism.limit_excess(xi) + 1e-12
-
-    def fits(s: float) -> bool:
-        return bool(
-            np.all(mechanism.limit_excess(mechanism.integrate(xi, s * velocity, dt)) <= now)
-        )
-
-    if fits(1.0):
-        return 1.0
-    low, high = 0.0, 1.0
-    for _ in range(LIMIT_BISECTIONS):
-        mid = 0.5 * (low + high)
-        low, high = (mid, high) if fits(mid) else (low, mid)
-    return low
-
-
 def advance(
     planner: DifferentialPlanner, x: np.ndarray, target: TipTarget, hold: bool
-) -> tuple[np.ndarray, dict, np.ndarray, float, int]:
-    """The former `HybridRig.advance` on one state: plan, then hold on a non-finite velocity
-    (PLANNER) or shorten the step at a limit in hold mode (JOINT_LIMIT), flag damping
-    (SINGULAR), integrate. Returns (velocity, diagnostics, next xi, limit scale, fault bits)."""
-    out = planner.step(x, target, DT)
-    v = out.velocity
-    bits = Fault.SINGULAR if out.diagnostics.get("damping", 0.0) > 0 else Fault(0)
-    if not np.all(np.isfinite(v)):
-        return v, out.diagnostics, x.copy(), 0.0, int(bits | Fault.PLANNER)
-    scale = limit_scale(H, x, v, DT) if hold else 1.0
-    if scale < 1.0:
-        bits |= Fault.JOINT_LIMIT
-    return v, out.diagnostics, H.integrate(x, scale * v, DT), scale, int(bits)
+) -> HybridStep:
+    """`hybrid_advance` (the former `HybridRig.advance`) on the hybrid system at DT."""
+    return hybrid_advance(planner, H, x, target, DT, hold)
 
 
 def helds(x: np.ndarray, base: BaseSamples) -> list[np.ndarray]:
@@ -205,7 +168,7 @@ def test_one_step_matches_the_planner_and_the_rig(
         target = held_target(held, base, k, DT)
         v, expected, x_next, scale, bits = step_oracle(name, PlannerParameters(), x, target, hold)
         for runner in (compiled, hk.run_hybrid):
-            got_x, diag, got_v, got_bits = run_one(runner, x, packed(target), prm)
+            got_x, diag, got_v, got_bits = run_one(runner, x, pack_target(target), prm)
             np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
             assert_diagnostics(diag, expected)
             assert diag[layout.D_LIMIT_SCALE] == scale
@@ -246,7 +209,7 @@ def test_chunk_follows_the_rig(name: str, hold: bool, compiled: object) -> None:
     held = helds(start, base)[1]  # ᴵT_E*, fixed at reset: beyond the limits start is near
     planner = build(name, PlannerParameters(), start)
     planner.reset(start, held_target(held, base, 0, DT))
-    targets = np.stack([packed(held_target(held, base, k, DT)) for k in range(n)])
+    targets = np.stack([pack_target(held_target(held, base, k, DT)) for k in range(n)])
     engine = held_targets(held[None], base.transform[None], DT)[0]  # the engine's, batched
     np.testing.assert_allclose(engine, targets, rtol=0, atol=1e-12)
     prm = hk.pack_differential(planner, hold)
@@ -289,7 +252,7 @@ def test_damping_zero_with_rank_deficient_weights(name: str, compiled: object) -
             target = held_target(held, base, k, DT)
             v, expected, x_next, _, bits = step_oracle(name, parameters, x, target, False)
             for runner in (compiled, hk.run_hybrid):
-                got_x, diag, got_v, got_bits = run_one(runner, x, packed(target), prm)
+                got_x, diag, got_v, got_bits = run_one(runner, x, pack_target(target), prm)
                 np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
                 assert_diagnostics(diag, expected)
                 np.testing.assert_allclose(got_x, x_next, rtol=0, atol=TOL)
@@ -321,7 +284,7 @@ def test_damping_engages_near_a_singularity(
         assert expected["damping"] < damping or damping == 0
     prm = hk.pack_differential(build(name, parameters, x), True)
     for runner in (compiled, hk.run_hybrid):
-        got_x, diag, got_v, got_bits = run_one(runner, x, packed(target), prm)
+        got_x, diag, got_v, got_bits = run_one(runner, x, pack_target(target), prm)
         np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
         assert_diagnostics(diag, expected)
         np.testing.assert_allclose(got_x, x_next, rtol=0, atol=TOL)
@@ -336,16 +299,10 @@ def test_nan_target_holds_the_state(name: str, row: int, compiled: object) -> No
     base = base_samples(10)
     held = base.transform[0] @ H.end_effector(H.working_state)
     x = STATES["off_centre"]
-    target = packed(held_target(held, base, 2, DT))
+    target = pack_target(held_target(held, base, 2, DT))
     target[row] = np.nan
     prm = hk.pack_differential(build(name, PlannerParameters(), x), True)
-    oracle = build(name, PlannerParameters(), x).step(
-        x,
-        TipTarget(
-            np.r_[np.c_[target[:9].reshape(3, 3), target[9:12]], [[0, 0, 0, 1.0]]], target[12:]
-        ),
-        DT,
-    )
+    oracle = build(name, PlannerParameters(), x).step(x, unpack_target(target), DT)
     assert not np.all(np.isfinite(oracle.velocity))
     for runner in (compiled, hk.run_hybrid):
         got_x, diag, got_v, bits = run_one(runner, x, target, prm)
@@ -370,7 +327,7 @@ def test_lanes_are_independent_in_the_parallel_runner(compiled: object) -> None:
     for i, (name, hold) in enumerate(lanes):
         xs[i, 0] = starts[i % len(starts)]
         held = base.transform[0] @ H.end_effector(xs[i, 0])
-        targets[i] = [packed(held_target(held, base, k, DT)) for k in range(n)]
+        targets[i] = [pack_target(held_target(held, base, k, DT)) for k in range(n)]
         prm[i] = hk.pack_differential(build(name, PlannerParameters(), xs[i, 0]), hold)
     memory = np.zeros((len(lanes), layout.N_MEMORY))
     diag = np.empty((len(lanes), n, layout.N_HYBRID_DIAGNOSTICS))

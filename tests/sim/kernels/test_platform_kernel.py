@@ -1,10 +1,11 @@
 """The small platforms' kernel (twin/sim/kernels/platform.py) against its oracle, step by step.
 
 The oracle is `PlatformPlanner` and `PlatformModel` stepped as the rig stepped them (the old
-`PlatformRig.advance`, transcribed in `oracle_advance`): planner step, non-finite rates held
-(PLANNER), lengths stopped at the stroke (JOINT_LIMIT), forward kinematics warm-started at the
-previous state, its failure held (KINEMATICS). Lanes of one mechanism run together in chunks,
-on the plain-Python and the compiled kernel, and must agree with the oracle at every step.
+`PlatformRig.advance`, transcribed in `tests.sim.oracle.platform_advance`): planner step,
+non-finite rates held (PLANNER), lengths stopped at the stroke (JOINT_LIMIT), forward
+kinematics warm-started at the previous state, its failure held (KINEMATICS). Lanes of one
+mechanism run together in chunks, on the plain-Python and the compiled kernel, and must agree
+with the oracle at every step.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from functools import cache
 import numpy as np
 import pytest
 
+from tests.sim.oracle import pack_target, platform_advance
 from twin.errors import TwinError
 from twin.mechanisms import Upr4, Upu3Up
 from twin.planners.platform import (
@@ -37,10 +39,6 @@ from twin.sim.kernels.layout import (
     N_TARGET,
     P_HOLD,
     P_KIND,
-    TARGET_P,
-    TARGET_R,
-    TARGET_V,
-    TARGET_W,
 )
 from twin.sim.scenario import Scenario
 from twin.sim.target import held_target
@@ -119,39 +117,6 @@ class Inputs:
     oracle: Record
 
 
-def pack_target(transform: np.ndarray, twist: np.ndarray) -> np.ndarray:
-    """A `TipTarget`'s transform (4, 4) and twist (6,) as a kernel target row (18,)."""
-    row = np.empty(N_TARGET)
-    row[TARGET_R : TARGET_R + 9] = transform[:3, :3].ravel()
-    row[TARGET_P : TARGET_P + 3] = transform[:3, 3]
-    row[TARGET_V : TARGET_V + 3] = twist[:3]
-    row[TARGET_W : TARGET_W + 3] = twist[3:]
-    return row
-
-
-def oracle_advance(
-    planner: PlatformPlanner, state: np.ndarray, legs: np.ndarray, target: object, dt: float
-) -> tuple[np.ndarray, np.ndarray, dict, int]:
-    """PlatformRig.advance: (state, legs, diagnostics, fault bits) after one dt."""
-    model = planner.model
-    out = planner.step(legs, target, dt)
-    v = np.asarray(out.velocity, dtype=float)
-    if not np.all(np.isfinite(v)):
-        return state, legs, out.diagnostics, FAULT_PLANNER
-    fault = 0
-    low, high = model.stroke
-    lengths = np.clip(legs + v * dt, low, high)  # the actuators' end stops
-    if np.any(lengths != legs + v * dt):
-        fault |= FAULT_JOINT_LIMIT
-    try:
-        new = model.fit(lengths, state)
-    except TwinError:
-        new = None
-    if new is None or not np.all(np.isfinite(new)):
-        return state, legs, out.diagnostics, fault | FAULT_KINEMATICS
-    return new, lengths, out.diagnostics, fault
-
-
 @cache
 def inputs(mechanism: str) -> Inputs:
     """The lanes of `LANES[mechanism]`: targets as PlatformRig.reset held them, packed
@@ -190,8 +155,10 @@ def inputs(mechanism: str) -> Inputs:
         oracle.xs[i, 0], oracle.legs[i, 0, :n] = state, legs
         for k in range(STEPS):
             target = held_target(held, base, k, dt)
-            targets[i, k] = pack_target(target.transform, target.twist)
-            state, legs, diagnostics, fault = oracle_advance(planner, state, legs, target, dt)
+            targets[i, k] = pack_target(target)
+            state, legs, diagnostics, fault = platform_advance(
+                planner, model, state, legs, target, dt
+            )
             oracle.xs[i, k + 1], oracle.legs[i, k + 1, :n] = state, legs
             oracle.diag[i, k, kernel.D_CLIPPED] = diagnostics["clipped"]
             oracle.diag[i, k, kernel.D_SATURATED] = diagnostics["saturated"]
