@@ -239,7 +239,8 @@ class OracleRun:
         return block.targets[self.lane, local].copy()
 
     def _build(self, scenario: Scenario) -> object:
-        """The registry's planner for `scenario`, reset at the current state and target."""
+        """The registry's planner for `scenario`, built at the lane's start x0 (MTMP's q̃2, the
+        Upr4's held height), reset at the current state and target."""
         target = unpack_target(self._row())
         if self.hybrid:
             planner = get_planner(scenario.planner, "hybrid").build(
@@ -248,7 +249,7 @@ class OracleRun:
             planner.reset(self.x.copy(), target)
             return planner
         planner = get_planner(scenario.planner, self.model.name).build(
-            self.mechanism, scenario.parameters(), self.x.copy()
+            self.mechanism, scenario.parameters(), self.x0
         )
         planner.reset(self.leg.copy(), target)
         return planner

@@ -154,6 +154,7 @@ class Simulation:
         self.prm, self.memory = self._pack(self.scenarios, self._block, 0)
         self._run = runner(self.lanes.kind, self.compiled, self.n_lanes)
         self.faults = [FaultLog() for _ in self.scenarios]
+        self._keep_all = history_limit is None  # a batch run keeps every sample
         self.history = History(history_limit or self.n_steps + 1)
         first_row = self.lanes.initial_records(self._block.poses[:, :1], self.x)
         self.history.append({"t": np.zeros((self.n_lanes, 1)), **first_row})
@@ -303,11 +304,14 @@ class Simulation:
                 f"{sorted(changed & RESTART_FIELDS)} cannot change while running; start a new "
                 f"simulation (fields needing a restart: {sorted(RESTART_FIELDS)})"
             )
+        n_steps = max(self.n_steps if "duration" not in changed else 0,
+                      max(round(s.duration / s.dt) for s in new))  # fmt: skip
         base_motions, block = self.base_motions, self._block
-        if changed & SEA_FIELDS:
-            base_motions = [BaseMotion.of(s) for s in new]
-            now = self._block.poses[:, self.k - self._block.start]
-            block = self._with_targets(self._sample(base_motions, self.k, now))
+        local = self.k - block.start
+        if changed & SEA_FIELDS or local >= block.steps:  # a new sea, or the block is used up
+            base_motions = [BaseMotion.of(s) for s in new] if changed & SEA_FIELDS else base_motions
+            now = block.poses[:, min(local, block.steps)]
+            block = self._with_targets(self._sample(base_motions, self.k, now, n_steps))
         replan = bool(changed - SEA_FIELDS - {"duration", "joint_limits"})
         prm, memory = self.prm.copy(), self.memory.copy()
         if replan:
@@ -315,9 +319,9 @@ class Simulation:
         prm[:, layout.P_HOLD] = [float(s.joint_limits == "hold") for s in new]
         # nothing below raises
         self.scenarios, self.base_motions, self._block = new, base_motions, block
-        self.prm, self.memory = prm, memory
-        self.n_steps = max(self.n_steps if "duration" not in changed else 0,
-                           max(round(s.duration / s.dt) for s in new))  # fmt: skip
+        self.prm, self.memory, self.n_steps = prm, memory, n_steps
+        if self._keep_all:
+            self.history.reserve(n_steps + 1)
         return changed
 
     # -- internals ---------------------------------------------------------------------------
@@ -332,13 +336,19 @@ class Simulation:
         return np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows])
 
     def _sample(
-        self, base_motions: Sequence[BaseMotion], start: int, last_good: np.ndarray
+        self,
+        base_motions: Sequence[BaseMotion],
+        start: int,
+        last_good: np.ndarray,
+        n_steps: int | None = None,
     ) -> _Block:
         """Base samples for steps start … start + block (one more for the last step's end),
         each finite: a sample that is not, or a sea that fails to evaluate, holds the last
-        good pose before it (`hold_invalid`; `last_good` (N, 6) for the first). Targets are
-        added by `_with_targets`."""
-        steps = max(1, min(self._block_size, self.n_steps - start))
+        good pose before it (`hold_invalid`; `last_good` (N, 6) for the first). The block ends
+        at the run's end (`n_steps`, default the current one). Targets are added by
+        `_with_targets`."""
+        end = self.n_steps if n_steps is None else n_steps
+        steps = max(1, min(self._block_size, end - start))
         t = (start + np.arange(steps + 1)) * self.dt
         poses, bad = [], []
         for motion, good in zip(base_motions, last_good, strict=True):

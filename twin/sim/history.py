@@ -53,6 +53,19 @@ class History:
                 self.data[key][:, slots] = values
         self.count += T
 
+    def reserve(self, capacity: int) -> None:
+        """Hold at least `capacity` samples from now on (a run whose duration grew); only
+        while nothing has been dropped yet, so the order stays the ring's."""
+        if capacity <= self.capacity:
+            return
+        if self.count > self.capacity:
+            raise ValueError("history: cannot grow a ring that has already dropped samples")
+        for key, values in self.data.items():
+            grown = np.zeros((values.shape[0], capacity, *values.shape[2:]))
+            grown[:, : self.count] = values[:, : self.count]
+            self.data[key] = grown
+        self.capacity = capacity
+
     def backfill_first(self, records: dict[str, np.ndarray], keys: Iterable[str]) -> None:
         """Copy the first sample of `records` (the first step's) into sample 0 for `keys`."""
         if self.count == 1:

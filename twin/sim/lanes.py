@@ -206,12 +206,14 @@ class PlatformLanes:
     def pack(
         self, lane: int, scenario: Scenario, x: np.ndarray, target: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Build the lane's planner at state x, reset it at its actuator lengths and target
-        row (18,), and pack it: (prm row, memory row)."""
+        """Build the lane's planner, reset it at its actuator lengths and target row (18,),
+        and pack it: (prm row, memory row). It is built at the lane's start x0, so a rebuilt
+        planner holds the Upr4 at the height it held from t = 0 (the recorded desired state)."""
         from twin.sim.kernels.platform import pack_platform
 
+        del x  # Unused: the actuator lengths are the platform planner's state.
         spec = get_planner(scenario.planner, self.models[lane].name)
-        planner: PlatformPlanner = spec.build(self.mechanism, scenario.parameters(), x)
+        planner: PlatformPlanner = spec.build(self.mechanism, scenario.parameters(), self.x0[lane])
         n = self.model.n_legs
         planner.reset(self.extra[lane, :n].copy(), tip_target(target))
         return pack_platform(planner, scenario.joint_limits == "hold")

@@ -32,12 +32,12 @@ calls `bind_allocation` again at its end, so either import order binds the runne
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 import twin.sim.kernels.hybrid as hybrid_kernel
+from twin.sim.kernels.compile import register_jitable
 from twin.sim.kernels.hybrid import matrix_to_rpy_lane, rpy_to_matrix_lane, so3_log_lane
 from twin.sim.kernels.layout import (
     C_A1,
@@ -64,13 +64,6 @@ from twin.spatial import matrix_to_rpy
 if TYPE_CHECKING:
     from twin.planners.allocation import AllocationPlanner
 
-try:  # numba is optional: without it these are plain Python functions on one lane
-    from numba.extending import register_jitable
-except ImportError:  # pragma: no cover - exercised where numba is not installed
-
-    def register_jitable(function: Callable) -> Callable:
-        """Identity: the function runs as plain Python."""
-        return function
 
 
 #: Methods (prm[P_METHOD]).
@@ -374,7 +367,13 @@ def allocation_velocity(
     if method == METHOD_DWA:
         for i in range(3):
             diag_out[D_POSITION_SHARE + i] = memory[M_SHARE + i]  # the shares used
-        shares_lane(RP, pP, prm, const, memory[M_SHARE : M_SHARE + 3])  # next step's: t − 1
+        # next step's shares (t − 1 in seed 004); a step that cannot be planned (a target that
+        # is not finite: AllocationPlanner raises there) keeps the last good ones
+        following = np.empty(3)
+        shares_lane(RP, pP, prm, const, following)
+        if math.isfinite(following[0] + following[1] + following[2]):
+            for i in range(3):
+                memory[M_SHARE + i] = following[i]
     else:
         one = 1.0 if method == METHOD_CONV1 else 0.0
         for i in range(3):

@@ -1,4 +1,6 @@
-"""Compiling a kernel runner with numba, cached on disk under a name that changes with its code.
+"""Compiling the kernels with numba: `register_jitable` for the one-lane functions (plain
+Python where numba cannot import) and `compile_runner` for a chunk runner, cached on disk under
+a name that changes with its code.
 
 numba's on-disk cache keys a function by its name, its own file's time stamp and its
 signature: not by `parallel`, nor by the files of the functions it calls. A runner is
@@ -14,6 +16,16 @@ import importlib.util
 import types
 from collections.abc import Callable, Sequence
 from pathlib import Path
+
+try:  # without numba the kernels are plain Python functions, run lane by lane
+    from numba import prange
+    from numba.extending import register_jitable
+except ImportError:  # pragma: no cover - exercised where numba is not installed
+    prange = range
+
+    def register_jitable(function: Callable) -> Callable:
+        """Identity: the function runs as plain Python."""
+        return function
 
 
 def source_stamp(modules: Sequence[str]) -> str:

@@ -43,7 +43,7 @@ import numpy as np
 
 from twin.mechanisms.upu3up import _STATE_SLACK, Upu3Up
 from twin.planners.platform import FIT_MAX_ITER, FIT_TOL, PlatformModel, PlatformPlanner
-from twin.sim.kernels.compile import compile_runner
+from twin.sim.kernels.compile import compile_runner, prange, register_jitable
 from twin.sim.kernels.layout import (
     FAULT_JOINT_LIMIT,
     FAULT_KINEMATICS,
@@ -59,16 +59,6 @@ from twin.sim.kernels.layout import (
     TARGET_V,
     TARGET_W,
 )
-
-try:  # numba is optional: without it these are plain Python functions on one lane
-    from numba import prange
-    from numba.extending import register_jitable
-except ImportError:  # pragma: no cover - exercised where numba is not installed
-    prange = range
-
-    def register_jitable(function: Callable) -> Callable:
-        return function
-
 
 #: Mechanism codes (const[C_MECHANISM]).
 MECHANISM_UPU3UP, MECHANISM_UPR4 = 0, 1
