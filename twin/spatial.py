@@ -22,14 +22,15 @@ def skew(v: np.ndarray) -> np.ndarray:
 
 def rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
     """ᴮR_P = Rz(yaw) Ry(pitch) Rx(roll), seed 000 eq (3); `rpy` (..., 3) [rad] → (..., 3, 3)."""
-    c, s = np.cos(rpy), np.sin(rpy)
-    cf, ct, cp = c[..., 0], c[..., 1], c[..., 2]
-    sf, st, sp = s[..., 0], s[..., 1], s[..., 2]
-    R = np.empty((*rpy.shape[:-1], 3, 3))
-    R[..., 0, :] = np.stack([cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf], -1)
-    R[..., 1, :] = np.stack([sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf], -1)
-    R[..., 2, :] = np.stack([-st, ct * sf, ct * cf], -1)
-    return R
+    angles = np.moveaxis(np.asarray(rpy, dtype=float), -1, 0)  # components first: contiguous
+    c, s = np.cos(angles), np.sin(angles)
+    cf, ct, cp = c
+    sf, st, sp = s
+    R = np.empty((3, 3, *angles.shape[1:]))
+    R[0, 0], R[0, 1], R[0, 2] = cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf
+    R[1, 0], R[1, 1], R[1, 2] = sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf
+    R[2, 0], R[2, 1], R[2, 2] = -st, ct * sf, ct * cf
+    return np.moveaxis(R, (0, 1), (-2, -1))
 
 
 def matrix_to_rpy(R: np.ndarray) -> np.ndarray:

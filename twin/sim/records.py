@@ -10,11 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from twin.mechanisms import HybridBoardingSystem
-from twin.mechanisms.legs import LegState, twist_jacobian
 from twin.mechanisms.upu3up import Upu3Up
 from twin.planners.platform import PlatformModel
 from twin.sim.target import tilt
-from twin.spatial import invert_transform, pose_error, pose_to_transform
+from twin.spatial import invert_transform, pose_error, pose_to_transform, rpy_to_matrix, so3_log
 
 
 def gangway_tip(mechanism: HybridBoardingSystem, q: np.ndarray) -> np.ndarray:
@@ -84,35 +83,54 @@ def hybrid_records(
         change since t = 0 [rad]), alpha_top (tilt of the tip's "up" axis from its held
         direction [rad]), alpha_bottom (the base's tilt [rad]), each (N, T, ...).
     """
-    T_IB = pose_to_transform(poses)
-    T_P = pose_to_transform(xi[..., :6])
+    R_IB, p_IB = rpy_to_matrix(poses[..., 3:]), poses[..., :3]
+    R_BP, p_BP = rpy_to_matrix(xi[..., 3:6]), xi[..., :3]
     G = gangway_tip(mechanism, xi[..., 6:])
-    T_E = T_P @ G  # HybridBoardingSystem.end_effector, seed 000 eq (14)
-    R_IP = T_IB[..., :3, :3] @ T_P[..., :3, :3]
-    g = (R_IP @ (xi[..., 8:9, None] * G[..., :3, 2:3]))[..., 0]
-    g = (landing[:, None] @ g[..., None])[..., 0]
+    R_BE = R_BP @ G[..., :3, :3]  # ᴮT_E = ᴮT_P ᴾT_E, HybridBoardingSystem.end_effector (eq (14))
+    p_BE = mat_vec(R_BP, G[..., :3, 3]) + p_BP
+    # the held pose in B, ᴮT_d = ᴵT_B⁻¹ ᴵT_E*, and the tip's error against it (pose_error)
+    R_IBt = np.swapaxes(R_IB, -1, -2)
+    R_BD = R_IBt @ held[:, None, :3, :3]
+    p_BD = mat_vec(R_IBt, held[:, None, :3, 3] - p_IB)
+    error = np.concatenate([p_BD - p_BE, so3_log(R_BD @ np.swapaxes(R_BE, -1, -2))], -1)
+    R_IP = R_IB @ R_BP
+    g = mat_vec(R_IP, xi[..., 8:9] * G[..., :3, 2])  # luff pivot → tip, inertial
+    g = mat_vec(landing[:, None], g)
     g0 = gangway0[:, None]
     up0 = held[:, None, :3, 0]  # the tip's x axis is "up" at q = 0
-    up = (T_IB[..., :3, :3] @ T_E[..., :3, 0:1])[..., 0]
-    # StewartPlatform.legs and .manipulability, the arms as one (6, 3) @ (3, 3) per sample
+    up = mat_vec(R_IB, R_BE[..., :, 0])
+    # StewartPlatform.legs and .manipulability (sqrt det(J Jᵀ) = |det J| for the square J_P)
     layout = mechanism.layout
-    arms = layout.platform_hinges @ np.swapaxes(T_P[..., :3, :3], -1, -2)
-    vectors = arms + T_P[..., None, :3, 3] - layout.base_hinges
-    lengths = np.linalg.norm(vectors, axis=-1)
-    J = twist_jacobian(LegState(vectors, lengths, vectors / lengths[..., None], arms))
+    arms = layout.platform_hinges @ np.swapaxes(R_BP, -1, -2)  # (..., 6, 3)
+    vectors = arms + p_BP[..., None, :] - layout.base_hinges
+    lengths = np.sqrt(np.sum(vectors * vectors, axis=-1))
+    units = vectors / lengths[..., None]
+    J = np.concatenate([units, cross(arms, units)], -1)  # legs.twist_jacobian
     return {
         "base_pose": poses,
         "xi": xi,
         "legs": lengths,
-        "tip_error": pose_error(invert_transform(T_IB) @ held[:, None], T_E),
-        "manipulability": np.sqrt(np.abs(np.linalg.det(J @ np.swapaxes(J, -1, -2)))),
+        "tip_error": error,
+        "manipulability": np.abs(np.linalg.det(J)),
         "phi_e": np.arctan2(g[..., 1], g[..., 0]) - np.arctan2(g0[..., 1], g0[..., 0]),
         "theta_e": np.arctan2(g[..., 2], g[..., 0]) - np.arctan2(g0[..., 2], g0[..., 0]),
         "alpha_top": np.arctan2(
-            np.linalg.norm(np.cross(up, up0), axis=-1), np.sum(up * up0, axis=-1)
+            np.linalg.norm(cross(up, up0), axis=-1), np.sum(up * up0, axis=-1)
         ),
-        "alpha_bottom": tilt(T_IB[..., :3, :3]),
+        "alpha_bottom": tilt(R_IB),
     }
+
+
+def mat_vec(R: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R v for stacks of 3 × 3 matrices (..., 3, 3) and vectors (..., 3)."""
+    return np.einsum("...ij,...j->...i", R, v)
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b over the last axis (..., 3), without `np.cross`'s conversions."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], -1)
 
 
 def platform_records(
