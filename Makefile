@@ -3,6 +3,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+SERVE_STAMP := $(VENV)/.installed-serve
 
 .PHONY: install serve test lint demo urdf raos bench reliability clean
 
@@ -10,17 +11,22 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
+# Serving needs the package alone (no test, BEM or browser tooling): a fresh `make serve` is quick.
+$(SERVE_STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e .
+	touch $(SERVE_STAMP)
+
 # netsse (the closed-form RAO peer of tests/vessel/test_netsse.py) declares Python >= 3.12 and
 # drags in cartopy; the part we call needs only numpy, so it is installed on its own.
 $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e ".[test,hydro]"
 	$(BIN)/python -m pip install --quiet --no-deps --ignore-requires-python "netsse>=2.2,<3"
-	touch $(STAMP)
+	touch $(STAMP) $(SERVE_STAMP)
 
 install: $(STAMP)
 
 ## serve: the live twin — 3D viewer :8080, REST API and landing page :8000
-serve: $(STAMP)
+serve: $(SERVE_STAMP)
 	$(BIN)/twin serve --host 127.0.0.1 --port 8000 --viser-port 8080 --data-dir data
 
 # The browser tests drive Debian's chromium (never a downloaded browser): install it if missing.
@@ -38,7 +44,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 
 ## demo: leg lengths and gangway tip at the working state
-demo: $(STAMP)
+demo: $(SERVE_STAMP)
 	$(BIN)/python examples/working_state.py
 
 ## urdf: regenerate assets/urdf from the code's geometry

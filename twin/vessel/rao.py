@@ -169,8 +169,8 @@ def load_raos(path_or_name: str | os.PathLike) -> RaoTable:
     """
     path, name = _resolve(path_or_name)
     try:
-        ds = xr.load_dataset(path)
-    except (OSError, ValueError) as exc:
+        ds = xr.load_dataset(path, engine="scipy")  # NETCDF3, as raos_to_dataset writes
+    except (OSError, ValueError, TypeError) as exc:  # scipy's reader: TypeError on non-NetCDF
         raise TwinError(f"cannot read RAO file {path}: {exc}") from exc
     return raos_from_dataset(ds, name)
 
