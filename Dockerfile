@@ -1,6 +1,7 @@
 # The live twin for demos: landing page and REST API on 8000, the 3D viewer on 8080.
 #   docker build -t wave-twin .
-#   docker run --rm -p 8000:8000 -p 8080:8080 -e TWIN_TOKEN=$(openssl rand -hex 16) wave-twin
+#   TWIN_TOKEN=$(openssl rand -hex 16); echo "token: $TWIN_TOKEN"
+#   docker run --rm -p 8000:8000 -p 8080:8080 -e TWIN_TOKEN=$TWIN_TOKEN wave-twin
 # TWIN_TOKEN is required: bound to 0.0.0.0, the server refuses to start without one (POST and
 # PATCH then need `Authorization: Bearer $TWIN_TOKEN`; browsers unlock the viewer's controls).
 # Runs are stored in /home/twin/data (a volume: mount it to keep them).
@@ -23,6 +24,9 @@ USER twin
 WORKDIR /home/twin
 # Created as the user so a fresh named volume inherits its ownership.
 RUN mkdir data
+# The compiled kernels, built once into the image's numba cache: a container starts in seconds.
+ENV NUMBA_CACHE_DIR=/home/twin/.numba
+RUN python -c "from twin.sim.engine import warm; print(f'kernels compiled in {warm():.0f} s')"
 VOLUME ["/home/twin/data"]
 
 EXPOSE 8000 8080
