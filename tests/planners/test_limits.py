@@ -57,3 +57,44 @@ def test_velocity_limit_scales_uniformly() -> None:
     assert scale == pytest.approx(0.25)
     v, scale = limit(np.array([0.5, -0.4, 0.2]))
     assert scale == 1.0
+
+
+def test_euler_yaw_hold_keeps_the_platforms_euler_yaw() -> None:
+    """Default `yaw_hold` = 1: in the flexible range the platform keeps ω_pz = −tan φ·ω_py, at
+    which ψ̇ = (sin φ ω_py + cos φ ω_pz)/cos θ of R = Rz Ry Rx vanishes; q̇1 takes the rest of
+    w_1sum. Checked on the integrated pose: the Euler yaw moves by O(dt²) only, while the
+    body-rate reading (`yaw_hold` = 0) turns it at first order."""
+    from twin.mechanisms import HybridBoardingSystem
+
+    H = HybridBoardingSystem()
+    xi = H.working_state.copy()
+    xi[3], xi[4] = 0.2, -0.1  # [rad] roll, pitch
+    v = np.zeros(9)
+    v[3], v[4], v[5], v[6] = 0.05, 0.3, 0.02, 0.01  # [rad/s]
+    euler, body = ALGO(xi, v), SlewPriority(**{**ALGO.__dict__, "yaw_hold": 0.0})(xi, v)
+    assert euler[5] == pytest.approx(-np.tan(0.2) * 0.3)
+    assert euler[5] + euler[6] == pytest.approx(0.03)  # w_1sum kept
+    assert (body[5], body[6]) == (0.0, pytest.approx(0.03))
+    dt = 1e-3
+    yaw_rate = {name: (H.integrate(xi, out, dt)[5] - xi[5]) / dt
+                for name, out in (("euler", euler), ("body", body))}  # fmt: skip
+    assert abs(yaw_rate["euler"]) < 1e-3 * abs(yaw_rate["body"])
+    assert abs(yaw_rate["body"]) > 0.05  # [rad/s] ψ̇ = sin φ ω_py / cos θ ≈ 0.06
+
+
+@pytest.mark.parametrize("yaw_hold", [0.0, 0.5, 1.0])
+def test_moving_rate_between_yaw_and_slew_leaves_the_tip_untouched(yaw_hold: float) -> None:
+    """J_task's yaw and slew columns are equal (the slew axis is P's z axis), so any split of
+    w_1sum gives the same tip twist."""
+    from twin.mechanisms import HybridBoardingSystem
+
+    H = HybridBoardingSystem()
+    xi = H.working_state + np.r_[0.1, -0.05, 0.2, 0.3, -0.2, 0.1, 0.2, 0.1, 1.0]
+    v = np.array([0.1, -0.2, 0.05, 0.2, 0.4, -0.1, 0.3, 0.05, -0.2])
+    out = SlewPriority(ALGO.q1_min, ALGO.q1_max, ALGO.sigma, ALGO.rate_max, yaw_hold=yaw_hold)(
+        xi, v
+    )
+    J = H.task_jacobian(xi)
+    np.testing.assert_allclose(J[:, 5], J[:, 6], atol=1e-12)
+    np.testing.assert_allclose(J @ out, J @ v, atol=1e-12)
+    assert out[5] != v[5]  # the split did change

@@ -109,9 +109,11 @@ def test_advance_target_rotates_in_the_base_frame() -> None:
 
 
 def test_pid_follows_its_law() -> None:
-    """`pid`: v = kp e + ki ∫e dt + kd ė, recomputed by hand over three steps (Upr4)."""
+    """`pid`: v = k e + ki ∫e dt + kd ė with the sampled gain k = (1 − e^(−kp·dt))/dt,
+    recomputed by hand over three steps (Upr4)."""
     model = MODELS["upr4"]
     kp, ki, kd, dt = 8.0, 2.0, 0.05, 0.05
+    gain = (1.0 - np.exp(-kp * dt)) / dt
     planner = PlatformPlanner(model, "pid", 0.1, kp=kp, ki=ki, kd=kd)
     lengths = model.leg_lengths(model.mechanism.working_state)
     states = [np.array([0.5, 0.01, 0.0]), np.array([0.5, 0.02, -0.01]), np.array([0.5, 0.0, 0.01])]
@@ -120,7 +122,7 @@ def test_pid_follows_its_law() -> None:
     previous = model.leg_lengths(states[0]) - lengths
     for state in states:
         error = model.leg_lengths(state) - lengths
-        expected = kp * error + ki * integral + kd * (error - previous) / dt
+        expected = gain * error + ki * integral + kd * (error - previous) / dt
         out = planner.step(lengths, target_at(model, state), dt)
         np.testing.assert_allclose(out.velocity, expected, rtol=1e-12, atol=1e-15)
         integral += error * dt
@@ -257,9 +259,15 @@ def test_registry_lists_small_platform_planners() -> None:
     """`pid` and `ik` plan for both small platforms and read the knobs they use."""
     for name in ("pid", "ik"):
         assert PLANNERS[name].mechanisms == ("upu3up", "upr4")
-    assert set(PLANNERS["pid"].parameters) == {"kp", "ki", "kd", "actuator_speed"}
+    assert set(PLANNERS["pid"].parameters) == {
+        "kp", "ki", "kd", "actuator_speed", "actuator_mass"
+    }  # fmt: skip
     planner = get_planner("pid", "upr4").build(Upr4(), PlannerParameters(), Upr4().working_state)
-    assert (planner.law, planner.kp, planner.actuator_speed) == ("pid", 8.0, 0.1)
+    assert (planner.law, planner.kp, planner.actuator_speed) == ("pid", 120.0, 0.1)
+    assert not planner.dynamic  # velocity-commanded actuators by default
+    heavy = PlannerParameters(actuator_mass=10.0)
+    planner = get_planner("pid", "upr4").build(Upr4(), heavy, Upr4().working_state)
+    assert planner.dynamic and planner.actuator_mass == 10.0
 
 
 @pytest.mark.parametrize(
@@ -269,3 +277,79 @@ def test_registry_refuses_a_planner_for_another_mechanism(planner: str, mechanis
     """A hybrid planner on a small platform (or the reverse) raises, listing what is allowed."""
     with pytest.raises(TwinError, match="allowed"):
         get_planner(planner, mechanism)
+
+
+@pytest.mark.parametrize("kp", [8.0, 120.0, 200.0])
+@pytest.mark.parametrize("dt", [0.005, 0.05, 0.2])
+def test_sampled_proportional_loop_is_the_continuous_one(kp: float, dt: float) -> None:
+    """A pure P loop on a resting target leaves e^(−kp·dt) of the error each step, the
+    continuous loop ė = −kp e exactly: no overshoot and no instability at any kp·dt (up to 40
+    here; the raw gain kp would diverge beyond kp·dt = 2)."""
+    model = MODELS["upr4"]
+    planner = PlatformPlanner(model, "pid", 2.0, kp=kp)
+    goal = np.array([0.5, 0.001, -0.001])
+    target = target_at(model, goal)
+    lengths = model.leg_lengths(model.mechanism.working_state)
+    error = model.leg_lengths(goal) - lengths
+    planner.reset(lengths, target)
+    for k in range(1, 4):
+        lengths = lengths + planner.step(lengths, target, dt).velocity * dt
+        np.testing.assert_allclose(
+            model.leg_lengths(goal) - lengths, error * np.exp(-kp * dt * k), rtol=1e-9, atol=1e-15
+        )
+
+
+def test_effort_driven_actuators_follow_newton() -> None:
+    """`actuator_mass` > 0: one 1 ms step of `actuate` by hand, m (u⁺ − u)/h = K_p (e − h u⁺)
+    + K_i ∫e − K_d u⁺ with seed 002's gains, x⁺ = x + h u⁺; the rate returned is where the
+    mass went over the period."""
+    model = MODELS["upr4"]
+    m, dt = 10.0, 0.001
+    planner = PlatformPlanner(model, "pid", 0.1, actuator_mass=m)
+    lengths = model.leg_lengths(model.mechanism.working_state)
+    goal = np.array([0.5, 0.002, 0.0])
+    planner.reset(lengths, target_at(model, goal))
+    e = model.leg_lengths(goal) - lengths
+    integral = e * dt
+    u = (5000.0 * e + 0.5 * integral) / (m / dt + 10.0 + dt * 5000.0)
+    out = planner.step(lengths, target_at(model, goal), dt)
+    np.testing.assert_allclose(out.velocity, u, rtol=1e-9)  # (x⁺ − x)/h: rounding of x⁺
+    np.testing.assert_allclose(planner.actuator_velocity, u, rtol=1e-12)
+    np.testing.assert_allclose(planner.integral, integral, rtol=1e-12)
+    assert out.diagnostics["saturated"] == 0.0
+
+
+@pytest.mark.parametrize("name", MODELS)
+@pytest.mark.parametrize("mass", [1e-300, 1.0, 10.0])
+def test_effort_driven_actuators_settle_within_the_speed_limit(name: str, mass: float) -> None:
+    """From rest towards a tilted target: the masses (any mass, the implicit step is stable)
+    never exceed 0.1 m/s, a 4° step saturates them, and they settle on the target (the
+    lightly damped spring, ζ = K_d / 2√(K_p m), rings down within 60 s)."""
+    model = MODELS[name]
+    planner = PlatformPlanner(model, "pid", 0.1, actuator_mass=mass)
+    state = model.mechanism.working_state
+    goal = state + np.array([0.0, 0.07, -0.05])
+    target = target_at(model, goal)
+    lengths = model.leg_lengths(state)
+    planner.reset(lengths, target)
+    saturated = 0.0
+    for _ in range(1200):  # 60 s at dt = 0.05
+        out = planner.step(lengths, target, 0.05)
+        assert np.max(np.abs(out.velocity)) * model.unit <= 0.1 * (1 + 1e-9)
+        saturated = max(saturated, out.diagnostics["saturated"])
+        lengths = lengths + out.velocity * 0.05
+    assert saturated == 1.0
+    np.testing.assert_allclose(lengths, model.leg_lengths(goal), rtol=0, atol=1e-4 / model.unit)
+
+
+def test_effort_driven_actuators_stop_at_the_stroke() -> None:
+    """A desired length at the stroke's end: the mass stops there, its velocity zeroed."""
+    model = MODELS["upr4"]
+    planner = PlatformPlanner(model, "pid", 0.1, actuator_mass=1.0)
+    high = model.stroke[1]
+    lengths = high - 0.001  # [m] 1 mm short of the end stop
+    planner.reset(lengths, target_at(model, model.mechanism.working_state))
+    rates, _ = planner.actuate(high + 0.0, lengths, 0.2)
+    np.testing.assert_allclose(lengths + rates * 0.2, high, rtol=0, atol=1e-15)
+    assert np.all(lengths + rates * 0.2 <= high)
+    assert np.all(planner.actuator_velocity == 0.0)

@@ -109,3 +109,48 @@ def test_every_allowed_spectrum_runs(spectrum: str) -> None:
     result = simulate({"spectrum": spectrum, "sea_state": 4, "duration": 1.0})
     base = result.series["base_pose"]
     assert np.all(np.isfinite(base)) and np.ptp(base[:, 2]) > 1e-3
+
+
+@pytest.mark.parametrize(
+    "fields",
+    [
+        # Algorithm 1 on the body yaw rate and half way to the Euler yaw (the default, 1, is
+        # in tests/sim/test_engine_oracle.py); q1 starts at 24.9°, by the σ band (25°-30°),
+        # and the sea carries it in and out
+        dict(mechanism="hybrid", planner="mtmp", sea_state=7, yaw_hold=0.0,
+             initial_state=[0, 0, 2.475, 0, 0, 0, 0.435, 0, 13.052]),
+        dict(mechanism="hybrid", planner="mtmp", sea_state=7, yaw_hold=0.5,
+             initial_state=[0, 0, 2.475, 0, 0, 0, 0.435, 0, 13.052]),
+        # effort-driven actuators with mass (PlatformPlanner.actuate), the speed limit binding
+        dict(mechanism="upr4", planner="pid", sea_state=9, actuator_mass=10.0),
+        dict(mechanism="upr4", planner="pid", regular_waves="state3", actuator_mass=50.0,
+             dt=0.005, actuator_speed=0.01),
+        dict(mechanism="upu3up", planner="pid", sea_state=6, actuator_mass=20.0),
+        # near full stroke: the masses run into the end stops
+        dict(mechanism="upr4", planner="pid", sea_state=9, actuator_mass=5.0,
+             initial_state=[0.84, 0.0, 0.0]),
+    ],
+    ids=["yaw-body", "yaw-half", "upr4-mass", "upr4-mass-slow", "upu3up-mass", "upr4-stroke"],
+)  # fmt: skip
+def test_engine_follows_the_planner_objects(fields: dict) -> None:
+    """The kernels' yaw_hold of Algorithm 1 and effort-driven actuators give the planner
+    objects' numbers (`SlewPriority`, `PlatformPlanner.actuate`) at every step, to 1e-9."""
+    from tests.sim.oracle import OracleRun
+
+    sim = Simulation({"duration": 3.0, "seed": 1, **fields})
+    oracle = OracleRun(sim)
+    sim.run()
+    oracle.follow()
+    key = "xi" if sim.lanes.kind == "hybrid" else "state"
+    np.testing.assert_allclose(sim.series()[key], np.array(oracle.states), rtol=0, atol=1e-9)
+    if sim.lanes.kind == "platform":
+        np.testing.assert_allclose(sim.series()["legs"], np.array(oracle.legs), rtol=0, atol=1e-9)
+        saturated = [d["saturated"] for d in oracle.diagnostics]
+        np.testing.assert_array_equal(sim.series()["saturated"][1:], saturated)
+        assert sum(saturated) > 0  # the speed limit bound
+        if fields.get("initial_state"):
+            assert sim.series()["legs"].max() == sim.lanes.model.stroke[1][0]  # an end stop
+    else:
+        q1 = np.degrees(sim.series()["xi"][:, 6])
+        assert q1.min() < 25.0 < q1.max()  # both of Algorithm 1's branches ran
+    assert dict(sim.faults[0].counts) == oracle.fault_counts()

@@ -1,10 +1,13 @@
-"""Metric functions: drift and seed 002's efficacy η."""
+"""Metric functions: drift, seed 002's efficacy η, and what counts as a limit violation."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from twin.mechanisms import HybridBoardingSystem, Upr4, Upu3Up
+from twin.planners.platform import ANGLE_TOL, LENGTH_TOL
+from twin.sim import simulate
 from twin.sim.metrics import drift, efficacy
 
 
@@ -33,3 +36,67 @@ def test_efficacy_printed_form_explodes_near_zero_tilt_but_stays_finite() -> Non
     result = efficacy(top, bottom)
     assert result["eta_printed"] < -1e5 and np.isfinite(result["eta_printed"])
     assert efficacy(np.zeros(3), np.zeros(3)) == {"eta_printed": 0.0, "eta": 0.0}
+
+
+# -------------------------------------------------------- clamped samples count (record mode)
+
+SEA_STATE_9 = {"sea_state": 9, "duration": 5.0, "seed": 0}
+
+
+def run_both(scenario: dict) -> tuple[dict, dict, dict]:
+    """(series, record-mode metrics, hold-mode metrics) of `scenario` at sea state 9."""
+    record = simulate({**SEA_STATE_9, **scenario, "joint_limits": "record"})
+    hold = simulate({**SEA_STATE_9, **scenario, "joint_limits": "hold"})
+    return record.series, record.metrics, hold.metrics
+
+
+def test_upu3up_clamped_samples_are_violations_in_record_mode() -> None:
+    """The 3UPU_UP at sea state 9: the demand is clamped to the ±150 mm / ±20° box on nearly
+    every step and the top sits on it; each such sample counts in `record` mode (issue 14: 0
+    counted while 98 of 100 steps sat clamped), none in `hold` mode, where they are held."""
+    series, record, hold = run_both({"mechanism": "upu3up", "planner": "pid"})
+    m = Upu3Up()
+    low, high = m.state_limits
+    tol = np.array([LENGTH_TOL, ANGLE_TOL, ANGLE_TOL])
+    state = series["state"]
+    on_box = np.any((state <= low + tol) | (state >= high - tol), axis=1)
+    beyond = np.any((state < low - tol) | (state > high + tol), axis=1)
+    legs = series["legs"]
+    on_stroke = np.any((legs <= m.leg_min + LENGTH_TOL) | (legs >= m.leg_max - LENGTH_TOL), axis=1)
+    clamped = series["clipped"] > 0
+    assert clamped.sum() >= 90  # of 101 samples
+    assert on_box.sum() > 0 and not beyond.any()
+    assert record["violations"] == int(np.sum(clamped | on_box | on_stroke))
+    assert record["limit_violations"]["clamped"] == clamped.sum()
+    assert record["limit_violations"]["state"] == on_box.sum()
+    assert hold["violations"] == 0 and hold["fault_counts"]["joint_limit"] == clamped.sum()
+
+
+def test_upr4_samples_at_its_end_stops_are_violations_in_record_mode() -> None:
+    """The 4-UPR near full stroke (z = 0.84 m) at sea state 9: its actuators stop at 1.1225 m
+    and the demand is clamped there; both count in `record` mode."""
+    series, record, hold = run_both(
+        {"mechanism": "upr4", "planner": "pid", "initial_state": [0.84, 0.0, 0.0]}
+    )
+    at_end = np.any(series["legs"] >= Upr4().stroke_max - 1e-9, axis=1)
+    clamped = series["clipped"] > 0
+    assert at_end.sum() > 10 and clamped.sum() > 10
+    assert record["violations"] >= int(np.sum(at_end | clamped))
+    assert record["limit_violations"]["stroke_max"] >= at_end.sum()
+    assert record["limit_violations"]["clamped"] == clamped.sum()
+    assert hold["violations"] < record["violations"]
+
+
+def test_hybrid_record_mode_counts_every_sample_at_or_past_a_limit() -> None:
+    """The hybrid system at sea state 9 with MTMP: `record` mode clamps nothing (every step
+    whole), and counts each sample with a virtual joint on or past its Table 6 limit or a leg
+    past its stroke; `hold` mode stops them on the limits instead (held steps)."""
+    series, record, hold = run_both({"mechanism": "hybrid", "planner": "mtmp"})
+    H = HybridBoardingSystem()
+    xi, legs = series["xi"], series["legs"]
+    joints = np.any((xi <= H.lower + 1e-9) | (xi >= H.upper - 1e-9), axis=1)
+    s = H.stewart
+    bad_legs = np.any((legs < s.leg_min - 5e-4) | (legs > s.leg_max + 5e-4), axis=1)
+    assert np.all(series["limit_scale"] == 1.0)  # nothing clamped in record mode
+    assert record["violations"] == int(np.sum(joints | bad_legs)) > 50
+    assert hold["violations"] == 0 and hold["fault_counts"]["joint_limit"] > 50

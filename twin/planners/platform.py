@@ -6,7 +6,11 @@ keeps from it what the three DOFs can do (`PlatformModel.desired_state`), turns 
 desired actuator lengths l_d by inverse kinematics and servoes the actuators towards them:
 
 - ``pid``, seed 002's position loop (§5, Fig. 11): PID on the length error e = l_d(t) − l,
-  with anti-windup; reactive, like the paper's, so it lags the waves by about 1/kp;
+  with anti-windup; reactive, like the paper's, so it lags the waves by about 1/kp. Its
+  proportional term is the continuous loop ė = −kp e sampled exactly (zero-order hold,
+  gain (1 − e^(−kp·dt))/dt), stable at every control period. With `actuator_mass` > 0 the
+  actuators are instead effort-driven masses under seed 002's Gazebo PID
+  (`PlatformPlanner.actuate`);
 - ``ik``, an ideal position servo with the target's one-step preview:
   l̇ = (l_d(t + dt) − l) / dt, l_d(t + dt) from the target advanced by its twist over dt (the
   predictive control seed 002 §5 recommends).
@@ -44,6 +48,25 @@ FIT_MAX_ITER = 30
 #: [mm, rad] the Upu3Up's limit checks allow seed 001's own forward-kinematics accuracy (§IV:
 #: about 1e-2 mm and 1e-4°), so a state servoed onto a limit does not count as beyond it.
 LENGTH_TOL, ANGLE_TOL = 1e-2, float(np.radians(1e-4))
+#: [m] the Upr4's actuators stopped at a stroke end sit on it to rounding (`reached`)
+AT_TOL = 1e-9
+#: Seed 002 §5's effort PID, tuned in Gazebo: kp [N/m], ki [N/(m·s)], kd [N·s/m].
+EFFORT_KP, EFFORT_KI, EFFORT_KD = 5000.0, 0.5, 10.0
+#: [s] longest step of the actuator dynamics within a control period (Gazebo's default 1 ms
+#: physics step, at which its controllers run too).
+PHYSICS_STEP = 1e-3
+
+
+def physics_steps(dt: float) -> int:
+    """Steps of the actuator dynamics in a control period dt [s]: the fewest of ≤ 1 ms."""
+    return max(1, int(np.ceil(dt / PHYSICS_STEP - 1e-9)))
+
+
+def proportional_gain(kp: float, dt: float) -> float:
+    """[1/s] the sampled gain (1 − e^(−kp·dt))/dt of the loop ė = −kp e: the error a step
+    leaves is e^(−kp·dt) of the one before (the continuous loop's, exactly), never negative,
+    so the loop neither overshoots nor goes unstable at any dt. ≈ kp for kp·dt ≪ 1."""
+    return float(-np.expm1(-kp * dt) / dt)
 
 
 @dataclass(frozen=True)
@@ -208,6 +231,30 @@ class PlatformModel:
             "stroke_max": np.any(lengths > m.leg_max + LENGTH_TOL, axis=-1),
         }
 
+    def reached(self, state: ArrayLike, lengths: ArrayLike) -> dict[str, np.ndarray]:
+        """Limit name → (...) bool: at a limit or beyond it, for states (..., 3) and their
+        actuator lengths (..., n) [native] (what `joint_limits="record"` counts).
+
+        `violations` counts only what lies beyond a limit; here a value on it counts too, as
+        the actuators stopped at their end stops or a state servoed onto its clipped demand
+        sit there. Upu3Up: the state box and the stroke within `LENGTH_TOL` / `ANGLE_TOL` of
+        the limit (seed 001's forward-kinematics accuracy). Upr4: the stroke within `AT_TOL`;
+        its U joints and collision (eq (3)) are never clamped, so they count beyond only.
+        """
+        state = as_array(state, "state", (3,))
+        lengths = as_array(lengths, "lengths", (self.n_legs,))
+        out = dict(self.violations(state))
+        low, high = self.stroke
+        tol = LENGTH_TOL if isinstance(self.mechanism, Upu3Up) else AT_TOL
+        out["stroke_min"] = out["stroke_min"] | np.any(lengths <= low + tol, axis=-1)
+        out["stroke_max"] = out["stroke_max"] | np.any(lengths >= high - tol, axis=-1)
+        if isinstance(self.mechanism, Upu3Up):
+            box_low, box_high = self.mechanism.state_limits
+            margin = np.array([LENGTH_TOL, ANGLE_TOL, ANGLE_TOL])
+            on_box = (state <= box_low + margin) | (state >= box_high - margin)
+            out["state"] = out["state"] | np.any(on_box, axis=-1)
+        return out
+
 
 def advance_target(target: TipTarget, dt: float) -> np.ndarray:
     """ᴮT_P,d(t + dt) (..., 4, 4): the target moved by its twist, held constant over dt.
@@ -230,13 +277,19 @@ class PlatformPlanner:
     actuator rates (n,) [native/s], each within ±`actuator_speed`. A non-finite target gives
     a NaN velocity, which the simulation treats as a fault.
 
+    With `actuator_mass` > 0 (law `"pid"`) the actuators are not velocity-commanded but
+    effort-driven: each is a moving mass pushed by seed 002's Gazebo PID (`actuate`), and the
+    rate returned is the mean rate over the step of where that mass went.
+
     Args:
         model: the platform.
         law: `"ik"` (ideal position servo) or `"pid"` (seed 002's PID position loop).
         actuator_speed: [m/s] each actuator's speed limit (seed 002 §5: 0.1 m/s).
-        kp: [1/s] proportional gain (`"pid"`).
+        kp: [1/s] proportional gain (`"pid"`), sampled exactly (`proportional_gain`).
         ki: [1/s²] integral gain (`"pid"`).
         kd: [-] derivative gain (`"pid"`).
+        actuator_mass: [kg] moving mass per actuator of the effort-driven model (`"pid"`);
+            0 for velocity-commanded actuators.
     """
 
     def __init__(
@@ -247,23 +300,33 @@ class PlatformPlanner:
         kp: float = 0.0,
         ki: float = 0.0,
         kd: float = 0.0,
+        actuator_mass: float = 0.0,
     ) -> None:
         if law not in LAWS:
             raise TwinError(f"PlatformPlanner law: unknown {law!r}; allowed: {list(LAWS)}")
         if not (np.isfinite(actuator_speed) and actuator_speed > 0):
             raise TwinError(f"actuator_speed must be > 0 m/s, got {actuator_speed!r}")
-        for name, gain in (("kp", kp), ("ki", ki), ("kd", kd)):
+        for name, gain in (("kp", kp), ("ki", ki), ("kd", kd), ("actuator_mass", actuator_mass)):
             if not (np.isfinite(gain) and gain >= 0):
-                raise TwinError(f"{name} must be a finite gain >= 0, got {gain!r}")
+                raise TwinError(f"{name} must be finite and >= 0, got {gain!r}")
         self.model = model
         self.law = law
         self.actuator_speed = float(actuator_speed)
         self.kp, self.ki, self.kd = float(kp), float(ki), float(kd)
+        self.actuator_mass = float(actuator_mass)
         self.integral = np.zeros(model.n_legs)  # [native · s] ∫e dt
+        self.actuator_velocity = np.zeros(model.n_legs)  # [native/s] the masses' (`actuate`)
         self._previous_error: np.ndarray | None = None
+
+    @property
+    def dynamic(self) -> bool:
+        """Whether the actuators are the effort-driven masses of `actuate`."""
+        return self.law == "pid" and self.actuator_mass > 0
 
     def __repr__(self) -> str:
         gains = f", kp={self.kp}, ki={self.ki}, kd={self.kd}" if self.law == "pid" else ""
+        if self.dynamic:
+            gains = f", actuator_mass={self.actuator_mass}"
         return (
             f"PlatformPlanner({self.model.name}, law={self.law!r}, "
             f"actuator_speed={self.actuator_speed}{gains})"
@@ -284,9 +347,11 @@ class PlatformPlanner:
         return state, inside, bool(clipped) or bool(np.any(inside != lengths))
 
     def reset(self, state: np.ndarray, target: TipTarget) -> None:
-        """Clear the integral; the first derivative term starts from the current error."""
+        """Clear the integral and the actuators' velocity; the first derivative term starts
+        from the current error."""
         lengths = self._lengths(state)
         self.integral = np.zeros(self.model.n_legs)
+        self.actuator_velocity = np.zeros(self.model.n_legs)
         self._previous_error = None
         if np.all(np.isfinite(target.transform)):
             self._previous_error = self.desired(target.transform)[1] - lengths
@@ -306,13 +371,26 @@ class PlatformPlanner:
             return PlannerOutput(nan, {"clipped": 0.0, "saturated": 0.0})
         desired_state, l_d, clipped = self.desired(target.transform)
         error = l_d - lengths
+        if self.dynamic:
+            velocity, saturated = self.actuate(l_d, lengths, dt)
+            return PlannerOutput(
+                velocity,
+                {
+                    "desired_state": desired_state,
+                    "desired_legs": l_d,
+                    "leg_error": error,
+                    "clipped": float(clipped),
+                    "saturated": float(saturated),
+                },
+            )
         if self.law == "ik":
             _, l_next, clipped_next = self.desired(advance_target(target, dt))
             clipped = clipped or clipped_next
             command = (l_next - lengths) / dt  # reach l_d(t + dt) in one step
         else:
             previous = error if self._previous_error is None else self._previous_error
-            command = self.kp * error + self.ki * self.integral + self.kd * (error - previous) / dt
+            gain = proportional_gain(self.kp, dt)
+            command = gain * error + self.ki * self.integral + self.kd * (error - previous) / dt
         velocity, saturated = self.limit(command, lengths, desired_state)
         if self.law == "pid":
             # Anti-windup by conditional integration: no integral while the speed limit binds.
@@ -329,6 +407,59 @@ class PlatformPlanner:
                 "saturated": float(saturated),
             },
         )
+
+    def actuate(self, l_d: np.ndarray, lengths: np.ndarray, dt: float) -> tuple[np.ndarray, bool]:
+        r"""Effort-driven actuators over one control period: (mean rates (n,) [native/s] of
+        where they went, whether the speed limit bound).
+
+        Each actuator is a mass m (`actuator_mass`) on a prismatic joint, pushed by seed 002
+        §5's effort PID towards the desired length l_d held over the period (the paper's
+        controller runs on the simulator's clock; ours at `PHYSICS_STEP`):
+
+            m u̇ = F = K_p e + K_i ∫e dt − K_d u,     e = l_d − x,   ẋ = u,
+
+        with the paper's gains (`EFFORT_KP`, `EFFORT_KI`, `EFFORT_KD`: N/m, N/(m·s), N·s/m;
+        the derivative acts on the joint velocity, as ros_control's position controller
+        does), in metres. Each of the `physics_steps(dt)` steps h first adds e h to the
+        integral, then solves the spring and the damper implicitly (stable for any m and h),
+
+            u⁺ = (m/h · u + K_p e + K_i ∫e) / (m/h + K_d + h K_p),
+
+        caps |u⁺| at `actuator_speed` (the actuator's top speed: the speed limit binds),
+        moves x⁺ = x + h u⁺ and stops x at the stroke's ends (u⁺ = 0 there). Gravity is left
+        out: the top's weight shared by the limbs sags them together, which does not tilt
+        it. The velocity and the integral carry over to the next period. The travel is summed
+        apart from the length, so the mean rate it gives stays within the top speed to
+        rounding of the travel, not of the length.
+        """
+        unit = self.model.unit
+        n = physics_steps(dt)
+        h = dt / n
+        inertia = self.actuator_mass / h  # [kg/s]
+        low, high = (limit * unit for limit in self.model.stroke)
+        top = self.actuator_speed
+        start = lengths * unit  # [m]
+        travel = np.zeros_like(start)  # [m] x − start
+        u = self.actuator_velocity * unit  # [m/s]
+        integral = self.integral * unit  # [m·s]
+        goal = l_d * unit
+        saturated = False
+        for _ in range(n):
+            e = goal - (start + travel)
+            integral = integral + e * h
+            u = (inertia * u + EFFORT_KP * e + EFFORT_KI * integral) / (
+                inertia + EFFORT_KD + h * EFFORT_KP
+            )
+            saturated = saturated or bool(np.any(np.abs(u) > top))
+            u = np.clip(u, -top, top)
+            travel = travel + h * u
+            x = start + travel
+            stopped = (x < low) | (x > high)
+            travel = np.where(x < low, low - start, np.where(x > high, high - start, travel))
+            u = np.where(stopped, 0.0, u)
+        self.actuator_velocity = u / unit
+        self.integral = integral / unit
+        return travel / unit / dt, saturated
 
     def limit(
         self, command: np.ndarray, lengths: np.ndarray, guess: np.ndarray
@@ -380,6 +511,8 @@ def platform_builder(
         model = PlatformModel(mechanism, z_hold=float(np.asarray(state0)[0]))
         if law == "ik":
             return PlatformPlanner(model, "ik", p.actuator_speed)
-        return PlatformPlanner(model, "pid", p.actuator_speed, p.kp, p.ki, p.kd)
+        return PlatformPlanner(
+            model, "pid", p.actuator_speed, p.kp, p.ki, p.kd, actuator_mass=p.actuator_mass
+        )
 
     return build

@@ -64,7 +64,11 @@ def _differential(
             ProductWeights((split, JointLimitWeights(h.lower, h.upper, scale))),
             secondary=(JointPostureTask(index=7, setpoint=float(xi0[7]), gain=p.k_a2),),
             slew_priority=SlewPriority(
-                h.lower[6], h.upper[6], np.deg2rad(p.sigma), np.deg2rad(p.q1_rate_max)
+                h.lower[6],
+                h.upper[6],
+                np.deg2rad(p.sigma),
+                np.deg2rad(p.q1_rate_max),
+                yaw_hold=p.yaw_hold,
             ),
             **common,
         )
@@ -105,7 +109,7 @@ PLANNERS: dict[str, PlannerSpec] = {
             "mtmp",
             "multi-task motion planning",
             ("hybrid",),
-            ("k_e", "beta", "l", "k_c", "sigma", "q1_rate_max", "k_a2", "damping"),
+            ("k_e", "beta", "l", "k_c", "sigma", "q1_rate_max", "yaw_hold", "k_a2", "damping"),
             "seed 000 eqs (33)-(40), Algorithm 1",
             _differential("mtmp"),
         ),
@@ -132,7 +136,7 @@ PLANNERS: dict[str, PlannerSpec] = {
             "pid",
             "actuator PID position loop",
             ("upu3up", "upr4"),
-            ("kp", "ki", "kd", "actuator_speed"),
+            ("kp", "ki", "kd", "actuator_speed", "actuator_mass"),
             "seed 002 §5, Fig. 11",
             platform_builder("pid"),
         ),

@@ -200,7 +200,7 @@ class Simulation:
 
     def metrics(self, series: dict[str, np.ndarray], lane: int = 0) -> dict[str, Any]:
         """A lane's metrics over a series of it (`series(lane)`), its fault counts included."""
-        metrics = self.lanes.metrics(series, lane)
+        metrics = self.lanes.metrics(series, lane, self.scenarios[lane].joint_limits)
         log = self.faults[lane]
         metrics["faults"] = log.holds
         metrics["fault_counts"] = {

@@ -166,9 +166,11 @@ class HybridLanes:
         allocation = {"position_share"}
         return allocation if planner in ("dwa", "conv1", "conv2") else differential
 
-    def metrics(self, series: dict[str, np.ndarray], lane: int) -> dict:
+    def metrics(
+        self, series: dict[str, np.ndarray], lane: int, joint_limits: str = "record"
+    ) -> dict:
         del lane  # Unused: every lane is the same machine.
-        return hybrid_metrics(series, self.mechanism)
+        return hybrid_metrics(series, self.mechanism, joint_limits)
 
 
 class PlatformLanes:
@@ -269,5 +271,7 @@ class PlatformLanes:
         del planner  # Unused: both laws record the same.
         return set()
 
-    def metrics(self, series: dict[str, np.ndarray], lane: int) -> dict:
-        return platform_metrics(series, self.models[lane])
+    def metrics(
+        self, series: dict[str, np.ndarray], lane: int, joint_limits: str = "record"
+    ) -> dict:
+        return platform_metrics(series, self.models[lane], joint_limits)

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from twin.sim.kernels.compile import compile_runner
+from twin.sim.kernels.compile import compile_runner, prange, register_jitable
 from twin.sim.kernels.layout import (
     C_A1,
     C_BASE_HINGES,
@@ -70,15 +70,6 @@ if TYPE_CHECKING:
     from twin.mechanisms.hybrid import HybridBoardingSystem
     from twin.planners.differential import DifferentialPlanner
 
-try:  # numba is optional: without it these are plain Python functions, run lane by lane
-    from numba import prange
-    from numba.extending import register_jitable
-except ImportError:  # pragma: no cover - exercised where numba is not installed
-    prange = range
-
-    def register_jitable(function: Callable) -> Callable:
-        """Identity: the function runs as plain Python."""
-        return function
 
 
 HALF_PI = math.pi / 2
@@ -366,14 +357,18 @@ def limit_scale_lane(x: np.ndarray, v: np.ndarray, dt: float, const: np.ndarray)
 #: index (−1: none), gain k_a [1/s] and set-point q̃ (eqs (39)-(40)); Algorithm 1 on (1) / off
 #: (0), its σ [rad], q̇1,max [rad/s], q1,min and q1,max [rad]; λ_max and ε of the damped solve
 #: (`weighted_pinv`); λ of eq (34); joint-limit weights on/off (eqs (35)-(37)); the rate
-#: limit on/off and its per-joint maxima [m/s, rad/s] (9, `VelocityLimit`).
+#: limit on/off and its per-joint maxima [m/s, rad/s] (9, `VelocityLimit`); Algorithm 1's
+#: yaw_hold.
 P_GAIN, P_SPLIT, P_SCALE = P_FAMILY, P_FAMILY + 1, P_FAMILY + 10
 P_POSTURE_INDEX, P_POSTURE_GAIN, P_POSTURE_SET = P_FAMILY + 19, P_FAMILY + 20, P_FAMILY + 21
 P_SLEW, P_SIGMA, P_SLEW_RATE = P_FAMILY + 22, P_FAMILY + 23, P_FAMILY + 24
 P_Q1_MIN, P_Q1_MAX = P_FAMILY + 25, P_FAMILY + 26
 P_DAMPING, P_EPSILON, P_SECONDARY = P_FAMILY + 27, P_FAMILY + 28, P_FAMILY + 29
 P_JOINT_LIMITS, P_RATE_LIMITED, P_RATE = P_FAMILY + 30, P_FAMILY + 31, P_FAMILY + 32
-P_DIFFERENTIAL_END = P_RATE + 9  # first row not used by this family
+#: Algorithm 1's yaw_hold [-] (`SlewPriority`: 1 holds the platform's Euler yaw, 0 its body
+#: yaw rate).
+P_YAW_HOLD = P_RATE + 9
+P_DIFFERENTIAL_END = P_YAW_HOLD + 1  # first row not used by this family
 
 #: machine epsilon of float64 (`np.finfo(float).eps`), `weighted_pinv`'s rank cut-off
 EPS = 2.220446049250313e-16
@@ -455,13 +450,20 @@ def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
         prm[P_POSTURE_GAIN], prm[P_POSTURE_SET] = task.gain, task.setpoint
     slew = planner.slew_priority
     if slew is not None:
-        if slew.yaw_index != 5 or slew.slew_index != 6:
-            raise refuse("Algorithm 1 on other columns than the platform yaw (5) and slew (6)")
+        columns = (slew.yaw_index, slew.slew_index, slew.roll_index, slew.pitch_rate_index)
+        if columns != (5, 6, 3, 4):
+            raise refuse(
+                "Algorithm 1 on other columns than the platform yaw (5), slew (6), roll (3) "
+                "and pitch rate (4)"
+            )
+        if not np.isfinite(slew.yaw_hold):
+            raise refuse(f"Algorithm 1 with yaw_hold = {slew.yaw_hold!r} (must be finite)")
         if not slew.sigma > 0:
             raise refuse(f"Algorithm 1 with σ = {slew.sigma!r} (must be > 0)")
         prm[P_SLEW] = 1.0
         prm[P_SIGMA], prm[P_SLEW_RATE] = slew.sigma, slew.rate_max
         prm[P_Q1_MIN], prm[P_Q1_MAX] = slew.q1_min, slew.q1_max
+        prm[P_YAW_HOLD] = slew.yaw_hold
     if not planner.epsilon > 0:
         raise refuse(f"epsilon = {planner.epsilon!r} (must be > 0)")
     prm[P_DAMPING], prm[P_EPSILON] = planner.damping_max, planner.epsilon
@@ -688,12 +690,17 @@ def differential_velocity(
         q1, q1_min, q1_max = x[6], prm[P_Q1_MIN], prm[P_Q1_MAX]
         sigma, rate = prm[P_SIGMA], prm[P_SLEW_RATE]
         total = v_out[5] + v_out[6]  # w_1sum
+        # the platform keeps ω_pz,hold = −yaw_hold·tan(φ)·ω_py (its Euler yaw held at 1)
+        hold = 0.0
+        if prm[P_YAW_HOLD] != 0.0:
+            hold = -prm[P_YAW_HOLD] * math.tan(x[3]) * v_out[4]
+        free = total - hold  # what q̇1 may take
         if q1 >= q1_min + sigma and q1 <= q1_max - sigma:  # lines 2-7
-            slew = rate if total > rate else (-rate if total < -rate else total)
+            slew = rate if free > rate else (-rate if free < -rate else free)
         elif q1 > q1_min and q1 < q1_min + sigma:  # lines 8-9
-            slew = 0.5 * total * (1.0 + math.cos((q1_min + sigma - q1) / sigma * math.pi))
+            slew = 0.5 * free * (1.0 + math.cos((q1_min + sigma - q1) / sigma * math.pi))
         elif q1 > q1_max - sigma and q1 < q1_max:  # lines 10-11
-            slew = 0.5 * total * (1.0 + math.cos((q1 - q1_max + sigma) / sigma * math.pi))
+            slew = 0.5 * free * (1.0 + math.cos((q1 - q1_max + sigma) / sigma * math.pi))
         else:
             slew = 0.0
         v_out[5] = total - slew

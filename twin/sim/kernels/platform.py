@@ -42,7 +42,16 @@ from functools import cache
 import numpy as np
 
 from twin.mechanisms.upu3up import _STATE_SLACK, Upu3Up
-from twin.planners.platform import FIT_MAX_ITER, FIT_TOL, PlatformModel, PlatformPlanner
+from twin.planners.platform import (
+    EFFORT_KD,
+    EFFORT_KI,
+    EFFORT_KP,
+    FIT_MAX_ITER,
+    FIT_TOL,
+    PHYSICS_STEP,
+    PlatformModel,
+    PlatformPlanner,
+)
 from twin.sim.kernels.compile import compile_runner, prange, register_jitable
 from twin.sim.kernels.layout import (
     FAULT_JOINT_LIMIT,
@@ -76,11 +85,14 @@ MAX_LEGS = 4
 #: Laws (prm[P_LAW]).
 LAW_IK, LAW_PID = 0, 1
 #: prm rows of the platform family: law, kp [1/s], ki [1/s²], kd [-], the speed limit
-#: [native/s] (`PlatformPlanner.speed_limit`), the Upr4's held height z_hold [m].
-P_LAW, P_KP, P_KI, P_KD, P_SPEED_LIMIT, P_Z_HOLD = (P_FAMILY + i for i in range(6))
+#: [native/s] (`PlatformPlanner.speed_limit`), the Upr4's held height z_hold [m], the
+#: actuators' moving mass [kg] (0: velocity-commanded; `PlatformPlanner.actuate`) and
+#: their top speed [m/s] (`actuator_speed`).
+P_LAW, P_KP, P_KI, P_KD, P_SPEED_LIMIT, P_Z_HOLD, P_MASS, P_SPEED = (P_FAMILY + i for i in range(8))
 #: memory rows: the PID integral ∫e dt (4) [native·s], the previous error e (4) [native],
-#: whether there is one (1.0) or the next step starts its derivative from zero (0.0).
-M_INTEGRAL, M_PREVIOUS, M_HAS_PREVIOUS = 0, 4, 8
+#: whether there is one (1.0) or the next step starts its derivative from zero (0.0), the
+#: effort-driven actuators' velocity (4) [native/s].
+M_INTEGRAL, M_PREVIOUS, M_HAS_PREVIOUS, M_VELOCITY = 0, 4, 8, 9
 #: diag rows (N, B, N_PLATFORM_DIAGNOSTICS): 1.0 where the desired state or a desired length
 #: was clipped to a limit, 1.0 where the speed limit bound (`PlatformPlanner.step`).
 D_CLIPPED, D_SATURATED = 0, 1
@@ -132,9 +144,12 @@ def pack_platform(planner: PlatformPlanner, hold: bool) -> tuple[np.ndarray, np.
     prm[P_SPEED_LIMIT] = planner.speed_limit
     z_hold = planner.model.z_hold
     prm[P_Z_HOLD] = np.nan if z_hold is None else float(z_hold)
+    prm[P_MASS] = planner.actuator_mass if planner.dynamic else 0.0
+    prm[P_SPEED] = planner.actuator_speed
     memory = np.zeros(N_MEMORY)
     n = planner.model.n_legs
     memory[M_INTEGRAL : M_INTEGRAL + n] = planner.integral
+    memory[M_VELOCITY : M_VELOCITY + n] = planner.actuator_velocity
     previous = planner._previous_error
     if previous is not None:
         memory[M_PREVIOUS : M_PREVIOUS + n] = previous
@@ -483,6 +498,61 @@ def limit(
 
 
 @register_jitable
+def actuate(
+    l_d: np.ndarray,
+    legs: np.ndarray,
+    prm: np.ndarray,
+    memory: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    rates: np.ndarray,
+) -> bool:
+    """`PlatformPlanner.actuate`: effort-driven actuators (mass prm[P_MASS] [kg] each) under
+    seed 002's Gazebo PID over one control period, the desired lengths l_d (n,) held; the
+    mean rates of their travel into `rates` (n,) [native/s]; returns whether the speed limit
+    bound.
+    The masses' velocity and the integral carry over in `memory` (M_VELOCITY, M_INTEGRAL).
+
+    Per step h = dt / n_h (the fewest steps of ≤ PHYSICS_STEP): ∫e += e h; the spring and the
+    damper implicitly, u⁺ = (m/h u + K_p e + K_i ∫e) / (m/h + K_d + h K_p); |u⁺| ≤ the top
+    speed; x⁺ = x + h u⁺, stopped at the stroke's ends (u⁺ = 0 there); all in metres, the
+    travel x − x₀ summed apart from the length x₀.
+    """
+    unit = const[C_UNIT]
+    n_h = max(1, int(np.ceil(dt / PHYSICS_STEP - 1e-9)))
+    h = dt / n_h
+    inertia = prm[P_MASS] / h
+    low, high = const[C_STROKE_LOW] * unit, const[C_STROKE_HIGH] * unit
+    top = prm[P_SPEED]
+    saturated = False
+    for i in range(int(const[C_N_LEGS])):
+        start = legs[i] * unit
+        travel = 0.0
+        u = memory[M_VELOCITY + i] * unit
+        integral = memory[M_INTEGRAL + i] * unit
+        goal = l_d[i] * unit
+        for _ in range(n_h):
+            e = goal - (start + travel)
+            integral = integral + e * h
+            u = (inertia * u + EFFORT_KP * e + EFFORT_KI * integral) / (
+                inertia + EFFORT_KD + h * EFFORT_KP
+            )
+            if abs(u) > top:
+                saturated = True
+            u = min(max(u, -top), top)
+            travel = travel + h * u
+            x = start + travel
+            if x < low:
+                travel, u = low - start, 0.0
+            elif x > high:
+                travel, u = high - start, 0.0
+        memory[M_VELOCITY + i] = u / unit
+        memory[M_INTEGRAL + i] = integral / unit
+        rates[i] = travel / unit / dt
+    return saturated
+
+
+@register_jitable
 def step(
     x: np.ndarray,
     legs: np.ndarray,
@@ -532,9 +602,15 @@ def step(
             return FAULT_PLANNER  # NaN rates: the rig holds, memory untouched
     clipped = desired(target, prm, const, state_d, l_d, R, o, J)
     pid = prm[P_LAW] == LAW_PID
-    if pid:
+    # scratch rows 0-2: fit state; rows 4-7: residual; 8-10: rates
+    fit_x, residual, rates = scratch[0:3], scratch[4:8], scratch[8:11]
+    saturated = False
+    if pid and prm[P_MASS] > 0.0:  # effort-driven actuators (PlatformPlanner.actuate)
+        saturated = actuate(l_d, legs, prm, memory, const, dt, velocity)
+    elif pid:
         has_previous = memory[M_HAS_PREVIOUS] != 0.0
-        kp, ki, kd = prm[P_KP], prm[P_KI], prm[P_KD]
+        kp = -np.expm1(-prm[P_KP] * dt) / dt  # proportional_gain: the loop sampled exactly
+        ki, kd = prm[P_KI], prm[P_KD]
         for i in range(n):
             error = l_d[i] - legs[i]
             previous = memory[M_PREVIOUS + i] if has_previous else error
@@ -544,12 +620,11 @@ def step(
         clipped = desired(ahead, prm, const, scratch, l_next, R, o, J) or clipped
         for i in range(n):
             command[i] = (l_next[i] - legs[i]) / dt  # reach l_d(t + dt) in one step
-    # scratch rows 0-2: fit state; rows 4-7: residual; 8-10: rates
-    fit_x, residual, rates = scratch[0:3], scratch[4:8], scratch[8:11]
-    saturated = limit(
-        command, legs, state_d, prm, const, velocity, fit_x, R, o, residual, J, M, rates
-    )
-    if pid:  # anti-windup by conditional integration
+    if not (pid and prm[P_MASS] > 0.0):
+        saturated = limit(
+            command, legs, state_d, prm, const, velocity, fit_x, R, o, residual, J, M, rates
+        )
+    if pid and prm[P_MASS] <= 0.0:  # anti-windup by conditional integration
         for i in range(n):
             error = l_d[i] - legs[i]
             if not saturated:
