@@ -2,9 +2,12 @@
 #   docker build -t wave-twin .
 #   TWIN_TOKEN=$(openssl rand -hex 16); echo "token: $TWIN_TOKEN"
 #   docker run --rm -p 8000:8000 -p 8080:8080 -e TWIN_TOKEN=$TWIN_TOKEN wave-twin
-# TWIN_TOKEN is required: bound to 0.0.0.0, the server refuses to start without one (POST and
-# PATCH then need `Authorization: Bearer $TWIN_TOKEN`; browsers unlock the viewer's controls).
-# Runs are stored in /home/twin/data (a volume: mount it to keep them).
+# TWIN_TOKEN (≥ 16 characters) is required: bound to 0.0.0.0, the server refuses to start
+# without one (POST and PATCH then need `Authorization: Bearer $TWIN_TOKEN`; browsers unlock
+# the viewer's controls). Browse it as localhost:8000 / :8080; under another name or port add
+# e.g. `--allow-host twin.example.com --allow-origin http://twin.example.com:9000` to the CMD.
+# Runs are stored in /home/twin/data (a volume: mount it to keep them; one server at a time).
+# `docker stop` (SIGTERM) stops it within seconds; unfinished runs stay queued.
 FROM python:3.11-slim
 
 ENV PYTHONDONTWRITEBYTECODE=1 \

@@ -2,9 +2,10 @@
 
 python scripts/reliability.py [--out docs/reliability.md]
 
-Runs the fuzzing, fault-injection, load and crash tests with `TWIN_RELIABILITY_LOG` set, so
-each records what it tried (`tests/figures.py`), and renders those figures as the tables of
-docs/reliability.md. The tests are the same ones `make test` runs; only the figures are new.
+Runs the fuzzing, fault-injection, load, crash and attack tests with `TWIN_RELIABILITY_LOG`
+set, so each records what it tried (`tests/figures.py`), and renders those figures as the
+tables of docs/reliability.md. The tests are the same ones `make test` runs; only the figures
+are new.
 """
 
 from __future__ import annotations
@@ -34,6 +35,107 @@ FUZZ_TESTS = (
 FAULT_TESTS = ("tests/sim/test_faults.py",)
 LOAD_TESTS = ("tests/web/test_load.py", "tests/web/test_crash.py")
 BOUNDARY_TESTS = ("tests/web/test_limits.py", "tests/web/test_cli.py")
+ATTACK_TESTS = (
+    "tests/web/test_api.py",
+    "tests/web/test_scene.py",
+    "tests/web/test_browser.py",
+    "tests/sim/test_live.py",
+)
+
+#: the attacks of issue 13, by the figure their test records: (attack, what happens now, test)
+ATTACKS = {
+    "attack_cross_origin_websocket": (
+        "a page from another origin opens the 3D viewer's websocket (no token: the loopback "
+        "default) to change the sea, the planner, play/pause",
+        "the handshake is refused (403) unless its Origin is one of the server's own (http on an "
+        "allowed host at the viewer or REST port) or `--allow-origin`; nothing is read or sent",
+        "test_scene.py (raw websocket client)",
+    ),
+    "attack_cross_origin_websocket_browser": (
+        "the same from a real page of another origin in Chromium",
+        "the browser's WebSocket fails at the handshake; the session is untouched",
+        "test_browser.py",
+    ),
+    "attack_locked_widget_write": (
+        "a browser that has not entered the token writes widgets: values, any property of a "
+        "shared handle (`update_cb`, `removed`), another browser's widget ids, a share-tunnel "
+        "request",
+        "every browser has its own widgets (viser client handles), read-only until it unlocks; "
+        "its writes are undone on its own widgets and reach neither the session nor another "
+        "browser; share-tunnel requests are not handled at all",
+        "test_scene.py (raw websocket client), test_browser.py",
+    ),
+    "attack_host_spoofing": (
+        "DNS rebinding: a request whose Host names another site and whose Origin matches it",
+        "400 before anything is read (Host allow-list: loopback names, the bind address, "
+        "`--allow-host`); Origin is compared as scheme + host + port with the server's own "
+        "origins, never with Host (403)",
+        "test_api.py",
+    ),
+    "attack_refused_patch": (
+        "`PATCH /api/live` with an empty or unknown name (`{\"planner\": \"\"}`), a bad "
+        "name beside a good field, `playing` as a string or number",
+        "422 naming the field; the session, its planner and its controls are unchanged, reset "
+        "and stepping go on; `playing` is a strict bool",
+        "test_api.py, tests/sim/test_live.py",
+    ),
+    "attack_refused_run": (
+        "a run the request's checks let through but the engine refuses before its first step "
+        "(and runs of zero steps, empty planner names)",
+        "422 naming the field, and nothing stored (no run left behind as failed)",
+        "test_api.py",
+    ),
+    "attack_costly_sync_run": (
+        "a synchronous run within the step cap but with the costliest knobs (200 000 steps, "
+        "2048 wave components)",
+        "each run has a wall-clock budget (`--run-budget`, 60 s) besides the step cap: past it "
+        "the worker stops it, it is stored as failed saying how far it got, and the request is "
+        "answered",
+        "test_api.py (a 0.05 s budget)",
+    ),
+    "attack_sigterm_with_run_open": (
+        "SIGTERM (`docker stop`) while both workers run long runs and a synchronous request "
+        "waits behind them",
+        "the waiting request is answered 503 (its run stays queued), futures are cancelled, "
+        "busy workers killed, and the server exits 0 well within 10 s; unfinished runs are left "
+        "queued and run on the next start",
+        "test_cli.py",
+    ),
+    "attack_two_servers": (
+        "a second `twin serve` on the same data directory",
+        "it exits 2 before starting anything, naming the pid of the server holding the "
+        "directory's OS file lock (`flock`); the first is untouched",
+        "test_cli.py",
+    ),
+    "attack_deleted_store": (
+        "the run store's file deleted, or replaced by another, while the server runs",
+        "the store notices (device and inode) and answers every access 503 saying so, health "
+        "too; nothing is written where nobody could read it back; the live twin goes on",
+        "test_api.py",
+    ),
+    "attack_long_step": (
+        "`POST /api/live/step?n=1000` on costly steps while others read `GET /api/live`",
+        "the lock is taken 16 steps at a time and let go between; stepping stops at a "
+        "wall-clock cap (2 s) and says how many steps it took (`X-Steps-Taken`)",
+        "test_api.py, tests/sim/test_live.py",
+    ),
+    "attack_token_guessing": (
+        "short tokens, and guessing the token",
+        "a token needs ≥ 16 characters (exit 2 otherwise); past 10 wrong tokens a client is "
+        "refused (429, Retry-After) before its next guess is compared; the viewer's unlock "
+        "likewise",
+        "test_api.py, test_scene.py, test_cli.py",
+    ),
+    "load_soak": (
+        "four executors (a process pool for runs, a Dask cluster per sweep, a pool in "
+        "reproduce.py, numba threads)",
+        "one Dask executor started once with the server (a LocalCluster of one worker per core, "
+        "kernels warmed on each, or `--scheduler`); runs and sweeps are futures on it with "
+        "progress from the workers; `twin sweep` uses the same code, and scripts map over "
+        "it with `twin.sim.executor.map_unordered`",
+        "test_load.py",
+    ),
+}
 
 #: what each injected fault is, and what the twin does about it
 FAULTS = {
@@ -49,10 +151,10 @@ BOUNDARIES = (
     (
         "REST bodies (`POST /api/runs`, `PATCH /api/live`, `POST /api/sweeps`)",
         "pydantic models with a range on every number, finite numbers only "
-        "(`allow_inf_nan=False`), names from the registries, `duration ≤ 3600 s`, "
-        "`duration/dt ≤ 200 000` steps, `initial_state` within the mechanism's state limits "
-        "(≤ 9 values), sweep grids within `MAX_CELLS`, `MAX_RUNS`, `MAX_TOTAL_STEPS`, no "
-        "unknown field",
+        "(`allow_inf_nan=False`), names from the registries (an empty name is refused, not "
+        "defaulted), `duration ≤ 3600 s`, 1 ≤ `duration/dt` ≤ 200 000 steps, `initial_state` "
+        "within the mechanism's state limits (≤ 9 values), `playing` strictly true or false, "
+        "sweep grids within `MAX_CELLS`, `MAX_RUNS`, `MAX_TOTAL_STEPS`, no unknown field",
         "422: each field's `loc`, `msg` and `allowed` range, `message` in one line; nothing "
         "stored or changed",
         "tests/web/test_api.py, test_limits.py, test_fuzz_api.py",
@@ -78,16 +180,18 @@ BOUNDARIES = (
     ),
     (
         "CLI",
-        "`--host` an IP or host name, ports 1–65535, scenario and sweep files ≤ 1 MiB and "
-        "valid models, output suffixes, a token for a bind other than loopback",
+        "`--host` an IP or host name, ports 1–65535, `--allow-host` names, `--allow-origin` "
+        "scheme://host[:port], `--workers` 1–256, `--run-budget` 0–3600 s, scenario and sweep "
+        "files ≤ 1 MiB and valid models, output suffixes, a token (≥ 16 characters) for a "
+        "bind other than loopback, a data directory no other server holds",
         "exit 2 with the reason",
         "test_cli.py",
     ),
     (
         "GUI",
-        "every widget goes through `LiveSession.patch` (the model REST uses); slider ranges "
-        "come from the fields",
-        "a red notification; the widget returns to the value in force",
+        "every widget is the browser's own and goes through `LiveSession.patch` (the model "
+        "REST uses); slider ranges come from the fields; read-only until the token is entered",
+        "a red notification; the widget returns to the value in force, for that browser only",
         "test_scene.py",
     ),
     (
@@ -112,28 +216,41 @@ def security(records: list[dict[str, Any]]) -> str:
 
 SECURITY = """\
 - **Bind**: `twin serve` binds 127.0.0.1 unless `--host` says otherwise; the Docker image
-  binds 0.0.0.0.
-- **Token**: any bind other than loopback needs `TWIN_TOKEN`; without one `twin serve`
-  refuses to start (exit 2). With a token, every POST and PATCH needs
+  binds 0.0.0.0. One server per data directory (an OS file lock).
+- **Host**: every REST request's Host must be a loopback name, the bind address or an
+  `--allow-host` name (400 otherwise): a page reached through a DNS name of its own (DNS
+  rebinding) is refused before anything is read.
+- **Origin**, as scheme + host + port: a browser POST or PATCH, and the viewer's websocket
+  handshake, must come from one of the server's own origins (http on an allowed host at the
+  REST or viewer port) or an `--allow-origin` one (403 otherwise). No CORS headers are sent.
+- **Token**: any bind other than loopback needs `TWIN_TOKEN`, of at least 16 characters;
+  without one `twin serve` refuses to start (exit 2). With a token, every POST and PATCH needs
   `Authorization: Bearer <token>`, checked in constant time (`hmac.compare_digest`) by an
   ASGI middleware before the body is read, so an unknown client learns nothing from a
-  malformed body (401 either way). Each browser unlocks the 3D viewer's controls by entering
-  the token in its own panel (never shared with other browsers); until then its edits are
-  undone and it only watches. Tested: test_cli.py (refusal; a 0.0.0.0 server that answers
-  401 without the token and 200 with it), test_fuzz_api.py (UNAUTHORIZED requests without
-  the token), test_scene.py (locked and unlocked browsers),
+  malformed body (401 either way); past 10 wrong tokens a client gets 429 until it has waited,
+  before its guess is compared. Each browser unlocks the 3D viewer's controls by entering the
+  token in its own panel (rate-limited alike); until then its controls are read-only, for it
+  alone. Tested: test_cli.py (refusal; a 0.0.0.0 server that answers 401 without the token and
+  200 with it), test_fuzz_api.py (UNAUTHORIZED requests without the token), test_api.py (the
+  failure limit), test_scene.py (locked and unlocked browsers over raw websockets),
   test_browser.py (a real Chromium that unlocks with the token).
-- **CORS** closed: no CORS headers are sent, and a POST or PATCH whose `Origin` is another
-  origin is a 403.
+- **Viewer**: every browser has its own widgets (viser client handles): nothing it sends
+  reaches another browser's widgets or shared widget state; viser's share-tunnel requests
+  are not handled (any browser could otherwise ask the server for a public tunnel).
 - **No paths from requests**; **rate and size limits** on submission (above).
-- **Docker** runs as the non-root user `twin` (uid 10001); tests/web/test_cli.py checks the
-  Dockerfile and tests/web/test_dockerfile.py replays its install.
+- **Executor**: the Dask scheduler, workers and their HTTP endpoints listen on 127.0.0.1
+  only, on free ports; Dask has no authentication of its own, so a local user of the
+  machine can reach it (as before with the per-sweep clusters). `--scheduler` joins a cluster
+  the operator secures.
+- **Docker** runs as the non-root user `twin` (uid 10001) and stops on `docker stop` (SIGTERM,
+  handled: PID 1 would ignore it otherwise); tests/web/test_cli.py checks the Dockerfile and
+  tests/web/test_dockerfile.py replays its install.
 """
 
 
 def run_tests(log: Path) -> float:
     """Run every reliability test with the figure log; [s] it took."""
-    tests = [*FUZZ_TESTS, *FAULT_TESTS, *LOAD_TESTS, *BOUNDARY_TESTS]
+    tests = [*FUZZ_TESTS, *FAULT_TESTS, *LOAD_TESTS, *BOUNDARY_TESTS, *ATTACK_TESTS]
     start = time.monotonic()
     subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *tests],
@@ -234,7 +351,8 @@ def load_summary(records: list[dict[str, Any]]) -> str:
                 f"**Held:** {r['clients']} viewer clients ({r['websocket_connections']} "
                 f"websocket connections), {r['patches']:,} random PATCHes and "
                 f"{r['runs_submitted']} concurrent runs ({r['runs_accepted']} accepted, "
-                f"{r['runs_stored']} stored and done) in {r['load_s']:.0f} s of load; health "
+                f"{r['runs_stored']} stored and done) and a {r['sweep_runs']:,}-run sweep (done "
+                f"in {r['sweep_s']:.0f} s) on one executor, in {r['load_s']:.0f} s of load; health "
                 f"answered within {r['health_max_latency_s']:.2f} s, a PATCH within "
                 f"{r['patch_max_latency_s']:.2f} s; server memory (RSS) "
                 f"{r['rss_before_mb']:.0f} MB before, {r['rss_after_mb']:.0f} MB after "
@@ -262,6 +380,41 @@ def load_table(records: list[dict[str, Any]]) -> str:
                 continue
             shown = f"{value:.3g}" if isinstance(value, float) else json.dumps(value)
             rows.append(f"| {r['test']} | {key} | {shown} |")
+    return "\n".join(rows)
+
+
+def _figures(record: dict[str, Any]) -> str:
+    return ", ".join(
+        f"{k} = {v:.3g}" if isinstance(v, float) else f"{k} = {v}"
+        for k, v in record.items()
+        if k != "test"
+    )
+
+
+def attack_table(records: list[dict[str, Any]]) -> str:
+    """One row per attack of issue 13: what was tried, what happens now, what was measured."""
+    rows = [
+        "| attack | what happens now | measured | test |",
+        "| --- | --- | --- | --- |",
+    ]
+    for name, (attack, now, test) in ATTACKS.items():
+        found = [r for r in records if r["test"] == name or r["test"].startswith(f"{name}[")]
+        if not found:
+            measured = "not run"
+        elif name == "load_soak":
+            r = found[0]
+            measured = (
+                f"{r['sweep_runs']:,}-run sweep of 200 s runs in {r['sweep_s']:.0f} s beside "
+                f"{r['runs_accepted']} concurrent runs, on the {r['executor']} of "
+                f"{r['executor_workers']} workers started once ({r['executor_starts']} start, "
+                f"{r['processes_started_during_load']} processes started during the load)"
+            )
+        elif len(found) > 1:
+            statuses = sorted({str(r.get("status")) for r in found})
+            measured = f"{len(found)} bodies, answered {', '.join(statuses)}, changed nothing"
+        else:
+            measured = _figures(found[0])
+        rows.append(f"| {attack} | {now} | {measured} | {test} |")
     return "\n".join(rows)
 
 
@@ -297,12 +450,16 @@ A real `twin serve` process on loopback; the tests stop by themselves.
 {load_summary(records)}
 
 The memory bound allows for what a first burst allocates and keeps (viser's message buffers,
-the worker pool, numpy's caches): while writing the test, repeated rounds on one server
+the executor's client, numpy's caches): while writing the test, repeated rounds on one server
 moved by +50 to +110 MB for patches with no trend, websocket rounds flattened below 1 MB a
 round, run rounds added 9 MB in all. The live history is the `HISTORY` ring buffer (2,000
 samples), checked through restarts and sea changes.
 
 {load_table(records)}
+
+## Attacks tried on loopback, and what happens now (issue 13)
+
+{attack_table(records)}
 
 ## Access
 

@@ -40,6 +40,33 @@ def host(text: str) -> str:
     return text
 
 
+def workers(text: str) -> int:
+    """A worker count, 1-256 (argparse type)."""
+    value = int(text)
+    if not 1 <= value <= 256:
+        raise argparse.ArgumentTypeError(f"{value}: workers are 1-256")
+    return value
+
+
+def seconds(text: str) -> float:
+    """A positive, finite number of seconds, at most an hour (argparse type)."""
+    value = float(text)
+    if not 0.0 < value <= 3600.0:
+        raise argparse.ArgumentTypeError(f"{text}: seconds are > 0 and ≤ 3600")
+    return value
+
+
+def origin(text: str) -> str:
+    """A browser origin, scheme://host[:port] (argparse type)."""
+    from twin.web.access import normalise_origin
+
+    try:
+        normalise_origin(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
 def read_input(parser: argparse.ArgumentParser, path: Path) -> bytes:
     """A scenario or sweep file's bytes; a missing, unreadable or oversized file is a usage
     error naming it."""
@@ -63,9 +90,10 @@ def build_parser() -> argparse.ArgumentParser:
     serve = commands.add_parser(
         "serve",
         help="run the live twin: 3D viewer, REST API and landing page",
-        description="Run the live twin until Ctrl-C. POST and PATCH require the bearer token "
-        "in the TWIN_TOKEN environment variable when it is set; a --host other than loopback "
-        "requires it.",
+        description="Run the live twin until Ctrl-C or SIGTERM. POST and PATCH require the "
+        "bearer token in the TWIN_TOKEN environment variable when it is set (at least 16 "
+        "characters); a --host other than loopback requires it. Runs and sweeps execute on one "
+        "Dask executor started with the server.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     serve.add_argument(
@@ -73,8 +101,36 @@ def build_parser() -> argparse.ArgumentParser:
     )
     serve.add_argument("--port", type=port, default=8000, help="REST API and landing page")
     serve.add_argument("--viser-port", type=port, default=8080, help="3D viewer")
-    serve.add_argument("--data-dir", type=Path, default=Path("data"), help="run store folder")
+    serve.add_argument(
+        "--data-dir", type=Path, default=Path("data"),
+        help="run store folder; one server at a time (a second one exits 2)",
+    )  # fmt: skip
     serve.add_argument("--no-viewer", action="store_true", help="serve REST only, no 3D viewer")
+    serve.add_argument(
+        "--scheduler",
+        help="a Dask scheduler tcp://HOST:PORT for runs and sweeps (its workers need twin "
+        "installed), or 'in-process'; default: a local cluster, one worker per core, started "
+        "once",
+    )
+    serve.add_argument(
+        "--workers", type=workers, help="workers of the local cluster (default: the cores)"
+    )
+    serve.add_argument(
+        "--allow-host", action="append", default=[], metavar="NAME", type=host,
+        help="another Host name the REST API answers to (repeatable); loopback names and the "
+        "--host address always are",
+    )  # fmt: skip
+    serve.add_argument(
+        "--allow-origin", action="append", default=[], metavar="ORIGIN", type=origin,
+        help="another browser origin scheme://host:port trusted as the server's own (e.g. a TLS "
+        "proxy's https://twin.example.com; repeatable); http on an allowed host at --port or "
+        "--viser-port always is",
+    )  # fmt: skip
+    serve.add_argument(
+        "--run-budget", type=seconds, metavar="SECONDS",
+        help="wall-clock budget of one run; over it the run fails with a message (default: "
+        "twin.sim.executor.RUN_BUDGET, 60 s)",
+    )  # fmt: skip
     serve.set_defaults(handler=_serve)
 
     run = commands.add_parser(
@@ -97,9 +153,9 @@ def build_parser() -> argparse.ArgumentParser:
         "sweep",
         help="run an operability sweep and write its table and heatmap",
         description="Run a grid of Hs × Tp × heading × planner × (β, k_e, k_c) with several "
-        "seeds per cell on Dask (a local cluster unless --scheduler is given), with a progress "
-        "bar; print the operability table and write operability.csv, operability.json and "
-        "heatmap.png.",
+        "seeds per cell on the executor `twin serve` uses (a local Dask cluster unless "
+        "--scheduler is given), with a progress bar; print the operability table and write "
+        "operability.csv, operability.json and heatmap.png.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     sweep.add_argument(
@@ -107,9 +163,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sweep.add_argument(
         "--scheduler",
-        help="a Dask scheduler address tcp://HOST:PORT, or 'in-process' (no Dask); "
-        "default: a local cluster, one worker per core",
+        help="a Dask scheduler address tcp://HOST:PORT, or 'in-process' (one worker thread "
+        "in this process); default: a local cluster, one worker per core",
     )
+    sweep.add_argument("--workers", type=workers, help="workers of the local cluster")
     sweep.add_argument("--out", type=Path, default=Path("sweep"), help="folder of the outputs")
     sweep.set_defaults(handler=_sweep)
     return parser
@@ -117,7 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from twin.errors import TwinError
-    from twin.web.server import serve
+    from twin.web.server import Terminated, serve
 
     try:
         serve(
@@ -127,10 +184,15 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             args.data_dir,
             token=os.environ.get("TWIN_TOKEN") or None,  # not an option: argv is visible to all
             viewer=not args.no_viewer,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            allow_hosts=tuple(args.allow_host),
+            allow_origins=tuple(args.allow_origin),
+            **({} if args.run_budget is None else {"run_budget": args.run_budget}),
         )
-    except KeyboardInterrupt:  # Ctrl-C is how a server is stopped; serve has cleaned up
+    except (KeyboardInterrupt, Terminated):  # how a server is stopped; serve has cleaned up
         pass
-    except TwinError as exc:  # a bind that needs a token, or a data directory it cannot use
+    except TwinError as exc:  # a token or bind refused, or the data directory held by another
         parser.error(str(exc))
     return 0
 
@@ -175,7 +237,9 @@ def _sweep(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     except ValidationError as exc:  # its message names each bad field
         parser.error(f"{args.spec}: {exc}")
     try:
-        result = run_sweep(spec, scheduler=args.scheduler, progress=True)
+        result = run_sweep(
+            spec, scheduler=args.scheduler, n_workers=args.workers, progress=True
+        )
     except ValueError as exc:  # a bad --scheduler address
         parser.error(str(exc))
     args.out.mkdir(parents=True, exist_ok=True)

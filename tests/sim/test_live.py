@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -88,3 +89,44 @@ def test_a_tick_that_cannot_keep_up_stops_at_its_budget(live: LiveSession) -> No
     taken = live.advance(2.0, budget=0.001)
     assert 1 <= taken < 40 and time.perf_counter() - start < 0.5
     assert live.advance(0.0) == 0  # the rest is not owed
+
+
+def test_playing_is_strictly_a_bool_and_empty_names_change_nothing(live: LiveSession) -> None:
+    before = live.snapshot()
+    for bad in ({"playing": "false"}, {"playing": 0}, {"playing": None}, {"planner": ""},
+                {"planner": "", "beta": 0.2}, {"mechanism": ""}, {"duration": 5.0},
+                {"mechanism": "upr4", "planner": ""}):  # fmt: skip
+        with pytest.raises(ValueError):
+            live.patch(bad)
+    assert live.snapshot() == before
+    assert live.patch({"playing": False}) == {"playing"} and not live.controls.playing
+
+
+def test_step_lets_go_of_the_lock_between_chunks_and_stops_at_its_cap(
+    live: LiveSession, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`step(n)` holds the lock one chunk at a time: a reader waiting for it gets it within a
+    chunk; past `max_seconds` it stops, saying how many steps it took."""
+    advance = LiveSession._advance
+
+    def slow(self: LiveSession, n: int) -> None:
+        time.sleep(0.002 * n)
+        advance(self, n)
+
+    monkeypatch.setattr(LiveSession, "_advance", slow)
+    waits: list[float] = []
+
+    def reader() -> None:
+        for _ in range(5):
+            start = time.perf_counter()
+            live.snapshot()
+            waits.append(time.perf_counter() - start)
+            time.sleep(0.02)
+
+    thread = threading.Thread(target=reader)
+    thread.start()
+    taken = live.step(1000, max_seconds=0.25)
+    thread.join()
+    assert 0 < taken < 1000 and live.snapshot()["t"] == pytest.approx(taken * 0.05)
+    assert len(waits) == 5 and max(waits) < 0.15, waits  # a chunk is 16 × 2 ms
+    assert live.step(3) == 3

@@ -1,33 +1,105 @@
-"""Operability sweeps: Dask equals in-process, calm seas are operable, bad requests are named."""
+"""Operability sweeps and the one executor they run on: Dask equals in-process, calm seas are
+operable, bad requests are named; the executor runs sweeps, runs (with progress and a budget)
+and scripts' maps on the same workers, and closes at once."""
 
 from __future__ import annotations
 
 import json
+import time
 
 import numpy as np
 import pytest
 
-from twin.sim.sweep import MAX_CELLS, MAX_RUNS, SweepSpec, heatmap_png, run_sweep
+from twin.sim import simulate
+from twin.sim.executor import BudgetExceeded, Executor, map_unordered, unpack_series
+from twin.sim.sweep import (
+    MAX_CELLS,
+    MAX_RUNS,
+    SweepSpec,
+    SweepStopped,
+    heatmap_png,
+    run_sweep,
+)
 
 SMALL = {"hs": [0.0, 2.5], "tp": [7.0], "planner": ["mtmp", "pi"], "seeds": 2, "duration": 3.0}
+#: the longest run a scenario may be: 200 000 steps on the finest sea
+LONGEST = {"mechanism": "hybrid", "n_components": 2048, "dt": 0.005, "duration": 1000.0}
 
 
-def test_local_cluster_equals_in_process() -> None:
-    """A two-worker LocalCluster gives the same table as the same sweep run in this process."""
+def steps_of(fields: dict) -> tuple[str, int]:
+    """A script's job (as scripts/reproduce.py maps them): a run's steps, by name."""
+    fields = dict(fields)
+    name = fields.pop("name")
+    return name, len(simulate(fields).series["t"]) - 1
+
+
+def test_one_executor_runs_sweeps_runs_and_maps() -> None:
+    """A two-worker LocalCluster, started once: a sweep gives the same table as in process; a
+    run reports its progress and comes back packed, equal to `simulate`; a script's map runs
+    there too; a run over its budget fails saying so; zero steps are refused; and closing it
+    while a long run is in hand takes seconds."""
     seen: list[tuple[int, int]] = []
     local = run_sweep(
         SMALL, scheduler="in-process", progress=False, chunk_size=3,
         on_progress=lambda done, total: seen.append((done, total)),
     )  # fmt: skip
     assert seen == [(3, 8), (6, 8), (8, 8)]
-    cluster = run_sweep(SMALL, n_workers=2, chunk_size=2, progress=False)
-    assert cluster.scheduler == "local cluster"
-    assert len(cluster.runs) == len(local.runs) == 8
-    columns = ["runs", "operable_runs", "operability", "violations_max"]
-    assert cluster.table[columns].equals(local.table[columns])
-    np.testing.assert_allclose(
-        cluster.table["tip_position_error_max"], local.table["tip_position_error_max"], rtol=1e-9
-    )
+    executor = Executor.start(n_workers=2)
+    try:
+        assert executor.info()["workers"] == 2 and executor.where == "local cluster"
+        cluster = run_sweep(SMALL, executor=executor, chunk_size=2, progress=False)
+        assert cluster.scheduler == "local cluster"
+        assert len(cluster.runs) == len(local.runs) == 8
+        columns = ["runs", "operable_runs", "operability", "violations_max"]
+        assert cluster.table[columns].equals(local.table[columns])
+        np.testing.assert_allclose(
+            cluster.table["tip_position_error_max"], local.table["tip_position_error_max"],
+            rtol=1e-9,
+        )  # fmt: skip
+
+        reports: list[dict] = []
+        executor.subscribe(reports.append)
+        scenario = {"sea_state": 3, "duration": 5.0}
+        output = executor.run(scenario, name="run-1").result()
+        expected = simulate(scenario)
+        assert output.metrics == expected.metrics and output.steps == 100
+        np.testing.assert_array_equal(unpack_series(output.series)["xi"], expected.series["xi"])
+        deadline = time.monotonic() + 5
+        while not reports and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert reports[0]["name"] == "run-1" and reports[0]["status"] == "running"
+
+        jobs = [{"name": f"job-{i}", "mechanism": "upr4", "duration": 0.5 * (i + 1)}
+                for i in range(4)]  # fmt: skip
+        assert sorted(executor.map_unordered(steps_of, jobs)) == [
+            ("job-0", 10), ("job-1", 20), ("job-2", 30), ("job-3", 40)
+        ]  # fmt: skip
+
+        with pytest.raises(BudgetExceeded, match=r"wall-clock budget of 0\.05 s"):
+            executor.run(LONGEST, name="long", budget=0.05).result()
+        with pytest.raises(ValueError, match="zero steps"):
+            executor.run({"duration": 0.01}, name="zero").result()
+
+        busy = executor.run(LONGEST, name="busy")
+        time.sleep(0.5)
+    finally:
+        start = time.monotonic()
+        executor.close()
+        closed = time.monotonic() - start
+    assert busy.cancelled() or not busy.done() or busy.status != "finished"
+    assert closed < 5.0, closed
+
+
+def test_a_sweep_stops_when_told() -> None:
+    with Executor.start("in-process") as executor:
+        with pytest.raises(SweepStopped):
+            run_sweep(SMALL, executor=executor, chunk_size=1, progress=False, stop=lambda: True)
+        assert run_sweep(SMALL, executor=executor, progress=False).table["runs"].sum() == 8
+
+
+def test_map_unordered_starts_and_closes_its_own_executor() -> None:
+    jobs = [{"name": "a", "duration": 0.5}, {"name": "b", "duration": 1.0}]
+    assert sorted(map_unordered(steps_of, jobs, scheduler="in-process")) == [("a", 10), ("b", 20)]
 
 
 def test_calm_sea_is_fully_operable_with_mtmp() -> None:
@@ -66,6 +138,8 @@ def test_table_and_heatmap_export(tmp_path) -> None:
         ({"tip_error_threshold": float("nan")}, "tip_error_threshold"),
         ({"scenario": {"hs": 1.0}}, "scenario"),
         ({"scenario": {"gamma": 50.0}}, "gamma"),
+        ({"duration": 0.01}, "zero steps"),
+        ({"planner": [""]}, "planner"),
     ],
 )  # fmt: skip
 def test_bad_requests_name_the_field(fields: dict, message: str) -> None:

@@ -1,10 +1,21 @@
-"""Helpers shared by the web tests: a free loopback port and polling for a condition."""
+"""Helpers shared by the web tests: a free loopback port, polling for a condition, and the
+access policy of an app under test (its host as the test client names it)."""
 
 from __future__ import annotations
 
 import socket
 import time
 from collections.abc import Callable
+from typing import Any
+
+from twin.web.access import Access
+
+#: a token long enough for the server (≥ 16 characters)
+TOKEN = "s3cret-token-0123"
+#: the Host the test clients send (Starlette's TestClient, schemathesis's ASGI transport)
+TEST_HOST = "testserver"
+#: the same origin, as a page of the app would send it
+SAME_ORIGIN = f"http://{TEST_HOST}"
 
 
 def free_port() -> int:
@@ -20,3 +31,11 @@ def wait_for(condition: Callable[[], bool], timeout: float = 3.0, poll: float = 
     while not condition() and time.monotonic() < end:
         time.sleep(poll)
     return condition()
+
+
+def access(token: str | None = None, **limits: Any) -> Access:
+    """The policy of an app served as http://testserver (port 80), as `twin serve` builds it
+    for a server bound to loopback with `--allow-host testserver`."""
+    return Access.for_server(
+        "127.0.0.1", (80,), token=token, allow_hosts=(TEST_HOST,), **limits
+    )

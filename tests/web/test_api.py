@@ -1,10 +1,16 @@
-"""REST API through httpx: contracts, runs equal simulate(), persistence, live patches, auth."""
+"""REST API through httpx: contracts, runs equal simulate(), persistence, live patches, auth,
+and the attacks of issue 13 (Host spoofing, refused requests that must change nothing, the
+run budget, a store file that vanishes, long steps, token guessing)."""
 
 from __future__ import annotations
 
 import csv
 import io
 import json
+import os
+import shutil
+import threading
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -14,19 +20,31 @@ import pyarrow.parquet as pq
 import pytest
 from fastapi.testclient import TestClient
 
-from tests.web.support import wait_for
+from tests.figures import record
+from tests.web.support import SAME_ORIGIN, TOKEN, access, wait_for
 from twin.mechanisms import MECHANISMS
 from twin.planners import PLANNERS, PlannerParameters
 from twin.sea.sea_states import WMO_SEA_STATES
 from twin.sim import Scenario, simulate
+from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.sim.result import flat_columns
-from twin.web import JobRunner, RunStore, SweepRunner, create_app
+from twin.web import JobRunner, RunStore, create_app
+from twin.web.access import MIN_TOKEN, Access
 
 SHORT = {"mechanism": "hybrid", "planner": "mtmp", "sea_state": 3, "duration": 2.0}
 #: synchronous cap of the test app: 100 steps (5 s at dt 0.05), so a 10 s run becomes a job
 SYNC_STEPS = 100
-TOKEN = "s3cret-token"
+#: the longest run a scenario may be: 200 000 steps on the finest sea
+LONGEST = {"mechanism": "upr4", "planner": "pid", "n_components": 2048, "dt": 0.005,
+           "duration": 1000.0}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def executor() -> Iterator[Executor]:
+    """One in-process executor (a Dask worker thread) for every app of this module."""
+    with Executor.start(IN_PROCESS) as executor:
+        yield executor
 
 
 @pytest.fixture(scope="module")
@@ -36,13 +54,12 @@ def store(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunStore]:
 
 
 @pytest.fixture(scope="module")
-def client(store: RunStore) -> Iterator[TestClient]:
-    """An app with its worker pool running (the lifespan), shared by the run tests."""
-    jobs = JobRunner(store, workers=1, sync_max_steps=SYNC_STEPS)
-    sweeps = SweepRunner(store, scheduler="in-process")  # no Dask cluster start-up in tests
+def client(store: RunStore, executor: Executor) -> Iterator[TestClient]:
+    """An app with its runners on the executor (the lifespan), shared by the run tests."""
     app = create_app(
-        LiveSession({"sea_state": 3}), store, jobs=jobs, sweeps=sweeps, viewer_port=8080
-    )
+        LiveSession({"sea_state": 3}), store, access=access(), executor=executor,
+        jobs=JobRunner(store, sync_max_steps=SYNC_STEPS), viewer_port=8080,
+    )  # fmt: skip
     with TestClient(app) as client:
         yield client
 
@@ -61,8 +78,8 @@ def live() -> LiveSession:
 
 
 def live_client(live: LiveSession, tmp_path: Path, token: str | None = None) -> TestClient:
-    # No `with`: the lifespan (worker pool) is not needed by the live endpoints.
-    return TestClient(create_app(live, RunStore(tmp_path / "runs.sqlite"), token=token))
+    # No `with`: the lifespan (executor, runners) is not needed by the live endpoints.
+    return TestClient(create_app(live, RunStore(tmp_path / "runs.sqlite"), access=access(token)))
 
 
 def wait_finished(client: TestClient, path: str, timeout: float = 60.0) -> dict[str, Any]:
@@ -92,11 +109,15 @@ def test_openapi_lists_exactly_the_api_paths(client: TestClient) -> None:
     assert client.get("/docs").status_code == 200
 
 
-def test_health(client: TestClient) -> None:
-    assert client.get("/api/health").json() == {
+def test_health(client: TestClient, executor: Executor) -> None:
+    health = client.get("/api/health").json()
+    assert {k: health[k] for k in ("status", "version", "viewer_port")} == {
         "status": "ok",
         "version": "0.1.0",
         "viewer_port": 8080,
+    }
+    assert health["executor"] == {
+        "scheduler": "in-process", "workers": 1, "started": executor.started
     }
 
 
@@ -256,12 +277,14 @@ def test_an_unknown_vessel_is_422_and_nothing_is_stored(client: TestClient) -> N
     assert len(client.get("/api/runs").json()) == before
 
 
-def test_runs_survive_a_restart_and_interrupted_jobs_rerun(tmp_path: Path) -> None:
+def test_runs_survive_a_restart_and_interrupted_jobs_rerun(
+    tmp_path: Path, executor: Executor
+) -> None:
     """A new RunStore and app on the same file serve the old runs; a job a dead server left
     `running` is queued again at start-up and completes."""
     path = tmp_path / "runs.sqlite"
     with RunStore(path) as store:
-        app = create_app(LiveSession(), store, jobs=JobRunner(store, workers=1))
+        app = create_app(LiveSession(), store, access=access(), executor=executor)
         with TestClient(app) as first:
             done = first.post("/api/runs", json=SHORT).json()
             csv_before = first.get(f"/api/runs/{done['id']}/series?format=csv").text
@@ -269,7 +292,7 @@ def test_runs_survive_a_restart_and_interrupted_jobs_rerun(tmp_path: Path) -> No
         store.mark_running(interrupted)  # as if the server died mid-run
 
     with RunStore(path) as store:
-        app = create_app(LiveSession(), store, jobs=JobRunner(store, workers=1))
+        app = create_app(LiveSession(), store, access=access(), executor=executor)
         with TestClient(app) as second:
             assert second.get(f"/api/runs/{done['id']}").json() == done
             assert second.get(f"/api/runs/{done['id']}/series?format=csv").text == csv_before
@@ -326,7 +349,9 @@ def test_an_unknown_sweep_is_404(client: TestClient) -> None:
     assert client.get("/api/sweeps/nope/heatmap.png").status_code == 404
 
 
-def test_sweeps_survive_a_restart_and_interrupted_sweeps_rerun(tmp_path: Path) -> None:
+def test_sweeps_survive_a_restart_and_interrupted_sweeps_rerun(
+    tmp_path: Path, executor: Executor
+) -> None:
     path = tmp_path / "runs.sqlite"
     with RunStore(path) as store:
         interrupted = store.create_sweep(TINY_SWEEP, 4).id
@@ -334,8 +359,7 @@ def test_sweeps_survive_a_restart_and_interrupted_sweeps_rerun(tmp_path: Path) -
         assert store.get_sweep(interrupted).status == "running"
 
     with RunStore(path) as store:
-        sweeps = SweepRunner(store, scheduler="in-process")
-        app = create_app(LiveSession(), store, jobs=JobRunner(store, workers=1), sweeps=sweeps)
+        app = create_app(LiveSession(), store, access=access(), executor=executor)
         with TestClient(app) as second:
             sweep = wait_finished(second, f"/api/sweeps/{interrupted}")
             assert second.get(f"/api/sweeps/{interrupted}/heatmap.png").status_code == 200
@@ -449,7 +473,7 @@ def test_cross_origin_mutations_are_refused_and_cors_is_closed(
     assert client.post("/api/live/pause", headers=evil).status_code == 403
     assert client.patch("/api/live", json={"beta": 0.1}, headers=evil).status_code == 403
     assert live.controls.playing and live.scenario.beta == 0.7
-    same = {"Origin": "http://testserver"}  # the landing page's own origin
+    same = {"Origin": SAME_ORIGIN}  # the landing page's own origin
     assert client.post("/api/live/pause", headers=same).status_code == 200
     response = client.get("/api/live", headers=evil)
     assert "access-control-allow-origin" not in response.headers
@@ -478,3 +502,244 @@ def test_live_faults_are_served_finite(
     assert state["t"] == pytest.approx(1.0)
     assert state["faults"]["counts"]["base_motion"] == 14  # samples at t = 0.35 … 1.0
     assert state["faults"]["events"][-1]["kinds"] == ["base_motion"]
+
+
+# -- issue 13: what an attacker tried, and what happens now -------------------------------------
+
+
+def test_a_host_spoofed_patch_changes_nothing(live: LiveSession, tmp_path: Path) -> None:
+    """DNS rebinding: a page served under its own name reaches the server with Host and Origin
+    both its own. The Host is not one the server answers to: 400 before anything is read, for
+    reads too. Origin is compared as scheme + host + port with the server's own origins, never
+    with the Host header."""
+    client = live_client(live, tmp_path)
+    before = live.snapshot()
+    rebound = {"Host": "evil.example:80", "Origin": "http://evil.example:80"}
+    spoofed = client.patch("/api/live", json={"beta": 0.1, "playing": False}, headers=rebound)
+    assert spoofed.status_code == 400 and "--allow-host" in spoofed.json()["message"]
+    assert client.get("/api/live", headers=rebound).status_code == 400
+    assert client.post("/api/live/reset", headers={"Host": "evil.example"}).status_code == 400
+    assert live.snapshot() == before
+    others = ["https://testserver", "http://testserver:8080", "http://testserver.evil.example",
+              "http://evil.example", "null", "http://testserver/page"]  # fmt: skip
+    codes = [client.patch("/api/live", json={"beta": 0.1}, headers={"Origin": o}).status_code
+             for o in others]  # fmt: skip
+    assert codes == [403] * len(others)
+    assert live.snapshot() == before
+    own = client.patch("/api/live", json={"beta": 0.2}, headers={"Origin": "http://testserver:80"})
+    assert own.status_code == 200 and live.scenario.beta == 0.2
+    record(
+        "attack_host_spoofing",
+        spoofed_patch=spoofed.status_code,
+        other_origins_refused=f"{codes.count(403)}/{len(others)}",
+        changed="nothing",
+    )
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ({"planner": ""}, "planner"),
+        ({"planner": "", "beta": 0.2}, "planner"),  # the good field is not applied either
+        ({"planner": "nope", "speed": 2.0}, "planner"),
+        ({"mechanism": ""}, "mechanism"),
+        ({"vessel": ""}, "vessel"),
+        ({"spectrum": ""}, "spectrum"),
+        ({"joint_limits": ""}, "joint_limits"),
+        ({"playing": "true"}, "playing"),  # strictly true or false
+        ({"playing": 1}, "playing"),
+        ({"playing": None}, "playing"),
+        ({"mechanism": "upr4", "planner": "mtmp"}, "planner"),
+    ],
+)
+def test_a_refused_patch_changes_nothing_empty_names_included(
+    live: LiveSession, tmp_path: Path, body: dict[str, Any], field: str
+) -> None:
+    client = live_client(live, tmp_path)
+    before = live.snapshot()
+    response = client.patch("/api/live", json=body)
+    assert response.status_code == 422, response.text
+    assert field in {e["loc"][-1] for e in response.json()["detail"]}, response.json()
+    assert live.snapshot() == before
+    # the session is whole: the 3D view, reset and stepping go on
+    assert client.post("/api/live/reset").status_code == 200
+    assert client.post("/api/live/step", params={"n": 3}).status_code == 200
+    record(f"attack_refused_patch[{json.dumps(body)}]", status=response.status_code,
+           changed="nothing")  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ({**SHORT, "planner": ""}, "planner"),
+        ({**SHORT, "planner": "pid"}, "planner"),
+        ({**SHORT, "duration": 0.001}, "duration"),  # zero steps
+        ({**SHORT, "duration": 0.02, "dt": 0.05}, "duration"),
+        ({**SHORT, "mechanism": ""}, "mechanism"),
+    ],
+)
+def test_a_refused_run_stores_nothing(
+    client: TestClient, store: RunStore, body: dict[str, Any], field: str
+) -> None:
+    before = len(store.list_runs(500))
+    response = client.post("/api/runs", json=body)
+    assert response.status_code == 422, response.text
+    assert response.json()["detail"][0]["loc"] == ["body", field], response.json()
+    assert len(store.list_runs(500)) == before
+
+
+def test_a_run_its_worker_refuses_is_422_and_not_stored(
+    client: TestClient, store: RunStore, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A scenario the request's checks let through but the engine refuses before its first
+    step: the answer is a 422 naming the field, and the run is not left behind as failed."""
+    import twin.sim.engine
+
+    real = twin.sim.engine.Simulation
+
+    def refusing(scenario: Any, *args: Any, **kwargs: Any) -> Any:
+        if getattr(scenario, "seed", None) == 424242:
+            raise twin.sim.engine.TwinError("heading: refused by the engine (test)")
+        return real(scenario, *args, **kwargs)
+
+    monkeypatch.setattr(twin.sim.engine, "Simulation", refusing)
+    before = len(store.list_runs(500))
+    response = client.post("/api/runs", json={**SHORT, "seed": 424242})
+    assert response.status_code == 422, response.text
+    assert response.json()["detail"][0]["loc"] == ["body", "heading"]
+    assert len(store.list_runs(500)) == before
+    record("attack_refused_run", status=response.status_code, stored="nothing")
+
+
+def test_a_run_over_its_wall_clock_budget_fails_and_is_answered(
+    tmp_path: Path, executor: Executor
+) -> None:
+    """The longest run a scenario may be, synchronous (the cap raised to its 200 000 steps),
+    with a budget of 0.05 s: answered at once, failed, saying why."""
+    with RunStore(tmp_path / "runs.sqlite") as store:
+        jobs = JobRunner(store, sync_max_steps=200_000, budget=0.05)
+        app = create_app(LiveSession(), store, access=access(), executor=executor, jobs=jobs)
+        with TestClient(app) as c:
+            start = time.monotonic()
+            response = c.post("/api/runs", json=LONGEST)
+            answered = time.monotonic() - start
+    run = response.json()
+    assert response.status_code == 201 and run["status"] == "failed", run
+    assert "wall-clock budget of 0.05 s" in run["error"] and "of 200000 steps" in run["error"]
+    assert answered < 10.0
+    record("attack_costly_sync_run", steps=200_000, budget_s=0.05, status=run["status"],
+           answered_s=round(answered, 2))  # fmt: skip
+
+
+def test_a_deleted_or_replaced_store_answers_503(tmp_path: Path, executor: Executor) -> None:
+    """The store's file deleted while the server runs: writes (and reads, and health) are a
+    503 saying so, not a 500, and no run is accepted into a file nobody can reopen; the same
+    once another file takes its place."""
+    path = tmp_path / "data" / "runs.sqlite"
+    with RunStore(path) as store:
+        app = create_app(LiveSession(), store, access=access(), executor=executor)
+        with TestClient(app) as c:
+            done = c.post("/api/runs", json=SHORT).json()
+            for suffix in ("", "-wal", "-shm"):
+                if Path(f"{path}{suffix}").exists():
+                    os.remove(f"{path}{suffix}")
+            deleted = c.post("/api/runs", json=SHORT)
+            assert deleted.status_code == 503 and "deleted" in deleted.json()["message"]
+            assert c.post("/api/sweeps", json=TINY_SWEEP).status_code == 503
+            assert c.get(f"/api/runs/{done['id']}").status_code == 503
+            assert c.get("/api/health").status_code == 503
+            with RunStore(tmp_path / "other.sqlite"):
+                pass
+            shutil.copy(tmp_path / "other.sqlite", path)  # another file in its place
+            replaced = c.post("/api/runs", json=SHORT)
+            assert replaced.status_code == 503 and "replaced" in replaced.json()["message"]
+            assert c.get("/api/live").status_code == 200  # the live twin goes on
+    with RunStore(path) as reopened:
+        assert reopened.list_runs() == []  # nothing was written into the replacement
+    record("attack_deleted_store", deleted=deleted.status_code, replaced=replaced.status_code)
+
+
+def test_a_long_step_lets_readers_in_and_stops_at_its_wall_cap(
+    live: LiveSession, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """POST /api/live/step?n=1000 on slow steps (5 ms each, injected) with a 0.3 s wall cap:
+    it stops at the cap, saying how many steps it took, and GET /api/live answers meanwhile
+    (the lock is let go between chunks)."""
+    import twin.sim.live
+
+    monkeypatch.setattr(twin.sim.live, "STEP_WALL", 0.3)
+    advance = LiveSession._advance
+
+    def slow(self: LiveSession, n: int) -> None:
+        time.sleep(0.005 * n)
+        advance(self, n)
+
+    monkeypatch.setattr(LiveSession, "_advance", slow)
+    client = live_client(live, tmp_path)
+    latencies: list[float] = []
+    stepping = threading.Event()
+
+    def read() -> None:
+        stepping.wait(5)
+        end = time.monotonic() + 0.25
+        while time.monotonic() < end:
+            start = time.monotonic()
+            assert client.get("/api/live").status_code == 200
+            latencies.append(time.monotonic() - start)
+
+    reader = threading.Thread(target=read)
+    reader.start()
+    stepping.set()
+    start = time.monotonic()
+    response = client.post("/api/live/step", params={"n": 1000})
+    took = time.monotonic() - start
+    reader.join(5)
+    taken = int(response.headers["x-steps-taken"])
+    assert response.status_code == 200 and 0 < taken < 1000
+    assert response.json()["t"] == pytest.approx(taken * 0.05)
+    assert took < 1.5 and latencies and max(latencies) < 0.25, (took, latencies)
+    record("attack_long_step", n=1000, steps_taken=taken, step_s=round(took, 2),
+           reads=len(latencies), read_max_s=round(max(latencies), 3))  # fmt: skip
+
+
+def test_short_tokens_are_refused_and_wrong_ones_rate_limited(
+    live: LiveSession, tmp_path: Path
+) -> None:
+    with pytest.raises(ValueError, match=f"at least {MIN_TOKEN}"):
+        Access(token="x" * (MIN_TOKEN - 1))
+    app = create_app(
+        live, RunStore(tmp_path / "runs.sqlite"),
+        access=access(TOKEN, failure_burst=3, failure_rate=4.0),
+    )  # fmt: skip
+    client = TestClient(app)
+    wrong = {"Authorization": "Bearer " + "0" * len(TOKEN)}
+    codes = [client.post("/api/live/pause", headers=wrong).status_code for _ in range(5)]
+    assert codes == [401, 401, 401, 429, 429]
+    good = {"Authorization": f"Bearer {TOKEN}"}
+    limited = client.post("/api/live/pause", headers=good)
+    assert limited.status_code == 429 and int(limited.headers["retry-after"]) >= 1
+    assert live.controls.playing  # nothing changed, not even by the right token
+    time.sleep(0.3)  # one attempt back after 1 / failure_rate
+    assert client.post("/api/live/pause", headers=good).status_code == 200
+    record("attack_token_guessing", min_token=MIN_TOKEN, answers=codes)
+
+
+def test_the_access_policy_names_hosts_and_origins_as_the_server_was_started() -> None:
+    policy = Access.for_server(
+        "::1", (8000, 8080), allow_hosts=("Twin.Example.com",),
+        allow_origins=("https://twin.example.com",),
+    )  # fmt: skip
+    for host in ("localhost:8000", "127.0.0.1", "[::1]:8080", "twin.example.com:9000"):
+        assert policy.allows_host(host), host
+    for host in (None, "", "evil.example", "127.0.0.2", "localhost.evil.example", "a b"):
+        assert not policy.allows_host(host), host
+    for origin in ("http://localhost:8000", "http://[::1]:8080", "http://twin.example.com:8080",
+                   "https://twin.example.com", "https://twin.example.com:443"):  # fmt: skip
+        assert policy.allows_origin(origin), origin
+    for origin in ("http://localhost", "https://localhost:8000", "http://twin.example.com",
+                   "http://localhost:8000/x", "null", "file://", "http://localhost:9"):  # fmt: skip
+        assert not policy.allows_origin(origin), origin
+    assert Access.for_server("0.0.0.0", (8000,)).hosts == {"localhost", "127.0.0.1", "::1"}
+    for bad in ({"allow_hosts": ("a:1",)}, {"allow_origins": ("twin.example.com",)}):
+        with pytest.raises(ValueError):
+            Access.for_server("127.0.0.1", (8000,), **bad)

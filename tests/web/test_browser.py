@@ -6,6 +6,9 @@ Never a downloaded browser: the test uses /usr/bin/chromium (`.ci/run` installs 
 
 from __future__ import annotations
 
+import functools
+import http.server
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -16,10 +19,12 @@ from fastapi.testclient import TestClient
 from PIL import Image
 from playwright.sync_api import sync_playwright
 
-from tests.web.support import free_port, wait_for
+from tests.figures import record
+from tests.web.support import TOKEN, access, free_port, wait_for
+from tests.web.viser_client import PROTOCOL
 from twin.sim.live import LiveSession
+from twin.web.access import Access
 from twin.web.api import create_app
-from twin.web.jobs import JobRunner
 from twin.web.scene import Viewer, start_viewer
 from twin.web.store import RunStore
 
@@ -79,9 +84,8 @@ def test_browser_shows_the_twin_and_controls_the_session(
             assert wait_for(lambda: session.scenario.beta == pytest.approx(0.35), timeout=10.0)
             # …and the REST view of the same live session reports it
             with RunStore(tmp_path / "runs.sqlite") as store:
-                app = create_app(session, store, jobs=JobRunner(store, workers=1))
-                with TestClient(app) as client:
-                    assert client.get("/api/live").json()["beta"] == pytest.approx(0.35)
+                client = TestClient(create_app(session, store, access=access()))
+                assert client.get("/api/live").json()["beta"] == pytest.approx(0.35)
 
             time.sleep(1.0)  # a few rendered frames of the scene
             shot = tmp_path / "twin.png"
@@ -94,37 +98,70 @@ def test_browser_shows_the_twin_and_controls_the_session(
     assert scene.std(axis=(0, 1)).max() > 5.0
 
 
+def _serve_folder(folder: Path) -> tuple[http.server.ThreadingHTTPServer, int]:
+    """A static web server on another port: another origin, as any site the operator opens."""
+    port = free_port()
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(folder))
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", port), handler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    return server, port
+
+
+#: what a page of another origin runs: open the viewer's websocket, report how it went
+OPEN_WEBSOCKET = """([url, protocol]) => new Promise((resolve) => {
+  const ws = new WebSocket(url, [protocol]);
+  ws.onopen = () => { ws.close(); resolve("open"); };
+  ws.onerror = () => resolve("error");
+  setTimeout(() => resolve("timeout"), 5000);
+})"""
+
+
 def test_a_browser_unlocks_the_viewer_with_the_token(tmp_path: Path) -> None:
-    """With a token, a browser sees its own Access panel: Pause does nothing until it enters
-    the token and unlocks; then Pause pauses the session."""
+    """With a token, a browser sees its own Access panel and read-only controls: Pause does
+    nothing until it enters the token and unlocks; then Pause pauses the session. A page of
+    another origin in the same browser cannot even open the viewer's websocket."""
     session = LiveSession({"sea_state": 3})
     session.start()
-    viewer = start_viewer(session, port=free_port(), token="tok-42")
+    viewer = start_viewer(session, port=free_port(), access=Access(token=TOKEN))
+    (tmp_path / "index.html").write_text("<!doctype html><title>another site</title>")
+    site, site_port = _serve_folder(tmp_path)
     try:
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
             try:
+                other = browser.new_page()
+                other.goto(f"http://127.0.0.1:{site_port}/index.html", timeout=30_000)
+                ws_url = f"ws://127.0.0.1:{viewer.port}/"
+                cross = other.evaluate(OPEN_WEBSOCKET, [ws_url, PROTOCOL])
+                assert cross == "error", cross
+                assert session.controls.playing and not viewer.gui.panels
+
                 page = browser.new_page(viewport={"width": 1200, "height": 760})
                 page.goto(f"http://127.0.0.1:{viewer.port}", timeout=30_000)
                 page.get_by_role("button", name="Unlock controls").wait_for(timeout=30_000)
-                page.get_by_role("button", name="Pause").click(force=True)
+                pause = page.get_by_role("button", name="Pause")
+                assert wait_for(pause.is_disabled, timeout=10.0)  # read-only until unlocked
+                pause.click(force=True)
                 time.sleep(1.0)
                 assert session.controls.playing  # locked: the click changed nothing
-                assert "locked" in (viewer.gui.last_error or "")
 
                 row = page.locator("div", has=page.get_by_text("Token", exact=True)).filter(
                     has=page.locator("input")
                 )
                 field = row.last.locator("input").last
-                field.fill("tok-42", force=True)
+                field.fill(TOKEN, force=True)
                 field.press("Enter")
                 time.sleep(0.5)  # the text reaches the server before the click
                 page.get_by_role("button", name="Unlock controls").click(force=True)
                 assert wait_for(lambda: len(viewer.gui._unlocked) == 1, timeout=10.0)
-                page.get_by_role("button", name="Pause").click(force=True)
+                assert wait_for(lambda: not pause.is_disabled(), timeout=10.0)
+                pause.click(force=True)
                 assert wait_for(lambda: not session.controls.playing, timeout=10.0)
             finally:
                 browser.close()
     finally:
+        site.shutdown()
         viewer.stop()
         session.stop()
+    record("attack_cross_origin_websocket_browser", page_origin=f"http://127.0.0.1:{site_port}",
+           websocket=cross, locked_click="changed nothing")  # fmt: skip

@@ -1,4 +1,5 @@
-"""The `twin` command: help, one-off runs to a file, `serve` answering and stopping, Dockerfile."""
+"""The `twin` command: help, one-off runs to a file, `serve` answering and stopping (Ctrl-C,
+SIGTERM with a long run open), one server per data directory, Dockerfile."""
 
 from __future__ import annotations
 
@@ -8,17 +9,22 @@ import os
 import shlex
 import signal
 import socket
+import sqlite3
 import subprocess
 import sys
+import threading
 import time
 import urllib.error
 import urllib.request
 from pathlib import Path
 from typing import Any
 
+import httpx
 import pyarrow.parquet as pq
 import pytest
 
+from tests.figures import record
+from tests.web.support import TOKEN
 from twin.cli import build_parser, main
 from twin.sim import PAPER_PRESETS, simulate
 
@@ -71,7 +77,8 @@ def test_run_accepts_a_preset_and_writes_parquet(
 ) -> None:
     assert main(["run", "seed002_state1", "--out", str(tmp_path / "run.parquet")]) == 0
     table = pq.read_table(tmp_path / "run.parquet")
-    assert table.num_rows == round(PAPER_PRESETS["seed002_state1"].duration / 0.05) + 1
+    preset = PAPER_PRESETS["seed002_state1"]
+    assert table.num_rows == round(preset.duration / preset.dt) + 1
     assert json.loads(capsys.readouterr().out) == json.loads(table.schema.metadata[b"metrics"])
 
 
@@ -103,8 +110,12 @@ def test_bad_arguments_exit_2_saying_what_is_allowed(
 
 
 def start_server(cwd: Path, *args: str, env: dict[str, str] | None = None) -> tuple[Any, int]:
-    """`twin serve --no-viewer` on a free port, once /api/health answers: (process, port)."""
+    """`twin serve --no-viewer` on a free port, once /api/health answers: (process, port).
+    Its executor is in process unless `args` say otherwise (the test is not about it)."""
     port = free_port()
+    if "--scheduler" not in args and "--default-executor" not in args:
+        args = ("--scheduler", "in-process", *args)
+    args = tuple(a for a in args if a != "--default-executor")
     process = subprocess.Popen(
         [sys.executable, "-m", "twin.cli", "serve", "--port", str(port), "--no-viewer", *args],
         cwd=cwd,
@@ -140,20 +151,105 @@ def test_serve_answers_prints_its_urls_and_stops_cleanly(tmp_path: Path) -> None
 def test_serve_on_all_interfaces_enforces_its_token(tmp_path: Path) -> None:
     """Bound to 0.0.0.0 (as in Docker) with TWIN_TOKEN: reads are open, a mutation without
     the token is 401, with it 200."""
-    process, port = start_server(tmp_path, "--host", "0.0.0.0", env={"TWIN_TOKEN": "tok-123"})
+    process, port = start_server(tmp_path, "--host", "0.0.0.0", env={"TWIN_TOKEN": TOKEN})
     url = f"http://127.0.0.1:{port}/api/live/pause"
     try:
         with pytest.raises(urllib.error.HTTPError) as refused:
             urllib.request.urlopen(urllib.request.Request(url, method="POST"))
         assert refused.value.code == 401
         request = urllib.request.Request(
-            url, method="POST", headers={"Authorization": "Bearer tok-123"}
+            url, method="POST", headers={"Authorization": f"Bearer {TOKEN}"}
         )
         with urllib.request.urlopen(request) as r:
             assert json.load(r)["playing"] is False
     finally:
         process.send_signal(signal.SIGINT)
         process.communicate(timeout=20)
+
+
+def test_a_short_token_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("TWIN_TOKEN", "tok-123")
+    with pytest.raises(SystemExit) as exit_:
+        main(["serve", "--no-viewer"])
+    assert exit_.value.code == 2 and "at least 16" in capsys.readouterr().err
+    assert not (tmp_path / "data").exists()  # nothing started
+
+
+def test_a_second_server_on_the_same_data_dir_exits_2_naming_the_first(tmp_path: Path) -> None:
+    first, port = start_server(tmp_path)
+    try:
+        start = time.monotonic()
+        second = twin("serve", "--no-viewer", "--port", str(free_port()), cwd=tmp_path)
+        took = time.monotonic() - start
+        assert second.returncode == 2, second.stderr
+        assert f"in use by the server with pid {first.pid}" in second.stderr
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health") as r:
+            assert json.load(r)["status"] == "ok"  # the first is untouched
+    finally:
+        first.send_signal(signal.SIGINT)
+        first.communicate(timeout=20)
+    assert first.returncode == 0
+    record("attack_two_servers", exit_code=second.returncode, refused_in_s=round(took, 1),
+           names_pid=True)  # fmt: skip
+
+
+#: the longest run a scenario may be (200 000 steps on the finest sea): seconds on a worker
+LONG = {"mechanism": "hybrid", "n_components": 2048, "dt": 0.005, "duration": 1000.0}
+
+
+def test_sigterm_stops_the_server_within_10_s_with_a_run_open(tmp_path: Path) -> None:
+    """`docker stop`: SIGTERM while both workers of the default executor (a LocalCluster) are
+    busy with long runs and a synchronous request waits behind them. The waiting request is
+    answered (503: its run stays queued), the server exits 0 within 10 s, and every unfinished
+    run is left queued for the next start."""
+    process, port = start_server(tmp_path, "--default-executor", "--workers", "2")
+    url = f"http://127.0.0.1:{port}"
+    answers: list[httpx.Response] = []
+    database = tmp_path / "data" / "runs.sqlite"
+    try:
+        with httpx.Client(base_url=url, timeout=30.0) as client:
+            health = client.get("/api/health").json()
+            assert health["executor"]["scheduler"] == "local cluster"
+            long_ids = [client.post("/api/runs", json=LONG).json()["id"] for _ in range(4)]
+        waiting = threading.Thread(
+            target=lambda: answers.append(
+                httpx.post(f"{url}/api/runs", json={"duration": 2.0}, timeout=30.0)
+            )
+        )
+        waiting.start()
+
+        def running() -> int:
+            with sqlite3.connect(database, timeout=5.0) as db:
+                sql = "SELECT COUNT(*) FROM runs WHERE status = 'running'"
+                return db.execute(sql).fetchone()[0]
+
+        deadline = time.monotonic() + 20
+        while running() == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert running() > 0
+        time.sleep(0.3)
+        start = time.monotonic()
+        process.send_signal(signal.SIGTERM)
+        process.communicate(timeout=30)
+        stopped = time.monotonic() - start
+        waiting.join(10)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait(5)
+    assert process.returncode == 0 and stopped < 10.0, (process.returncode, stopped)
+    assert answers and answers[0].status_code in (201, 503), answers
+    with sqlite3.connect(database) as db:
+        statuses = dict(db.execute("SELECT id, status FROM runs").fetchall())
+    assert "running" not in statuses.values() and "failed" not in statuses.values(), statuses
+    requeued = [i for i in long_ids if statuses[i] == "queued"]
+    assert requeued, statuses
+    record("attack_sigterm_with_run_open", stopped_s=round(stopped, 1),
+           waiting_request=answers[0].status_code, runs_left_queued=len(requeued),
+           exit_code=process.returncode)  # fmt: skip
 
 
 def test_dockerfile_runs_twin_serve_as_a_user_on_both_ports() -> None:

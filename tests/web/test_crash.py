@@ -1,10 +1,11 @@
 """Crash recovery: `twin serve` killed with SIGKILL mid-write keeps its run store consistent.
 
-A real server (`--no-viewer`, loopback) is killed once per entry of `KILLS`, each time at
-another moment of writing: with its workers while they write progress; alone, while its
-workers write progress (orphaned, they must notice and exit by themselves, within 10 s);
-and with its workers right after a restart, while it requeues the unfinished runs
-and a burst of submissions inserts new ones. After each kill the SQLite file opens with
+A real server (`--no-viewer`, loopback, its default executor: a Dask LocalCluster of two
+worker processes) is killed once per entry of `KILLS`, each time at another moment of writing:
+with its workers while it stores the progress they report; alone, at the same moment (its
+orphaned workers must notice and exit by themselves, within 10 s); and with its workers
+right after a restart, while it requeues the unfinished runs and a burst of submissions
+inserts new ones. After each kill the SQLite file opens with
 `PRAGMA integrity_check` ok, in WAL mode, every row with a valid status, and every run that
 was accepted (201/202 with an id) is still there, a 201 still done. A last restart requeues
 and finishes every unfinished run, accepted or cut off mid-request, and serves every run's
@@ -171,7 +172,7 @@ def test_sigkill_mid_write_keeps_the_store_consistent_and_restart_recovers(
         for moment in KILLS:
             server = Server(tmp_path, viewer=False)
             servers.append(server)
-            server.wait_ready(timeout=30.0)
+            server.wait_ready(timeout=45.0)
             submissions = Submissions(server.url)
             if moment == "burst":
                 # at once after the restart: it requeues, its workers start the requeued runs,
@@ -205,8 +206,8 @@ def test_sigkill_mid_write_keeps_the_store_consistent_and_restart_recovers(
                       and found[i]["status"] != "done"]  # fmt: skip
             assert not undone, f"runs answered done are not done after the kill: {undone}"
 
-        # orphaned workers notice their server is gone and exit by themselves (jobs.py
-        # `_exit_with_parent`), and the pool's resource tracker with them
+        # orphaned workers notice their server is gone and exit by themselves (a Dask worker
+        # process watches a pipe from its parent), and the resource tracker with them
         _, still = psutil.wait_procs(orphans, timeout=10)
         orphans_alive = len(still)
         assert not still, f"workers outlived their killed server: {still}"
@@ -219,7 +220,7 @@ def test_sigkill_mid_write_keeps_the_store_consistent_and_restart_recovers(
         restarted = time.time()
         server = Server(tmp_path, viewer=False)
         servers.append(server)
-        server.wait_ready(timeout=30.0)
+        server.wait_ready(timeout=45.0)
         with httpx.Client(base_url=server.url, timeout=30.0) as client:
             pending = set(rows(database))
             while pending and time.monotonic() < began + BUDGET - 5.0:

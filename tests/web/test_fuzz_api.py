@@ -52,12 +52,13 @@ from schemathesis.specs.openapi.checks import (
 )
 
 from tests.figures import record
+from tests.web.support import access
 from twin.sim import Scenario, simulate
 from twin.sim.live import LiveSession
 from twin.sim.sweep import SweepSpec, heatmap_png, run_sweep
 from twin.web import JobRunner, RunStore, SweepRunner, create_app
 
-TOKEN = "fuzz-token"
+TOKEN = "fuzz-token-0123456"
 #: drawn requests per operation in the fuzzing phase (the coverage phase adds its own cases)
 MAX_EXAMPLES = 50
 #: `POST /api/live/step` steps the live simulation up to 1000 times per request (2-5 s)
@@ -68,23 +69,23 @@ BEARER = {"Authorization": f"Bearer {TOKEN}"}
 
 
 class RecordingJobs(JobRunner):
-    """Scripted runs recorded, never executed: no worker process is started.
+    """Scripted runs recorded, never executed: no executor is started.
 
-    `submit` answers a future already resolved, so a run under the synchronous cap answers
-    201 at once (and stays queued); a longer one answers 202 as usual.
+    `submit` answers a future already resolved with the run as stored, so a run under the
+    synchronous cap answers 201 at once (and stays queued); a longer one answers 202 as usual.
     """
 
     def __init__(self, store: RunStore) -> None:
-        super().__init__(store, workers=1)
+        super().__init__(store)
         self.submitted: list[str] = []
 
-    def start(self) -> list[str]:
+    def start(self, executor: object = None) -> list[str]:
         return []
 
-    def submit(self, run_id: str) -> Future[None]:
+    def submit(self, run_id: str) -> Future:
         self.submitted.append(run_id)
-        future: Future[None] = Future()
-        future.set_result(None)
+        future: Future = Future()
+        future.set_result(self.store.get(run_id))
         return future
 
     def shutdown(self) -> None:
@@ -92,13 +93,13 @@ class RecordingJobs(JobRunner):
 
 
 class RecordingSweeps(SweepRunner):
-    """Operability sweeps recorded, never run: no thread, no Dask cluster."""
+    """Operability sweeps recorded, never run: no thread, no executor."""
 
     def __init__(self, store: RunStore) -> None:
-        super().__init__(store, scheduler="in-process")
+        super().__init__(store)
         self.submitted: list[str] = []
 
-    def start(self) -> list[str]:
+    def start(self, executor: object = None) -> list[str]:
         return []
 
     def submit(self, sweep_id: str) -> None:
@@ -118,9 +119,12 @@ class Twin:
         self.store = RunStore(folder / "runs.sqlite")
         self.jobs = RecordingJobs(self.store)
         self.sweeps = RecordingSweeps(self.store)
+        # every wrong token is answered 401 (the fuzz sends thousands from one client; the
+        # failure limit is tested in test_api.py)
         self.app = create_app(
-            self.live, self.store, token=TOKEN, jobs=self.jobs, sweeps=self.sweeps
-        )
+            self.live, self.store, access=access(TOKEN, failure_burst=10**6),
+            jobs=self.jobs, sweeps=self.sweeps,
+        )  # fmt: skip
         self.sent: Counter[str] = Counter()  # requests per operation
         self.statuses: Counter[int] = Counter()
         self.initial = self.state()
@@ -332,7 +336,7 @@ def test_a_done_run_and_sweep_answer_as_documented(tmp_path: Path) -> None:
         app = create_app(
             AUTHORIZED.live,  # only read, by no request here
             store,
-            token=TOKEN,
+            access=access(TOKEN),
             jobs=RecordingJobs(store),
             sweeps=RecordingSweeps(store),
         )

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
+from tests.web.support import access
 from twin.assets import asset_path
 from twin.sim import Scenario
 from twin.sim.live import LiveSession
@@ -20,10 +21,10 @@ SHORT = {"mechanism": "hybrid", "duration": 1.0}
 class QueueOnly(JobRunner):
     """Stores runs as queued and never executes them: the limits are the HTTP layer's."""
 
-    def start(self) -> list[str]:
+    def start(self, executor: object = None) -> list[str]:
         return []
 
-    def submit(self, run_id: str) -> Future[None]:
+    def submit(self, run_id: str) -> Future:
         return Future()
 
     def is_sync(self, scenario: Scenario) -> bool:
@@ -34,7 +35,7 @@ class QueueOnly(JobRunner):
 
 
 class SweepQueueOnly(SweepRunner):
-    def start(self) -> list[str]:
+    def start(self, executor: object = None) -> list[str]:
         return []
 
     def submit(self, sweep_id: str) -> None:
@@ -45,8 +46,9 @@ def app_client(tmp_path: Path, **limits: float) -> tuple[TestClient, RunStore, L
     store = RunStore(tmp_path / "runs.sqlite")
     live = LiveSession({"sea_state": 3})
     app = create_app(
-        live, store, jobs=QueueOnly(store), sweeps=SweepQueueOnly(store), **limits
-    )
+        live, store, access=access(), jobs=QueueOnly(store), sweeps=SweepQueueOnly(store),
+        **limits,
+    )  # fmt: skip
     return TestClient(app), store, live
 
 

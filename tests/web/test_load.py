@@ -10,7 +10,12 @@ For a bounded time, threads of this process hold the server busy all at once:
 - runs: `RUN_THREADS` × `RUNS_PER_THREAD` short POST /api/runs over the mechanisms and
   planners; a 429 (rate limit) or 413 refuses a run, every accepted one (201/202) must be
   stored and done afterwards;
-- health: GET /api/health polled throughout, each answer within `HEALTH_LATENCY` s.
+- health: GET /api/health polled throughout, each answer within `HEALTH_LATENCY` s;
+- a sweep: `SWEEP` (1,000 runs of 200 s) submitted with the runs, on the same executor.
+
+Every run and the sweep execute on the one executor the server started (a Dask LocalCluster):
+its start time and worker processes are the same before and after, so no request started a
+cluster.
 
 Afterwards the server process's memory has grown by less than `RSS_GROWTH_MB`, the live state
 is finite JSON, the live loop still advances and the server stops cleanly on Ctrl-C. The whole
@@ -31,6 +36,7 @@ import threading
 import time
 from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
+from datetime import datetime
 from importlib.metadata import version
 from pathlib import Path
 from statistics import median
@@ -93,6 +99,13 @@ WARM_UP = [
 ]
 #: a run the load submits: short (2-5 s simulated, synchronous: 201 when done)
 RUN_DURATION = (2.0, 5.0)
+#: the sweep submitted with the runs: 10 Hs × 5 Tp × 2 planners × 10 seeds = 1,000 runs of 200 s
+SWEEP = {
+    "hs": [0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 3.0], "tp": [6.0, 7.0, 8.0, 9.0, 10.0],
+    "planner": ["mtmp", "pi"], "seeds": 10, "duration": 200.0,
+}  # fmt: skip
+#: [s] longest the sweep may take once the load is over
+SWEEP_WAIT = 60.0
 
 
 # -- the server --------------------------------------------------------------------------------
@@ -468,10 +481,15 @@ def test_load_and_soak(tmp_path: Path) -> None:
         time.sleep(1.0)
         rss_before = server.rss_mb()
         warmed = time.monotonic() - began - started
+        executor_before = httpx.get(f"{server.url}/api/health").json()["executor"]
+        processes_before = {p.pid for p in psutil.Process(server.process.pid).children(True)}
 
         # -- the load: all at once ----------------------------------------------------------------
         load = Load()
         load_began = time.monotonic()
+        submitted = httpx.post(f"{server.url}/api/sweeps", json=SWEEP, timeout=PATCH_TIMEOUT)
+        assert submitted.status_code == 202, submitted.text
+        sweep_id = submitted.json()["id"]
         jobs = []
         with ThreadPoolExecutor(CLIENTS + PATCH_THREADS + RUN_THREADS + 1) as pool:
             poller = pool.submit(health_poller, load, server.url)
@@ -504,6 +522,26 @@ def test_load_and_soak(tmp_path: Path) -> None:
                         pending.discard(run_id)
                 time.sleep(0.2)
             assert not pending, f"accepted runs not done after the load: {sorted(pending)}"
+            sweep: dict[str, Any] = {}
+
+            def sweep_done() -> bool:
+                nonlocal sweep
+                sweep = client.get(f"/api/sweeps/{sweep_id}").json()
+                return sweep["status"] in ("done", "failed")
+
+            deadline = time.monotonic() + SWEEP_WAIT
+            while not sweep_done() and time.monotonic() < deadline:
+                time.sleep(0.5)
+            assert sweep["status"] == "done", sweep
+            sweep_s = (datetime.fromisoformat(sweep["finished"])
+                       - datetime.fromisoformat(sweep["created"])).total_seconds()  # fmt: skip
+            assert (sweep["done"], sweep["total"]) == (1000, 1000)
+            health = client.get("/api/health").json()
+            assert health["executor"] == executor_before  # no cluster started since
+            processes_after = {
+                p.pid for p in psutil.Process(server.process.pid).children(True)
+            }
+            assert processes_after == processes_before, (processes_before, processes_after)
             listed = client.get("/api/runs", params={"limit": 500})
             assert listed.status_code == 200
             stored = set(load.accepted) & {run["id"] for run in listed.json()}
@@ -541,6 +579,12 @@ def test_load_and_soak(tmp_path: Path) -> None:
         run_statuses={str(k): v for k, v in sorted(load.run_statuses.items())},
         runs_accepted=len(load.accepted),
         runs_stored=len(stored),
+        sweep_runs=sweep["total"],
+        sweep_s=round(sweep_s, 1),
+        executor=executor_before["scheduler"],
+        executor_workers=executor_before["workers"],
+        executor_starts=1,
+        processes_started_during_load=len(processes_after - processes_before),
         startup_s=round(started, 1),
         warmup_s=round(warmed, 1),
         load_s=round(load_duration, 1),

@@ -1,4 +1,6 @@
-"""The viser scene and GUI of a real viewer on a real live session (no browser)."""
+"""The viser scene and GUI of a real viewer on a real live session, driven by raw websocket
+clients speaking viser's protocol (tests/web/viser_client.py), as a script or a hostile page
+would: no browser (test_browser.py has one)."""
 
 from __future__ import annotations
 
@@ -11,15 +13,18 @@ import pytest
 import viser.transforms as tf
 import yourdfpy
 
-from tests.web.support import free_port, wait_for
+from tests.figures import record
+from tests.web.support import TOKEN, free_port, wait_for
+from tests.web.viser_client import ViserClient
 from twin.assets import asset_path
 from twin.mechanisms.urdf import joint_configuration
 from twin.planners import PlannerParameters
 from twin.sim.kernels.layout import P_HOLD
 from twin.sim.live import LiveSession
 from twin.spatial import matrix_to_wxyz, pose_to_transform
+from twin.web.access import Access
 from twin.web.frame import read_frame
-from twin.web.gui import PLANNER_KNOBS, knob, limit_violations
+from twin.web.gui import PLANNER_KNOBS, ClientPanel, knob, limit_violations
 from twin.web.scene import VIEWS, Viewer, margin_colours, mount_transform, start_viewer
 
 
@@ -37,6 +42,24 @@ def viewer(session: LiveSession) -> Iterator[Viewer]:
     handle = start_viewer(session, port=free_port())
     yield handle
     handle.stop()
+
+
+def connect(viewer: Viewer, origin: str | None = None) -> tuple[ViserClient, ClientPanel]:
+    """A raw client that announces itself, and the panel the viewer built for it."""
+    before = set(viewer.gui.panels)
+    client = ViserClient(viewer.port, origin=origin)
+    client.hello()
+    assert wait_for(lambda: set(viewer.gui.panels) - before, 10.0), "no panel was built"
+    (client_id,) = set(viewer.gui.panels) - before
+    client.wait_widget("Reset")  # the panel has reached the client
+    return client, viewer.gui.panels[client_id]
+
+
+@pytest.fixture
+def browser(viewer: Viewer) -> Iterator[tuple[ViserClient, ClientPanel]]:
+    client, panel = connect(viewer)
+    yield client, panel
+    client.close()
 
 
 def caught_up(viewer: Viewer, session: LiveSession) -> Callable[[], bool]:
@@ -108,26 +131,33 @@ def test_sea_and_trail_animate(viewer: Viewer, session: LiveSession) -> None:
     assert np.abs(viewer.scene.trail.points - trail).max() > 0.0
 
 
-def test_slider_patches_the_session(viewer: Viewer, session: LiveSession) -> None:
-    """A GUI edit goes through `session.patch`, and the session's value is what shows."""
-    viewer.gui.inputs["beta"].value = 0.3
-    assert session.scenario.beta == 0.3
-    viewer.gui.inputs["speed"].value = 2.0
-    assert session.controls.speed == 2.0
-    viewer.gui.inputs["planner"].value = "wpi"
-    assert session.scenario.planner == "wpi"
+def test_slider_patches_the_session(
+    browser: tuple[ViserClient, ClientPanel], session: LiveSession
+) -> None:
+    """A browser's edit goes through `session.patch`, and the session's value is what shows."""
+    client, _ = browser
+    client.update(client.wait_widget("β"), value=0.3)
+    assert wait_for(lambda: session.scenario.beta == 0.3)
+    client.update(client.wait_widget("Sim speed ×"), value=2.0)
+    assert wait_for(lambda: session.controls.speed == 2.0)
+    client.update(client.wait_widget("Planner"), value="wpi")
+    assert wait_for(lambda: session.scenario.planner == "wpi")
 
 
 def test_rest_patch_moves_the_widgets_without_feedback(
-    viewer: Viewer, session: LiveSession, monkeypatch: pytest.MonkeyPatch
+    viewer: Viewer,
+    session: LiveSession,
+    browser: tuple[ViserClient, ClientPanel],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """A patch from elsewhere (REST) moves sliders and dropdowns within a few frames, and
-    showing it sends nothing back to the session."""
+    """A patch from elsewhere (REST) moves a browser's sliders and dropdowns within a few
+    frames, and showing it sends nothing back to the session."""
+    _, panel = browser
     calls: list[dict] = []
     patch = session.patch
     monkeypatch.setattr(session, "patch", lambda changes: calls.append(changes) or patch(changes))
     session.patch({"beta": 0.45, "sea_state": 5.0, "planner": "wpi", "speed": 4.0})
-    inputs = viewer.gui.inputs
+    inputs = panel.inputs
     assert wait_for(
         lambda: (inputs["beta"].value, inputs["sea_state"].value, inputs["planner"].value,
                  inputs["speed"].value) == (0.45, 5.0, "wpi", 4.0)
@@ -139,43 +169,51 @@ def test_rest_patch_moves_the_widgets_without_feedback(
     assert not inputs["sigma"].visible and not inputs["beta"].disabled
 
 
-def test_bad_value_notifies_and_reverts(viewer: Viewer, session: LiveSession) -> None:
+def test_bad_value_notifies_and_reverts(
+    viewer: Viewer, session: LiveSession, browser: tuple[ViserClient, ClientPanel]
+) -> None:
     """A value the session refuses changes nothing and the widget shows the value in force."""
-    viewer.gui.inputs["beta"].value = 5.0
+    client, panel = browser
+    client.update(client.wait_widget("β"), value=5.0)
+    assert wait_for(lambda: "beta" in (viewer.gui.last_error or ""))
     assert session.scenario.beta == 0.7
-    assert viewer.gui.inputs["beta"].value == 0.7
-    assert "beta" in (viewer.gui.last_error or "")
+    assert wait_for(lambda: panel.inputs["beta"].value == 0.7)
+    assert wait_for(lambda: any("Not applied" in n for n in client.notifications()))
 
 
-def test_buttons_drive_the_session(viewer: Viewer, session: LiveSession) -> None:
+def test_buttons_drive_the_session(
+    session: LiveSession, browser: tuple[ViserClient, ClientPanel]
+) -> None:
     """Play, pause, step and reset call the session (sync callbacks run in viser's pool)."""
-    buttons = viewer.gui.buttons
-    buttons["Step"].value = True
+    client, _ = browser
+    client.update(client.wait_widget("Step"), value=True)
     assert wait_for(lambda: float(session.latest()["t"]) == pytest.approx(0.05))
-    buttons["Play"].value = True
+    client.update(client.wait_widget("Play"), value=True)
     assert wait_for(lambda: session.controls.playing)
-    buttons["Pause"].value = True
+    client.update(client.wait_widget("Pause"), value=True)
     assert wait_for(lambda: not session.controls.playing)
     version = session.version
-    buttons["Reset"].value = True
+    client.update(client.wait_widget("Reset"), value=True)
     assert wait_for(lambda: session.version == version + 1)
 
 
 def test_mechanism_switch_swaps_urdf_target_and_planners(
-    viewer: Viewer, session: LiveSession
+    viewer: Viewer, session: LiveSession, browser: tuple[ViserClient, ClientPanel]
 ) -> None:
     """Choosing the 4-UPR in the GUI restarts the session; the scene and the planner list
     follow, and the joints follow the new state."""
-    viewer.gui.inputs["mechanism"].value = "upr4"
-    assert (session.scenario.mechanism, session.scenario.planner) == ("upr4", "pid")
+    client, panel = browser
+    client.update(client.wait_widget("Mechanism"), value="upr4")
+    assert wait_for(lambda: (session.scenario.mechanism, session.scenario.planner)
+                    == ("upr4", "pid"))  # fmt: skip
     assert wait_for(lambda: viewer.scene.mechanism_name == "upr4")
     scene = viewer.server.scene
     assert scene.get_handle_by_name("/target/tower") is None
     for name in ("/target/body", "/target/held_pad", "/base/top/pad", "/vessel/float_port"):
         assert scene.get_handle_by_name(name) is not None, name
-    assert wait_for(lambda: viewer.gui.inputs["planner"].options == ("pid", "ik"))
-    assert viewer.gui.inputs["planner"].value == "pid"
-    assert not viewer.gui.inputs["kp"].disabled and not viewer.gui.inputs["sigma"].visible
+    assert wait_for(lambda: panel.inputs["planner"].options == ("pid", "ik"))
+    assert wait_for(lambda: panel.inputs["planner"].value == "pid")
+    assert wait_for(lambda: not panel.inputs["kp"].disabled and not panel.inputs["sigma"].visible)
     session.step(5)
     assert wait_for(caught_up(viewer, session))
     cfg = joint_configuration(session.mechanism, session.latest()["state"])
@@ -238,35 +276,75 @@ def test_knob_ranges_come_from_the_fields() -> None:
     assert not ki.slider  # 8e-4 is off a 0-200 slider's grid: a number box keeps it
 
 
-@dataclasses.dataclass
-class FakeClient:
-    """What the GUI's callbacks use of a browser: its id and notifications."""
+def test_a_cross_origin_websocket_is_refused(viewer: Viewer, session: LiveSession) -> None:
+    """A page from another origin (or under a DNS name of its own) cannot open the viewer's
+    websocket: 403 at the handshake, so it reads nothing and sends nothing. The viewer's own
+    origin, and a script without Origin, connect."""
+    from websockets.exceptions import InvalidStatus
 
-    client_id: int
-    notes: list[str] = dataclasses.field(default_factory=list)
+    before = (session.scenario, session.controls.model_dump(), session.version)
+    refused = []
+    for origin in ("http://evil.example", f"http://evil.example:{viewer.port}", "null",
+                   f"https://127.0.0.1:{viewer.port}", "http://127.0.0.1:1"):  # fmt: skip
+        with pytest.raises(InvalidStatus) as exc:
+            ViserClient(viewer.port, origin=origin)
+        refused.append(exc.value.response.status_code)
+    assert refused == [403] * 5
+    assert (session.scenario, session.controls.model_dump(), session.version) == before
+    for origin in (f"http://127.0.0.1:{viewer.port}", f"http://localhost:{viewer.port}", None):
+        ViserClient(viewer.port, origin=origin).close()
+    record("attack_cross_origin_websocket", origins_tried=len(refused), handshake=403,
+           changed="nothing")  # fmt: skip
 
-    def add_notification(self, title: str, body: str, **_: object) -> None:
-        self.notes.append(f"{title}: {body}")
 
+def test_a_locked_browsers_writes_change_nothing(session: LiveSession) -> None:
+    """With a token, a browser that has not unlocked sees read-only controls. Whatever it
+    sends - a value, a hostile property (`update_cb`, `removed`), another browser's widget id,
+    a share-tunnel request - changes neither the session nor another browser's widgets. After
+    a wrong token (rate-limited) and the right one, its edits apply."""
+    from viser import _messages
 
-def test_with_a_token_a_browser_edits_only_after_unlocking(session: LiveSession) -> None:
-    """A locked browser's slider edit and button press change nothing and are undone; after
-    it enters the token (a wrong one is refused) its edits apply; others stay locked."""
-    viewer = start_viewer(session, port=free_port(), token="s3cret")
+    viewer = start_viewer(session, port=free_port(), access=Access(token=TOKEN, failure_burst=2))
     try:
-        gui, browser, other = viewer.gui, FakeClient(1), FakeClient(2)
-        gui._patch({"beta": 0.3}, browser)
-        gui._act(session.reset, browser)
-        assert session.scenario.beta == 0.7 and session.version == 0
-        assert gui.inputs["beta"].value == 0.7 and "locked" in browser.notes[-1]
-        assert not gui.unlock(1, "guess") and not gui.allowed(browser)
-        assert gui.unlock(1, "s3cret") and gui.allowed(browser)
-        gui._patch({"beta": 0.3}, browser)
-        assert session.scenario.beta == 0.3
-        gui._patch({"beta": 0.5}, other)
-        assert session.scenario.beta == 0.3 and not gui.allowed(other)
+        attacker, locked = connect(viewer)
+        operator, panel = connect(viewer)
+        assert viewer.gui.unlock(panel.client, TOKEN) is True
+        assert all(h.disabled for h in locked.inputs.values())  # read-only for it
+        assert not panel.inputs["beta"].disabled
+        before = (session.scenario, session.controls.model_dump(), session.version)
+        beta = attacker.wait_widget("β")
+        attacker.update(beta, value=0.3)
+        attacker.update(attacker.wait_widget("Pause"), value=True)
+        attacker.update(attacker.wait_widget("Reset"), value=True)
+        attacker.update(beta, update_cb=[])  # on shared handles: every browser's β dead
+        attacker.update(attacker.wait_widget("Planner"), removed=True)
+        attacker.update(operator.wait_widget("β"), value=0.1)  # the operator's widget id
+        attacker.send(_messages.ShareUrlRequest())
+        assert wait_for(lambda: "locked" in (viewer.gui.last_error or ""), 5.0)
+        time.sleep(0.5)
+        assert (session.scenario, session.controls.model_dump(), session.version) == before
+        assert viewer.server._share_tunnel is None
+        assert wait_for(lambda: locked.inputs["beta"].value == 0.7)  # undone, for it alone
+        # the operator's controls still work
+        operator.update(operator.wait_widget("β"), value=0.45)
+        assert wait_for(lambda: session.scenario.beta == 0.45)
+        operator.update(operator.wait_widget("Planner"), value="wpi")
+        assert wait_for(lambda: session.scenario.planner == "wpi")
+        # unlocking: wrong tokens are refused, then rate-limited (even the right one)
+        answers = [viewer.gui.unlock(locked.client, guess) for guess in ("a" * 16, "b" * 16)]
+        limited = viewer.gui.unlock(locked.client, TOKEN)
+        assert all(isinstance(a, str) for a in (*answers, limited)) and "too many" in limited
+        viewer.gui._failures = viewer.gui.access.failure_limit()  # its wait, skipped
+        assert viewer.gui.unlock(locked.client, TOKEN) is True
+        assert not locked.inputs["speed"].disabled
+        attacker.update(attacker.wait_widget("Sim speed ×"), value=2.0)  # its β it broke itself
+        assert wait_for(lambda: session.controls.speed == 2.0)
+        attacker.close()
+        operator.close()
     finally:
         viewer.stop()
+    record("attack_locked_widget_write", messages=7, changed="nothing",
+           operator_controls="still apply")  # fmt: skip
 
 
 def test_nan_base_motion_never_reaches_the_scene_and_the_readout_flags_it(
@@ -291,10 +369,11 @@ def test_nan_base_motion_never_reaches_the_scene_and_the_readout_flags_it(
 
 
 def test_joint_limits_dropdown_switches_hold_and_record(
-    viewer: Viewer, session: LiveSession
+    session: LiveSession, browser: tuple[ViserClient, ClientPanel]
 ) -> None:
     """The live session starts holding at the limits; the dropdown switches without a reset."""
+    client, _ = browser
     assert session.scenario.joint_limits == "hold" and session._sim.prm[0, P_HOLD] == 1.0
-    viewer.gui.inputs["joint_limits"].value = "record"
-    assert session.scenario.joint_limits == "record" and session._sim.prm[0, P_HOLD] == 0.0
-    assert session.version == 0
+    client.update(client.wait_widget("Joint limits"), value="record")
+    assert wait_for(lambda: session.scenario.joint_limits == "record")
+    assert session._sim.prm[0, P_HOLD] == 0.0 and session.version == 0

@@ -3,7 +3,9 @@
 A background thread steps the simulation at dt of simulated time, paced to wall time × speed.
 Readers (the 3D scene, REST) take `latest()` / `snapshot()` under a lock and never block the
 loop for longer than a copy; writers (`patch`, `reset`, …) validate first and apply between
-two steps, so a bad value changes nothing and a good one acts on the next step.
+two steps, so a bad value changes nothing and a good one acts on the next step. `step(n)` takes
+the lock one chunk of steps at a time and stops at a wall-clock cap, so stepping on demand
+never holds up readers either.
 
 A numerical fault holds, damps or clamps inside the step (`twin.sim.faults`) and shows in
 `snapshot()["faults"]`; anything else a step raises is caught by the loop, logged, counted
@@ -18,8 +20,9 @@ import time
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, StrictBool
 
+from twin.errors import TwinError
 from twin.sea.components import WaveComponents
 from twin.sim.engine import RESTART_FIELDS, Simulation
 from twin.sim.scenario import Scenario
@@ -39,6 +42,9 @@ CHUNK = 8
 #: [s] shortest pause between two ticks: the loop lets readers and writers (REST, viewer)
 #: take the lock even when stepping cannot keep up with wall time × speed
 MIN_PAUSE = 0.002
+#: steps `step(n)` takes per hold of the lock, and [s] the most wall time one call may take
+STEP_CHUNK = 16
+STEP_WALL = 2.0
 
 
 class LiveControls(BaseModel):
@@ -47,7 +53,11 @@ class LiveControls(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_assignment=True)
 
     speed: float = Field(1.0, ge=0.25, le=8.0, description="[-] simulated / wall time")
-    playing: bool = Field(True, description="whether the loop advances")
+    playing: StrictBool = Field(True, description="whether the loop advances (true or false)")
+
+
+#: Scenario fields a live session takes (`duration` means nothing live).
+LIVE_FIELDS = tuple(name for name in Scenario.model_fields if name != "duration")
 
 
 class LiveSession:
@@ -129,23 +139,37 @@ class LiveSession:
     def patch(self, changes: dict[str, Any]) -> set[str]:
         """Change scenario fields and/or `speed`, `playing`; all validated before any applies.
 
+        The new scenario is validated once: by `Simulation.update` (which changes nothing
+        unless all of it is good) or, for a field that needs a restart (`RESTART_FIELDS`), as
+        the `Scenario` the new `Simulation` starts from. The controls are validated once, as a
+        `LiveControls`, before either.
+
+        Returns:
+            The names of the fields whose value changed, controls included.
+
         Raises:
-            ValueError: an unknown field or a bad value (nothing changes).
+            ValueError: an unknown field or a bad value, empty names included (nothing changes).
         """
         changes = dict(changes)
         controls = {k: changes.pop(k) for k in list(changes) if k in LiveControls.model_fields}
-        new_controls = LiveControls(**{**self.controls.model_dump(), **controls})
+        unknown = sorted(set(changes) - set(LIVE_FIELDS))
+        if unknown:
+            raise TwinError(
+                f"{unknown[0]}: not a live field; allowed: {sorted(LIVE_FIELDS)} and "
+                f"{sorted(LiveControls.model_fields)}"
+            )
         with self._lock:
+            new_controls = LiveControls(**{**self.controls.model_dump(), **controls})
             current = self._sim.scenario
-            new = Scenario(**{**current.model_dump(), **changes})  # validates everything
-            changed = {k for k in changes if getattr(new, k) != getattr(current, k)}
-            if changed & RESTART_FIELDS:
+            if any(k in RESTART_FIELDS and v != getattr(current, k) for k, v in changes.items()):
+                new = Scenario(**{**current.model_dump(), **changes})
+                changed = {k for k in changes if getattr(new, k) != getattr(current, k)}
                 self._sim = Simulation(new, history_limit=HISTORY)
                 self.version += 1
-            elif changed:
-                self._sim.update(changes)
+            else:
+                changed = self._sim.update(changes) if changes else set()
             self.controls = new_controls
-        return changed | {k for k in controls}
+        return changed | set(controls)
 
     def reset(self) -> None:
         """Start the current scenario again from t = 0."""
@@ -160,11 +184,21 @@ class LiveSession:
     def play(self) -> None:
         self.patch({"playing": True})
 
-    def step(self, n: int = 1) -> dict[str, np.ndarray]:
-        """Advance n steps now (also while paused); returns the newest record."""
-        with self._lock:
-            self._advance(n)
-            return self.latest()
+    def step(self, n: int = 1, max_seconds: float | None = None) -> int:
+        """Advance n steps now (also while paused), `STEP_CHUNK` at a time under the lock,
+        which is let go between chunks; stops early once `max_seconds` (default `STEP_WALL`)
+        of wall time have passed. Returns the steps taken (≥ 1 for n ≥ 1)."""
+        deadline = time.monotonic() + (STEP_WALL if max_seconds is None else max_seconds)
+        taken = 0
+        while taken < n:
+            chunk = min(STEP_CHUNK, n - taken)
+            with self._lock:
+                self._advance(chunk)
+            taken += chunk
+            if time.monotonic() > deadline:
+                break
+            time.sleep(0)  # readers and writers waiting for the lock get it now
+        return taken
 
     def _advance(self, n: int) -> None:
         # a live session runs past the scenario's duration: extend it instead of stopping

@@ -7,22 +7,22 @@ leg limit violated (`violations` = 0) and the gangway tip's largest position err
 `tip_error_threshold` (`tip_position_error_max`, docs/simulation.md).
 
     spec = SweepSpec(hs=[0.5, 1.5, 2.5], tp=[6, 8, 10], planner=["mtmp", "pi"], seeds=4)
-    result = run_sweep(spec)                     # a LocalCluster, no set-up
+    result = run_sweep(spec)                     # a LocalCluster for this sweep
     result = run_sweep(spec, scheduler="tcp://10.0.0.5:8786")   # an existing Dask cluster
+    result = run_sweep(spec, executor=executor)  # an executor that outlives the sweep
     result.table                                 # pandas, one row per cell
     heatmap_png(result, "operability.png")
 
-Runs are chunked (`chunk_size` scenarios of one planner each) and each chunk is one Dask task
-calling `simulate_many`; every seed of a cell uses the sea seeds 0 … seeds − 1, so cells (and
-planners) are compared on the same wave records.
+Runs are chunked (`chunk_size` scenarios of one planner each) and each chunk is one task on the
+executor (`twin.sim.executor`, the one `twin serve` keeps for runs and sweeps alike) calling
+`simulate_many`, below the priority of single runs; every seed of a cell uses the sea seeds
+0 … seeds − 1, so cells (and planners) are compared on the same wave records.
 """
 
 from __future__ import annotations
 
 import itertools
-import logging
 import math
-import os
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -38,6 +38,7 @@ from tqdm import tqdm
 from twin.errors import TwinError
 from twin.planners import get_planner
 from twin.sim.batch import simulate_many
+from twin.sim.executor import SWEEP_PRIORITY, Executor
 from twin.sim.scenario import Scenario
 
 #: most grid cells (Hs × Tp × heading × planner × β × k_e × k_c) one sweep may ask for
@@ -58,6 +59,10 @@ RUN_METRICS = (
     "leg_margin",
     "faults",
 )
+
+
+class SweepStopped(RuntimeError):
+    """A sweep was stopped before its end (`run_sweep`'s `stop`)."""
 
 
 class SweepSpec(BaseModel):
@@ -123,6 +128,11 @@ class SweepSpec(BaseModel):
         if clash:
             raise TwinError(f"scenario: {clash} are set by the sweep itself, not by `scenario`")
         Scenario(**self.scenario, duration=self.duration, dt=self.dt)  # names a bad field
+        if round(self.duration / self.dt) < 1:
+            raise TwinError(
+                f"duration: {self.duration:g} s at dt = {self.dt:g} s is zero steps; allowed: "
+                "duration ≥ dt"
+            )
         sizes = {axis: len(getattr(self, axis)) for axis in AXES}
         cells, runs = math.prod(sizes.values()), math.prod(sizes.values()) * self.seeds
         shape = " × ".join(f"{axis} {n}" for axis, n in sizes.items())
@@ -200,57 +210,69 @@ class SweepResult:
 def run_sweep(
     spec: SweepSpec | dict,
     *,
+    executor: Executor | None = None,
     scheduler: str | None = None,
     progress: bool = True,
     n_workers: int | None = None,
     chunk_size: int = 64,
     on_progress: Callable[[int, int], None] | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> SweepResult:
-    """Run a sweep on Dask and tabulate operability.
+    """Run a sweep on the executor and tabulate operability.
 
     Args:
         spec: a `SweepSpec` or a dict of its fields (validated).
-        scheduler: None starts a `LocalCluster` (one single-threaded worker process per core)
-            and closes it at the end; "tcp://HOST:PORT" uses an existing Dask scheduler;
-            "in-process" runs without Dask, in this process. Workers of an existing cluster
-            need `twin` (and numba, for the compiled engine) installed.
+        executor: where the chunks run (`twin.sim.executor.Executor`, e.g. a server's, which
+            lives longer than the sweep). None starts one for the sweep from `scheduler` and
+            `n_workers` and closes it at the end.
+        scheduler: without `executor`: None (a LocalCluster of one single-threaded worker
+            process per core), "tcp://HOST:PORT" (an existing Dask scheduler; its workers need
+            `twin` installed) or "in-process" (one worker thread in this process).
         progress: a tqdm bar over runs.
-        n_workers: workers of the LocalCluster (default: the machine's cores).
-        chunk_size: runs per Dask task, stepped together by `simulate_many`.
+        n_workers: without `executor`: workers of the LocalCluster (default: the cores).
+        chunk_size: runs per task, stepped together by `simulate_many`.
         on_progress: called with (runs done, runs in all) after each chunk (e.g. a REST job's
             status).
+        stop: polled after each chunk; once it returns True the remaining chunks are cancelled
+            and `SweepStopped` is raised (a server shutting down).
 
     Raises:
-        ValueError: a bad spec (naming the field) or a bad `chunk_size`.
+        ValueError: a bad spec (naming the field), a bad `chunk_size` or scheduler.
+        SweepStopped: `stop` returned True.
     """
     spec = spec if isinstance(spec, SweepSpec) else SweepSpec(**spec)
     if not 1 <= chunk_size <= 4096:
         raise TwinError(f"chunk_size: got {chunk_size}, allowed 1 … 4096")
+    if executor is None:
+        with Executor.start(scheduler, n_workers=n_workers) as own:
+            return run_sweep(
+                spec, executor=own, progress=progress, chunk_size=chunk_size,
+                on_progress=on_progress, stop=stop,
+            )  # fmt: skip
+    from distributed import as_completed
+
     scenarios = spec.scenarios()
     order = sorted(range(len(scenarios)), key=lambda i: scenarios[i]["planner"])
     chunks = [order[s : s + chunk_size] for s in range(0, len(order), chunk_size)]
     threshold = spec.tip_error_threshold
     rows: list[dict[str, Any] | None] = [None] * len(scenarios)
-    with tqdm(total=len(scenarios), disable=not progress, unit="run") as bar:
-        if scheduler == "in-process":
-            start = time.perf_counter()
-            for chunk in chunks:
-                done = run_chunk([scenarios[i] for i in chunk], threshold, single_thread=False)
-                _collect(rows, chunk, done, bar, on_progress)
-            elapsed = time.perf_counter() - start
-        else:
-            with _client(scheduler, n_workers) as client:
-                from distributed import as_completed
-
-                start = time.perf_counter()  # a cluster's start-up is not the sweep's time
-
-                futures = {
-                    client.submit(run_chunk, [scenarios[i] for i in c], threshold, pure=False): c
-                    for c in chunks
-                }
-                for future in as_completed(futures):
-                    _collect(rows, futures[future], future.result(), bar, on_progress)
-                elapsed = time.perf_counter() - start
+    start = time.perf_counter()  # an executor's start-up is not the sweep's time
+    futures = {
+        executor.submit(
+            run_chunk, [scenarios[i] for i in c], threshold, threads=executor.numba_threads,
+            priority=SWEEP_PRIORITY,
+        ): c
+        for c in chunks
+    }  # fmt: skip
+    try:
+        with tqdm(total=len(scenarios), disable=not progress, unit="run") as bar:
+            for future in as_completed(futures):
+                if stop is not None and stop():
+                    raise SweepStopped("sweep stopped before its end; its chunks were cancelled")
+                _collect(rows, futures[future], future.result(), bar, on_progress)
+    finally:
+        executor.cancel(futures)
+    elapsed = time.perf_counter() - start
     runs = pd.DataFrame(rows)
     table = (
         runs.groupby(list(AXES), sort=False)
@@ -263,21 +285,21 @@ def run_sweep(
         .reset_index()
     )
     table.insert(len(AXES) + 2, "operability", table["operable_runs"] / table["runs"])
-    where = scheduler or "local cluster"
-    return SweepResult(spec, runs, table, elapsed, where)
+    return SweepResult(spec, runs, table, elapsed, executor.where)
 
 
 def run_chunk(
-    scenarios: list[dict[str, Any]], threshold: float, *, single_thread: bool = True
+    scenarios: list[dict[str, Any]], threshold: float, *, threads: int | None = 1
 ) -> list[dict[str, Any]]:
-    """One Dask task: run scenarios with `simulate_many`, keep `RUN_METRICS` and `operable`.
+    """One task: run scenarios with `simulate_many`, keep `RUN_METRICS` and `operable`.
 
     Args:
         scenarios: scenario fields, one planner.
         threshold: [m] tip position error bound of an operable run.
-        single_thread: keep numba to one thread (a Dask worker is one process per core).
+        threads: numba threads for the chunk (1 on a cluster of one worker per core; None:
+            numba's own count).
     """
-    with _numba_threads(1 if single_thread else None):
+    with _numba_threads(threads):
         results = simulate_many(scenarios)
     rows = []
     for fields, result in zip(scenarios, results, strict=True):
@@ -353,36 +375,6 @@ def _collect(
     bar.update(len(chunk))
     if on_progress is not None:
         on_progress(sum(row is not None for row in rows), len(rows))  # a bar may be disabled
-
-
-@contextmanager
-def _client(scheduler: str | None, n_workers: int | None) -> Iterator[Any]:
-    """A Dask client on `scheduler`, or on a LocalCluster that lives as long as the client."""
-    from distributed import Client, LocalCluster
-
-    if scheduler is not None:
-        if not scheduler.startswith(("tcp://", "tls://", "inproc://", "ucx://")):
-            raise TwinError(
-                f"scheduler: got {scheduler!r}; allowed None (a local cluster), 'in-process' or "
-                "a Dask address such as 'tcp://HOST:PORT'"
-            )
-        with Client(scheduler) as client:
-            yield client
-        return
-    workers = n_workers or os.cpu_count() or 1
-    with (
-        LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            # workers log connection errors while the cluster shuts down; a task's own error
-            # still reaches the caller through its future
-            silence_logs=logging.CRITICAL,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
-        yield client
 
 
 @contextmanager

@@ -1,22 +1,26 @@
 """Web layer: the REST API, the run store and its jobs, and `serve`, which runs them with the
-live session and the 3D viewer (`twin.web.scene`) in one process.
+live session, the 3D viewer (`twin.web.scene`) and the one executor of runs and sweeps
+(`twin.sim.executor`) in one process.
 
 It calls only the simulation layer (`twin.sim`) and reads the registries.
 """
 
 from __future__ import annotations
 
+from twin.web.access import Access
 from twin.web.api import create_app
 from twin.web.jobs import SYNC_MAX_STEPS, JobRunner, SweepRunner
 from twin.web.server import serve
-from twin.web.store import Run, RunNotFound, RunStore, Sweep
+from twin.web.store import Run, RunNotFound, RunStore, StoreUnavailable, Sweep
 
 __all__ = [
     "SYNC_MAX_STEPS",
+    "Access",
     "JobRunner",
     "Run",
     "RunNotFound",
     "RunStore",
+    "StoreUnavailable",
     "Sweep",
     "SweepRunner",
     "create_app",

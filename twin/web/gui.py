@@ -4,20 +4,27 @@ views, live plots and a readout of the metrics and limit violations.
 Ranges, defaults and hints come from one place, the pydantic fields (`PlannerParameters`,
 `Scenario`, `LiveControls`). Callbacks only call the session (`patch`, `play`, `pause`,
 `step`, `reset`) and show a notification when it refuses a value; they never step the
-simulation themselves. With a token (a server reachable from other machines), each browser
-unlocks the controls by entering it; until then its edits are refused and undone, while the
-scene, plots and camera views stay open to it. The render loop calls `TwinGui.update` every
-frame, which moves the widgets to the session's values (so a REST PATCH shows in every
-browser) and feeds the plots and the readout.
+simulation themselves.
+
+Every browser gets its own controls (`ClientPanel`: viser handles of that client alone), laid
+out in folders shared by all. Whatever a browser sends, viser applies it to its own handles
+only: it can neither move another browser's widgets nor change a widget's shared state (with
+shared handles, one message could overwrite any property of a widget every browser uses, its
+callbacks included). The shared part (readout and plots) has no input a browser can write.
+With a token (a server reachable from other machines), a browser's controls are read-only
+until it enters the token in its own "Access" panel: its edits are refused and undone, for it
+alone, while the scene, plots and its own camera views stay open to it. Wrong tokens are
+rate-limited per client address, as over REST. The render loop calls `TwinGui.update` every
+frame, which moves every browser's widgets to the session's values (so a REST PATCH shows in
+every browser) and feeds the plots and the readout.
 """
 
 from __future__ import annotations
 
-import contextlib
-import hmac
+import logging
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any, get_args
 
@@ -31,7 +38,10 @@ from twin.planners import PlannerParameters
 from twin.planners.registry import PLANNERS
 from twin.sim.live import LiveControls, LiveSession
 from twin.sim.scenario import Scenario
+from twin.web.access import Access
 from twin.web.frame import VIEWS, FrameState, View
+
+log = logging.getLogger(__name__)
 
 #: [s] simulated time between plotted samples, and samples kept (a 30 s window)
 PLOT_DT = 0.1
@@ -51,12 +61,18 @@ LABELS = {
     "k_c": "k_c",
     "sigma": "σ [deg]",
     "q1_rate_max": "q̇1,max [deg/s]",
+    "yaw_hold": "yaw hold",
     "k_a2": "k_a2 [1/s]",
     "damping": "λ_max",
     "kp": "kp [1/s]",
     "ki": "ki [1/s²]",
     "kd": "kd",
     "actuator_speed": "actuator speed [m/s]",
+    "actuator_mass": "actuator mass [kg]",
+    "w_orientation": "w orientation (qp)",
+    "w_secondary": "w secondary (qp)",
+    "limit_gain": "limit gain (qp)",
+    "qp_damping": "μ (qp)",
 }
 VIEW_LABELS: dict[View, str] = {
     "overview": "Overview",
@@ -136,7 +152,12 @@ def knob(model: type[BaseModel], name: str, label: str, step: float | None = Non
     )
 
 
-PLANNER_KNOBS = tuple(knob(PlannerParameters, name, LABELS[name]) for name in LABELS)
+#: every planner knob, in the order of `PlannerParameters` (a field without a label above
+#: shows under its own name)
+PLANNER_KNOBS = tuple(
+    knob(PlannerParameters, name, LABELS.get(name, name.replace("_", " ")))
+    for name in PlannerParameters.model_fields
+)
 SEA_KNOBS = (
     knob(Scenario, "sea_state", "Sea state (WMO)", step=0.1),
     knob(Scenario, "heading", "Wave heading [deg]"),
@@ -280,23 +301,214 @@ def fault_line(faults: dict[str, Any]) -> str:
     return line
 
 
+#: layout: the shared folders, in order, and where the shared readout sits in "Run"
+FOLDERS = ("Run", "Mechanism and planner", "Sea", "View")
+READOUT_ORDER = 100.0
+LOCKED = "controls are locked: enter the server's token under Access"
+
+
+def _assign(handle: Any, name: str, value: Any) -> None:
+    """Set a widget's property; a widget its browser broke for itself (a hostile message can
+    mark its own handle removed, say) is skipped, so the rest of its panel still follows."""
+    try:
+        setattr(handle, name, value)
+    except (RuntimeError, TypeError, ValueError, AttributeError):
+        log.debug("widget property %s not set", name, exc_info=True)
+
+
+class ClientPanel:
+    """One browser's controls: handles of that client alone, in the shared folders.
+
+    Read-only (disabled) while the browser is locked; an edit it sends anyway is refused and
+    undone on its own widgets. Created when a browser connects (`TwinGui`), dropped when it
+    leaves.
+
+    Attributes:
+        client: the browser.
+        inputs: scenario or control field → its widget.
+        buttons: button label → its handle (run controls and camera views).
+        show_trail: checkbox of the tip-error trail.
+        locked: whether its edits are refused.
+    """
+
+    def __init__(self, gui: TwinGui, client: viser.ClientHandle, locked: bool) -> None:
+        self.gui = gui
+        self.client = client
+        self.locked = locked
+        self.inputs: dict[str, viser.GuiInputHandle] = {}
+        self.buttons: dict[str, viser.GuiButtonHandle] = {}
+        self._access: Any = None
+        session, cg = gui.session, client.gui
+        s, controls = session.scenario, session.controls
+        folders = gui.folders
+        with folders["Run"]:
+            for order, (label, icon, action) in enumerate((
+                ("Play", viser.Icon.PLAYER_PLAY, session.play),
+                ("Pause", viser.Icon.PLAYER_PAUSE, session.pause),
+                ("Step", viser.Icon.PLAYER_TRACK_NEXT, session.step),
+                ("Reset", viser.Icon.REFRESH, session.reset),
+            )):  # fmt: skip
+                self.buttons[label] = cg.add_button(label, icon=icon, order=order)
+                self.buttons[label].on_click(
+                    lambda event, action=action: gui.act(action, event.client, self)
+                )
+            self.inputs["speed"] = self._add_knob(SPEED_KNOB, controls.speed, order=10)
+        with folders["Mechanism and planner"]:
+            self.inputs["mechanism"] = cg.add_dropdown(
+                "Mechanism", MECHANISM_NAMES, initial_value=s.mechanism
+            )
+            self.inputs["planner"] = cg.add_dropdown(
+                "Planner", planners_for(s.mechanism), initial_value=s.planner
+            )
+            self.inputs["joint_limits"] = cg.add_dropdown(
+                "Joint limits",
+                JOINT_LIMITS,
+                initial_value=s.joint_limits,
+                hint=Scenario.model_fields["joint_limits"].description,
+            )
+            for k in PLANNER_KNOBS:
+                self.inputs[k.name] = self._add_knob(k, getattr(s, k.name))
+        with folders["Sea"]:
+            for k in SEA_KNOBS:
+                self.inputs[k.name] = self._add_knob(k, getattr(s, k.name))
+            self.inputs["spectrum"] = cg.add_dropdown(
+                "Spectrum", SPECTRA, initial_value=s.spectrum
+            )
+        with folders["View"]:
+            for view in VIEWS:
+                button = cg.add_button(VIEW_LABELS[view], icon=viser.Icon.CAMERA)
+                button.on_click(lambda event, view=view: gui.on_camera(view, [client]))
+                self.buttons[VIEW_LABELS[view]] = button
+            self.show_trail = cg.add_checkbox("Tip-error trail", initial_value=gui.trail)
+        self.show_trail.on_update(self._on_trail)
+        self._seen: dict[str, Any] = {}
+        for name, handle in self.inputs.items():
+            self._seen[name] = handle.value
+            handle.on_update(self._callback(name))
+        self._planner = s.planner
+        self._show_planner_knobs(s.planner)
+        if locked:
+            self._offer_unlock()
+
+    # -- access -------------------------------------------------------------------------------
+    def _offer_unlock(self) -> None:
+        """This browser's own Access panel: the token typed here reaches no other browser."""
+        cg = self.client.gui
+        with cg.add_folder("Access", order=-1) as folder:
+            field = cg.add_text("Token", "", hint="the server's TWIN_TOKEN")
+            button = cg.add_button("Unlock controls", icon=viser.Icon.LOCK_OPEN)
+        self._access = folder
+
+        def unlock(event: viser.GuiEvent) -> None:
+            if event.client is None:
+                return
+            outcome = self.gui.unlock(self.client, field.value)
+            if outcome is True:
+                folder.remove()
+                self._access = None
+                self.client.add_notification("Unlocked", "controls apply", auto_close_seconds=3.0)
+            else:
+                field.value = ""
+                self.client.add_notification("Not unlocked", outcome, color="red")
+
+        button.on_click(unlock)
+
+    def set_locked(self, locked: bool) -> None:
+        """Make the controls read-only (locked) or editable."""
+        self.locked = locked
+        self._apply_disabled()
+
+    def _apply_disabled(self) -> None:
+        used = PLANNERS[self._planner].parameters
+        for name, handle in self.inputs.items():
+            unused = name in {k.name for k in PLANNER_KNOBS} and name not in used
+            _assign(handle, "disabled", self.locked or unused)
+        for label in ("Play", "Pause", "Step", "Reset"):
+            _assign(self.buttons[label], "disabled", self.locked)
+        _assign(self.show_trail, "disabled", self.locked)
+
+    # -- GUI → session ------------------------------------------------------------------------
+    def _add_knob(self, k: Knob, value: float, order: float | None = None) -> viser.GuiInputHandle:
+        cg = self.client.gui
+        if k.slider:
+            return cg.add_slider(
+                k.label, min=k.min, max=k.max, step=k.step, initial_value=value, hint=k.hint,
+                order=order,
+            )  # fmt: skip
+        return cg.add_number(
+            k.label, value, min=k.min, max=k.max, step=k.number_step, hint=k.hint, order=order
+        )
+
+    def _callback(self, name: str) -> Callable[[viser.GuiEvent], None]:
+        def on_update(event: viser.GuiEvent) -> None:
+            if event.client is None:
+                return  # the server showing the session's value: nothing to send back
+            changes = {name: self.inputs[name].value}
+            if name == "mechanism" and self.gui.session.scenario.planner not in planners_for(
+                changes[name]
+            ):
+                changes["planner"] = None  # the new mechanism's default planner
+            self.gui.patch(changes, event.client, self)
+
+        return on_update
+
+    def _on_trail(self, event: viser.GuiEvent) -> None:
+        if event.client is None:
+            return
+        if not self.gui.allowed(event.client):
+            self.gui.refuse(event.client)
+            self.show_trail.value = self.gui.trail
+            return
+        self.gui.trail = bool(self.show_trail.value)
+
+    def revert(self, names: Iterable[str]) -> None:
+        """Show the values in force again on these widgets."""
+        for name in names:
+            _assign(self.inputs[name], "value", self.gui.current(name))
+            self._seen[name] = self.inputs[name].value
+
+    # -- session → GUI ------------------------------------------------------------------------
+    def sync(self, values: dict[str, Any], trail: bool) -> None:
+        """Move the widgets to the session's values (only those that changed since the last
+        frame, so an edit this browser has just made is not overwritten before it lands)."""
+        if values["mechanism"] != self._seen["mechanism"]:
+            _assign(self.inputs["planner"], "options", planners_for(values["mechanism"]))
+        if values["planner"] != self._planner:
+            self._planner = values["planner"]
+            self._show_planner_knobs(values["planner"])
+        for name, value in values.items():
+            if value != self._seen[name]:
+                self._seen[name] = value
+                _assign(self.inputs[name], "value", value)
+        if self.show_trail.value != trail:
+            _assign(self.show_trail, "value", trail)
+
+    def _show_planner_knobs(self, planner: str) -> None:
+        used = PLANNERS[planner].parameters
+        for k in PLANNER_KNOBS:
+            _assign(self.inputs[k.name], "visible", k.name in used or k.name in ALWAYS_SHOWN)
+        self._apply_disabled()
+
+
 class TwinGui:
-    """The control panel of one live session, shared by every browser.
+    """The control panel of one live session: a `ClientPanel` per browser, and the shared
+    readout and plots.
 
     Args:
         server: the viser server.
         session: the live session the widgets control.
         fs: the first frame (mechanism, scenario).
         on_camera: sets the given clients' cameras to a preset view.
-        token: if set, a browser must enter it (its own "Access" panel) before its edits apply.
+        access: the server's access policy: with a token, a browser's controls stay
+            read-only until it enters it (wrong ones rate-limited per address).
 
     Attributes:
-        inputs: scenario or control field → its widget.
-        buttons: button label → its handle (run controls and camera views).
-        show_trail: checkbox of the tip-error trail.
-        readout: the metrics and limits markdown.
-        plots: the live uPlot handles.
-        last_error: the last value the session refused (its message).
+        panels: client id → its controls.
+        folders: the shared folders the panels' widgets sit in.
+        readout: the metrics and limits markdown (shared).
+        plots: the live uPlot handles (shared).
+        trail: whether the tip-error trail shows (a control: unlocked browsers toggle it).
+        last_error: the last value the session refused, or the last refusal (its message).
     """
 
     def __init__(
@@ -305,173 +517,131 @@ class TwinGui:
         session: LiveSession,
         fs: FrameState,
         on_camera: Callable[[View, Iterable[viser.ClientHandle]], None],
-        token: str | None = None,
+        access: Access | None = None,
     ) -> None:
         self.server = server
         self.session = session
-        self._token = None if token is None else token.encode()
+        self.on_camera = on_camera
+        self.access = access if access is not None else Access()
+        self._failures = self.access.failure_limit()
         self._unlocked: set[int] = set()  # client ids that entered the token
+        self._lock = threading.Lock()  # panels and unlocked ids
+        self._building = threading.Lock()  # a shared folder is entered by one thread at a time
+        self.panels: dict[int, ClientPanel] = {}
+        self.trail = True
         self.last_error: str | None = None
         self.plots: list[viser.GuiUplotHandle] = []
-        self._local = threading.local()  # `syncing` marks widget writes of the render loop
-        self._seen: dict[str, Any] = {}
         self._specs: tuple[PlotSpec, ...] = ()
         self._samples = np.zeros((0, 0))
         self._count = 0
         self._next = {"plot": 0.0, "readout": 0.0, "metrics": 0.0}
         self._metrics: dict[str, Any] = {}
         self._faults: dict[str, Any] = {}
-        self.inputs: dict[str, viser.GuiInputHandle] = {}
-        self.buttons: dict[str, viser.GuiButtonHandle] = {}
         gui = server.gui
-        s = fs.scenario
-
-        with gui.add_folder("Run"):
-            for label, icon, action in (
-                ("Play", viser.Icon.PLAYER_PLAY, session.play),
-                ("Pause", viser.Icon.PLAYER_PAUSE, session.pause),
-                ("Step", viser.Icon.PLAYER_TRACK_NEXT, session.step),
-                ("Reset", viser.Icon.REFRESH, session.reset),
-            ):
-                self.buttons[label] = gui.add_button(label, icon=icon)
-                self.buttons[label].on_click(
-                    lambda event, action=action: self._act(action, event.client)
-                )
-            self.inputs["speed"] = self._add_knob(SPEED_KNOB, fs.speed)
-            self.readout = gui.add_markdown("")
-        with gui.add_folder("Mechanism and planner"):
-            self.inputs["mechanism"] = gui.add_dropdown(
-                "Mechanism", MECHANISM_NAMES, initial_value=s.mechanism
-            )
-            self.inputs["planner"] = gui.add_dropdown(
-                "Planner", planners_for(s.mechanism), initial_value=s.planner
-            )
-            self.inputs["joint_limits"] = gui.add_dropdown(
-                "Joint limits",
-                JOINT_LIMITS,
-                initial_value=s.joint_limits,
-                hint=Scenario.model_fields["joint_limits"].description,
-            )
-            for k in PLANNER_KNOBS:
-                self.inputs[k.name] = self._add_knob(k, getattr(s, k.name))
-        with gui.add_folder("Sea"):
-            for k in SEA_KNOBS:
-                self.inputs[k.name] = self._add_knob(k, getattr(s, k.name))
-            self.inputs["spectrum"] = gui.add_dropdown(
-                "Spectrum", SPECTRA, initial_value=s.spectrum
-            )
-        with gui.add_folder("View"):
-            for view in VIEWS:
-                button = gui.add_button(VIEW_LABELS[view], icon=viser.Icon.CAMERA)
-                button.on_click(
-                    lambda event, view=view: on_camera(view, self._clients(event.client))
-                )
-                self.buttons[VIEW_LABELS[view]] = button
-            self.show_trail = gui.add_checkbox("Tip-error trail", initial_value=True)
-        self._plot_folder = gui.add_folder("Plots")
-
-        for name, handle in self.inputs.items():
-            self._seen[name] = handle.value
-            handle.on_update(self._callback(name))
-        self._show_planner_knobs(s.planner)
+        self.folders = {name: gui.add_folder(name, order=i) for i, name in enumerate(FOLDERS)}
+        with self.folders["Run"]:
+            self.readout = gui.add_markdown("", order=READOUT_ORDER)
+        self._plot_folder = gui.add_folder("Plots", order=len(FOLDERS))
         self.restart(fs)
-        if self._token is not None:
-            server.on_client_connect(self._offer_unlock)
-            server.on_client_disconnect(lambda client: self._unlocked.discard(client.client_id))
+        server.on_client_connect(self._connect)
+        server.on_client_disconnect(self._disconnect)
 
-    # -- access -------------------------------------------------------------------------------
-    def _offer_unlock(self, client: viser.ClientHandle) -> None:
-        """A per-browser panel: the token typed here is never shared with other browsers."""
-        with client.gui.add_folder("Access", order=-1) as folder:
-            field = client.gui.add_text("Token", "", hint="the server's TWIN_TOKEN")
-            button = client.gui.add_button("Unlock controls", icon=viser.Icon.LOCK_OPEN)
+    # -- browsers -----------------------------------------------------------------------------
+    def _connect(self, client: viser.ClientHandle) -> None:
+        with self._building:
+            panel = ClientPanel(self, client, locked=not self.allowed(client))
+        with self._lock:
+            if client.client_id in self.server.get_clients():
+                self.panels[client.client_id] = panel
+                return
+        self._drop(panel)  # it left while its panel was being built
 
-        def unlock(_: viser.GuiEvent) -> None:
-            if self.unlock(client.client_id, field.value):
-                folder.remove()
-                client.add_notification("Unlocked", "controls apply", auto_close_seconds=3.0)
-            else:
-                field.value = ""
-                client.add_notification("Wrong token", "controls stay locked", color="red")
+    def _disconnect(self, client: viser.ClientHandle) -> None:
+        # viser itself unhooks a leaving client's widgets from the shared folders
+        with self._lock:
+            self.panels.pop(client.client_id, None)
+            self._unlocked.discard(client.client_id)
 
-        button.on_click(unlock)
+    @staticmethod
+    def _drop(panel: ClientPanel) -> None:
+        """Remove a panel built for a browser that had already left (viser's teardown of it
+        ran before these widgets existed, so they would stay listed in the shared folders)."""
+        for handle in [*panel.inputs.values(), *panel.buttons.values(), panel.show_trail]:
+            try:
+                handle.remove()
+            except Exception:
+                log.debug("removing a panel's widget failed", exc_info=True)
 
-    def unlock(self, client_id: int, token: str) -> bool:
-        """Let a browser's edits apply if `token` is the server's (constant-time compare)."""
-        if self._token is not None and not hmac.compare_digest(token.encode(), self._token):
-            return False
-        self._unlocked.add(client_id)
+    def _remote(self, client: viser.ClientHandle) -> str:
+        """The browser's address (viser keeps it on its connection), else one shared key."""
+        try:
+            connection = self.server._websock_server._live_connections[client.client_id]
+            return str(connection.remote_address[0])
+        except Exception:
+            return "viewer"
+
+    def unlock(self, client: viser.ClientHandle, token: str) -> bool | str:
+        """Let a browser's edits apply if `token` is the server's (constant-time compare).
+
+        Returns:
+            True, or why not (a wrong token, or too many wrong ones from its address).
+        """
+        key = self._remote(client)
+        wait = self._failures.wait(key)
+        if wait > 0:
+            return f"too many wrong tokens; retry in {wait:.0f} s"
+        if not self.access.token_matches(token):
+            self._failures.acquire(key)
+            return "wrong token: controls stay locked"
+        with self._lock:
+            self._unlocked.add(client.client_id)
+            panel = self.panels.get(client.client_id)
+        if panel is not None:
+            panel.set_locked(False)
         return True
 
     def allowed(self, client: viser.ClientHandle | None) -> bool:
         """Whether edits from `client` apply (None: the server itself)."""
-        return self._token is None or client is None or client.client_id in self._unlocked
+        return self.access.token is None or client is None or client.client_id in self._unlocked
 
-    def _locked(self, client: viser.ClientHandle) -> str:
-        message = "controls are locked: enter the server's token under Access"
-        self.last_error = message
-        client.add_notification("Not applied", message, auto_close_seconds=8.0, color="red")
-        return message
+    def refuse(self, client: viser.ClientHandle) -> str:
+        """Tell a locked browser its edit did not apply."""
+        self.last_error = LOCKED
+        client.add_notification("Not applied", LOCKED, auto_close_seconds=8.0, color="red")
+        return LOCKED
 
-    def _act(self, action: Callable[[], Any], client: viser.ClientHandle | None) -> None:
+    def act(
+        self, action: Callable[[], Any], client: viser.ClientHandle | None, panel: ClientPanel
+    ) -> None:
+        """A run button: the action if the browser may, else a refusal."""
+        if client is None:
+            return
         if not self.allowed(client):
-            self._locked(client)
+            self.refuse(client)
             return
         action()
 
-    # -- GUI → session ------------------------------------------------------------------------
-    def _add_knob(self, k: Knob, value: float) -> viser.GuiInputHandle:
-        gui = self.server.gui
-        if k.slider:
-            return gui.add_slider(
-                k.label, min=k.min, max=k.max, step=k.step, initial_value=value, hint=k.hint
-            )
-        return gui.add_number(k.label, value, min=k.min, max=k.max, step=k.number_step, hint=k.hint)
-
-    def _callback(self, name: str) -> Callable[[viser.GuiEvent], None]:
-        def on_update(event: viser.GuiEvent) -> None:
-            if getattr(self._local, "syncing", False):
-                return  # the render loop showing the session's value: nothing to send back
-            changes = {name: self.inputs[name].value}
-            if name == "mechanism" and self.session.scenario.planner not in planners_for(
-                changes[name]
-            ):
-                changes["planner"] = None  # the new mechanism's default planner
-            self._patch(changes, event.client)
-
-        return on_update
-
-    def _patch(self, changes: dict[str, Any], client: viser.ClientHandle | None) -> None:
+    def patch(
+        self, changes: dict[str, Any], client: viser.ClientHandle, panel: ClientPanel
+    ) -> None:
+        """A browser's edit through `session.patch`; refused or bad, it is undone on that
+        browser's widgets only."""
+        if not self.allowed(client):
+            self.refuse(client)
+            panel.revert(changes)
+            return
         try:
-            if not self.allowed(client):
-                raise PermissionError(self._locked(client))
             self.session.patch(changes)
-        except (ValueError, PermissionError) as err:
-            if isinstance(err, ValueError):
-                self.last_error = str(err)
-                for c in self._clients(client):
-                    c.add_notification("Not applied", str(err), auto_close_seconds=8.0, color="red")
-            with self._syncing():  # show the value still in force
-                for name in changes:
-                    self.inputs[name].value = self._current(name)
+        except ValueError as err:
+            self.last_error = str(err)
+            client.add_notification("Not applied", str(err), auto_close_seconds=8.0, color="red")
+            panel.revert(changes)
 
-    def _current(self, name: str) -> Any:
+    def current(self, name: str) -> Any:
+        """The session's value of a field or control."""
         if name in LiveControls.model_fields:
             return getattr(self.session.controls, name)
         return getattr(self.session.scenario, name)
-
-    def _clients(self, client: viser.ClientHandle | None) -> Iterable[viser.ClientHandle]:
-        return [client] if client is not None else list(self.server.get_clients().values())
-
-    @contextlib.contextmanager
-    def _syncing(self) -> Iterator[None]:
-        # Assigning `.value` runs on_update synchronously in this thread; the flag makes
-        # those callbacks no-ops, while browser edits (viser's thread pool) still patch.
-        self._local.syncing = True
-        try:
-            yield
-        finally:
-            self._local.syncing = False
 
     # -- session → GUI ------------------------------------------------------------------------
     def restart(self, fs: FrameState) -> None:
@@ -499,8 +669,19 @@ class TwinGui:
         self._next["plot"] = self._next["metrics"] = 0.0
 
     def update(self, fs: FrameState) -> None:
-        """Per frame: widgets follow the session, then plots and readout (throttled)."""
-        self._sync_inputs(fs)
+        """Per frame: every browser's widgets follow the session, then plots and readout."""
+        values = {
+            name: fs.speed if name in LiveControls.model_fields else getattr(fs.scenario, name)
+            for name in ("speed", "mechanism", "planner", "joint_limits", "spectrum",
+                         *(k.name for k in (*PLANNER_KNOBS, *SEA_KNOBS)))
+        }  # fmt: skip
+        with self._lock:
+            panels = list(self.panels.values())
+        for panel in panels:
+            try:
+                panel.sync(values, self.trail)
+            except Exception:  # one browser's panel must not stop the others' frames
+                log.debug("panel sync failed", exc_info=True)
         self._sample(fs)
         now = time.monotonic()
         if now >= self._next["plot"]:
@@ -515,30 +696,6 @@ class TwinGui:
         if now >= self._next["readout"]:
             self._next["readout"] = now + READOUT_PERIOD
             self.readout.content = self._readout(fs)
-
-    def _sync_inputs(self, fs: FrameState) -> None:
-        # Only a change of the session's value since the last frame moves a widget, so an
-        # edit a browser has just made is not overwritten before its patch lands.
-        values = {
-            name: fs.speed if name in LiveControls.model_fields else getattr(fs.scenario, name)
-            for name in self.inputs
-        }
-        with self._syncing():
-            if values["mechanism"] != self._seen["mechanism"]:
-                self.inputs["planner"].options = planners_for(values["mechanism"])
-            if values["planner"] != self._seen["planner"]:
-                self._show_planner_knobs(values["planner"])
-            for name, value in values.items():
-                if value != self._seen[name]:
-                    self._seen[name] = value
-                    self.inputs[name].value = value
-
-    def _show_planner_knobs(self, planner: str) -> None:
-        used = PLANNERS[planner].parameters
-        for k in PLANNER_KNOBS:
-            handle = self.inputs[k.name]
-            handle.visible = k.name in used or k.name in ALWAYS_SHOWN
-            handle.disabled = k.name not in used
 
     def _sample(self, fs: FrameState) -> None:
         last = self._samples[0, self._count - 1, 0] if self._count else -np.inf

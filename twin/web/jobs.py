@@ -1,43 +1,51 @@
-"""Scripted runs in worker processes: short ones awaited by the request, long ones as jobs;
-operability sweeps from a thread (`SweepRunner`).
+"""Runs and sweeps of the REST API as futures on the server's one executor.
 
-Every run is first a row in the `RunStore` (queued), then executes in a small process pool,
-so a simulation never competes for the GIL with the live loop, the 3D viewer and the web
-server. Workers write progress and the result straight to the store, so status survives the
-web process: on start, `JobRunner.start` queues again whatever a stopped server left unfinished.
+Every run is first a row in the `RunStore` (queued), then a future on the executor
+(`twin.sim.executor.Executor.run`): a worker process of the server's Dask cluster steps it,
+reports progress as Dask events, and sends the result back packed. The server process is the
+store's only writer: one thread stores, in order, what the workers report (running, progress,
+the result or the failure). Status survives the server: on start, `JobRunner.start` queues
+again whatever a stopped server left unfinished, and on shutdown it cancels the futures and
+leaves their runs queued.
 
 Synchronous cap: a `POST /api/runs` of at most `SYNC_MAX_STEPS` steps (duration / dt) answers
 when the run is done; a longer one answers 202 at once and runs in the background.
 
-Workers are spawned processes, which import the parent's main module: a script that serves the
-app must keep its entry point under `if __name__ == "__main__":` (`twin serve` does).
+Budget: a run has a wall-clock budget (`budget`) beside the step cap; past it the worker stops
+it (`BudgetExceeded`) and it is stored as failed with a message. A worker that does not answer
+`WATCHDOG_GRACE` s after the budget has its run failed and is restarted.
+
+Sweeps (`SweepRunner`) run one at a time from a thread that drives `run_sweep` on the same
+executor: their chunks queue behind single runs (a lower Dask priority).
 """
 
 from __future__ import annotations
 
-import multiprocessing
-import os
+import logging
 import queue
 import tempfile
 import threading
 import time
-from concurrent.futures import Future, ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
-from twin.sim import Scenario, Simulation
-from twin.sim.engine import warm
-from twin.web.store import RunStore
+from twin.sim import Scenario
+from twin.sim.executor import RUN_BUDGET, BudgetExceeded, Executor
+from twin.web.store import Run, RunNotFound, RunStore, StoreUnavailable
 
-#: most steps a synchronous run may take: 600 s at the default dt = 0.05 s, 20-30 s of compute
-#: for the hybrid system on a free core (2-3 s per simulated minute)
+log = logging.getLogger(__name__)
+
+#: most steps a synchronous run may take: 600 s at the default dt = 0.05 s (well under a second
+#: of compute on the compiled engine)
 SYNC_MAX_STEPS = 12_000
-#: worker processes; one run per worker at a time, the rest wait queued
-WORKERS = 2
-#: [s] wall time between two progress writes of a running job
-PROGRESS_PERIOD = 0.5
-#: steps between two looks at the clock (a few milliseconds on the compiled engine)
-PROGRESS_STEPS = 1000
+#: [s] a synchronous request waits for its run at most this long beyond the budget (queued
+#: behind others, say), then answers 202 with the run as it is
+SYNC_GRACE = 30.0
+#: [s] past its budget, a run whose worker has not answered is failed and the worker restarted
+WATCHDOG_GRACE = 10.0
+#: [s] how often the watchdog looks
+WATCHDOG_PERIOD = 1.0
 
 
 def steps(scenario: Scenario) -> int:
@@ -45,171 +53,223 @@ def steps(scenario: Scenario) -> int:
     return round(scenario.duration / scenario.dt)
 
 
-def execute(db_path: str, run_id: str) -> None:
-    """Worker: run a stored scenario to the end, writing progress and the result to the store.
-
-    Steps exactly as `simulate` does (the same engine in chunks), so a stored run's metrics
-    equal `simulate(scenario)`'s.
-
-    Raises:
-        Exception: whatever the simulation raised, after storing it as the run's error.
-    """
-    with RunStore(db_path) as store:
-        try:
-            simulation = Simulation(store.scenario(run_id))
-            store.mark_running(run_id)
-            last = time.monotonic()
-            while not simulation.done:
-                simulation.advance(PROGRESS_STEPS)
-                if time.monotonic() - last > PROGRESS_PERIOD:
-                    store.set_progress(run_id, simulation.k / simulation.n_steps)
-                    last = time.monotonic()
-            store.finish(run_id, simulation.result())
-        except Exception as exc:
-            store.fail(run_id, f"{type(exc).__name__}: {exc}")
-            raise
-
-
-#: [s] how often a worker checks that the server that spawned it is still alive
-PARENT_CHECK = 0.5
-
-
-def _exit_with_parent(parent: int) -> None:
-    """Worker initializer: exit as soon as the server that spawned the worker is gone.
-
-    A server killed with SIGKILL cannot stop its pool; its workers would finish the run in hand
-    beside the next server (which runs it again) and then idle for ever. Polling the parent id
-    (it changes when the worker is re-parented) works whatever thread started the worker,
-    which the kernel's parent-death signal would not.
-    """
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(PARENT_CHECK)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
-
-
-def _warm() -> None:
-    """Spawn a worker, import the simulation and load the compiled kernels (`warm`), so the
-    first run a worker takes is as fast as the next."""
-    warm()
-
-
 class JobRunner:
-    """A process pool executing stored runs.
+    """Stored runs as futures on an executor, their outcome written back to the store.
 
     Args:
-        store: where runs are read from and written to (workers open the same file).
-        workers: processes in the pool.
+        store: where runs are read from and written to.
         sync_max_steps: runs up to this many steps are answered synchronously.
+        budget: [s] wall-clock budget of one run on its worker.
     """
 
     def __init__(
-        self, store: RunStore, *, workers: int = WORKERS, sync_max_steps: int = SYNC_MAX_STEPS
+        self,
+        store: RunStore,
+        *,
+        sync_max_steps: int = SYNC_MAX_STEPS,
+        budget: float = RUN_BUDGET,
     ) -> None:
         self.store = store
-        self.workers = workers
         self.sync_max_steps = sync_max_steps
-        self._pool: ProcessPoolExecutor | None = None
-        self._closing = False
+        self.budget = budget
+        self.executor: Executor | None = None
+        self._lock = threading.Lock()
+        self._futures: dict[str, tuple[Any, Future[Run]]] = {}  # run id → (Dask, outcome)
+        self._running: dict[str, tuple[float, str]] = {}  # run id → (start, worker address)
+        self._writer: ThreadPoolExecutor | None = None
+        self._stopping = threading.Event()
+        self._watchdog: threading.Thread | None = None
+
+    @property
+    def sync_wait(self) -> float:
+        """[s] the longest a synchronous request waits before it answers 202."""
+        return self.budget + SYNC_GRACE
 
     def is_sync(self, scenario: Scenario) -> bool:
         """Whether a run of `scenario` is awaited by its request."""
         return steps(scenario) <= self.sync_max_steps
 
-    def start(self) -> list[str]:
-        """Spawn the workers and queue runs a previous server left unfinished.
+    def pending(self) -> int:
+        """Runs submitted here and not settled yet."""
+        with self._lock:
+            return len(self._futures)
+
+    # -- lifetime ------------------------------------------------------------------------------
+    def start(self, executor: Executor) -> list[str]:
+        """Take runs to `executor`, and queue again those a previous server left unfinished.
 
         Returns:
             The ids queued again.
         """
-        self._closing = False
-        for _ in range(self.workers):
-            self._executor().submit(_warm)  # the first run then skips process start and JIT
+        self.executor = executor
+        self._stopping.clear()
+        self._writer = ThreadPoolExecutor(1, thread_name_prefix="twin-store")
+        executor.subscribe(self._on_report)
+        self._watchdog = threading.Thread(target=self._watch, name="twin-watchdog", daemon=True)
+        self._watchdog.start()
         recovered = self.store.requeue_unfinished()
         for run_id in recovered:
             self.submit(run_id)
         return recovered
 
-    def submit(self, run_id: str) -> Future[None]:
-        """Execute a stored run in a worker; the future resolves when it is stored."""
-        pool = self._executor()
-        future = pool.submit(execute, str(self.store.path), run_id)
-        future.add_done_callback(lambda f: self._settle(run_id, pool, f))
-        return future
-
-    def _executor(self) -> ProcessPoolExecutor:
-        # spawn, not fork: the parent runs threads (live loop, viewer, uvicorn) that a forked
-        # child would inherit mid-lock.
-        if self._pool is None:
-            self._pool = ProcessPoolExecutor(
-                self.workers,
-                mp_context=multiprocessing.get_context("spawn"),
-                initializer=_exit_with_parent,
-                initargs=(os.getpid(),),
-            )
-        return self._pool
-
-    def _settle(self, run_id: str, pool: ProcessPoolExecutor, future: Future[None]) -> None:
-        """Record a run whose worker died before it could record anything itself."""
-        if self._closing or future.cancelled() or future.exception() is None:
-            return  # on shutdown the run stays unfinished and `start` requeues it
-        exc = future.exception()
-        if isinstance(exc, BrokenProcessPool) and self._pool is pool:
-            self._pool = None  # a dead worker breaks its whole pool: the next submit starts one
-            pool.shutdown(wait=False, cancel_futures=True)
-        if self.store.get(run_id).status in ("queued", "running"):
-            self.store.fail(run_id, f"worker failed: {exc!r}")
-
     def shutdown(self) -> None:
-        """Stop the workers now; unfinished runs stay queued/running in the store."""
-        pool, self._pool = self._pool, None
-        if pool is None:
+        """Stop: cancel the runs' futures, finish the store write in hand, and leave every
+        unfinished run queued (the next start runs it)."""
+        self._stopping.set()
+        with self._lock:
+            futures = list(self._futures.values())
+            self._futures.clear()
+            self._running.clear()
+        if self.executor is not None:
+            self.executor.cancel([dask for dask, _ in futures if dask is not None])
+        for _, done in futures:
+            done.cancel()
+        if self._writer is not None:
+            self._writer.shutdown(wait=True, cancel_futures=True)
+        try:
+            self.store.requeue_unfinished()
+        except StoreUnavailable:
+            log.warning("run store unavailable at shutdown: unfinished runs not requeued")
+
+    # -- runs ----------------------------------------------------------------------------------
+    def submit(self, run_id: str) -> Future[Run]:
+        """Run a stored run on the executor.
+
+        Returns:
+            A future of the stored run once it is done or failed; its exception is the
+            `ValueError` of a scenario the worker refused before any step, or
+            `StoreUnavailable`; it is cancelled if the server stops first.
+        """
+        if self.executor is None or self._writer is None:
+            raise RuntimeError("JobRunner.start(executor) first")
+        fields = self.store.scenario(run_id).model_dump(mode="json")
+        done: Future[Run] = Future()
+        with self._lock:  # before the run exists: a fast one may settle at once
+            self._futures[run_id] = (None, done)
+        dask = self.executor.run(fields, name=run_id, budget=self.budget)
+        with self._lock:
+            if run_id in self._futures:
+                self._futures[run_id] = (dask, done)
+        writer = self._writer
+        dask.add_done_callback(lambda f: self._hand(writer, self._settle, run_id, f, done))
+        return done
+
+    def _hand(self, writer: ThreadPoolExecutor, fn: Any, *args: Any) -> None:
+        """Queue a store write (in order, off the Dask client's event loop)."""
+        try:
+            writer.submit(fn, *args)
+        except RuntimeError:  # the writer has shut down: the server is stopping
+            pass
+
+    def _on_report(self, message: dict[str, Any]) -> None:
+        """A worker's progress report (on the Dask client's event loop: only hand it on)."""
+        run_id = message.get("name")
+        with self._lock:
+            ours = run_id in self._futures
+        if ours and self._writer is not None:
+            self._hand(self._writer, self._progress, run_id, message)
+
+    def _progress(self, run_id: str, message: dict[str, Any]) -> None:
+        if self._stopping.is_set():
             return
-        self._closing = True
-        # ProcessPoolExecutor has no public way to stop running tasks before Python 3.14; a
-        # killed worker loses nothing stored (every write is a transaction) and its run is
-        # requeued on the next start.
-        processes = list(getattr(pool, "_processes", {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for process in processes:
-            process.terminate()
-        for process in processes:
-            process.join(timeout=5)
+        try:
+            if message.get("progress", 0.0) == 0.0:
+                if self.store.mark_running(run_id):
+                    with self._lock:
+                        if run_id in self._futures:
+                            self._running[run_id] = (time.monotonic(), message.get("worker", ""))
+            else:
+                self.store.set_progress(run_id, float(message["progress"]))
+        except (RunNotFound, StoreUnavailable):
+            pass  # a refused run deleted, or a store gone: nothing to report into
+
+    def _settle(self, run_id: str, future: Any, done: Future[Run]) -> None:
+        """Store a run's outcome; resolve `done`."""
+        with self._lock:
+            ours = self._futures.pop(run_id, None) is not None
+            self._running.pop(run_id, None)
+        if self._stopping.is_set() or future.cancelled() or not ours:
+            done.cancel()  # stopping: the run stays unfinished and is requeued
+            return
+        try:
+            try:
+                output = future.result()
+            except BudgetExceeded as exc:
+                self.store.fail(run_id, f"BudgetExceeded: {exc}")
+            except ValueError as exc:  # refused before its first step
+                self.store.fail(run_id, f"{type(exc).__name__}: {exc}")
+                done.set_exception(exc)
+                return
+            except Exception as exc:  # the worker died, or the run raised
+                self.store.fail(run_id, f"worker failed: {type(exc).__name__}: {exc}")
+            else:
+                try:
+                    self.store.finish_packed(run_id, output.metrics, output.series)
+                except ValueError as exc:  # metrics that are not finite JSON
+                    self.store.fail(run_id, f"result not storable: {exc}")
+            done.set_result(self.store.get(run_id))
+        except Exception as exc:  # the store is gone, or the run was deleted meanwhile
+            done.set_exception(exc)
+
+    def _watch(self) -> None:
+        """Fail runs whose worker stays silent past the budget, and restart that worker."""
+        while not self._stopping.wait(WATCHDOG_PERIOD):
+            now = time.monotonic()
+            with self._lock:
+                late = [
+                    (run_id, worker) for run_id, (start, worker) in self._running.items()
+                    if now - start > self.budget + WATCHDOG_GRACE
+                ]  # fmt: skip
+                entries = {run_id: self._futures.pop(run_id, None) for run_id, _ in late}
+                for run_id, _ in late:
+                    self._running.pop(run_id, None)
+            for run_id, worker in late:
+                entry = entries[run_id]
+                if entry is None:
+                    continue
+                dask, done = entry
+                if self.executor is not None and dask is not None:
+                    self.executor.cancel([dask])
+                    if worker:
+                        self.executor.restart_worker(worker)
+                try:
+                    self.store.fail(
+                        run_id,
+                        f"BudgetExceeded: over the wall-clock budget of {self.budget:g} s and "
+                        f"no answer from its worker {WATCHDOG_GRACE:g} s later; worker restarted",
+                    )
+                    done.set_result(self.store.get(run_id))
+                except Exception as exc:
+                    done.set_exception(exc)
 
 
 class SweepRunner:
-    """Operability sweeps, one at a time, from a daemon thread of the web process.
-
-    The thread only drives `run_sweep`: by default that starts a Dask `LocalCluster` whose
-    worker processes do the simulating, so the web process stays responsive. Progress and the
-    result go to the store, so status survives a restart; `start` queues again whatever a
-    stopped server left unfinished.
+    """Operability sweeps, one at a time, from a daemon thread that drives `run_sweep` on the
+    server's executor (the workers simulate; the thread only collects). Progress and the result
+    go to the store, so status survives a restart; `start` queues again whatever a stopped
+    server left unfinished, and `shutdown` cancels the sweep in hand and leaves it queued.
 
     Args:
         store: where sweeps are read from and written to.
-        scheduler: `run_sweep`'s scheduler: None (a LocalCluster per sweep), "tcp://HOST:PORT"
-            or "in-process" (tests, small machines).
     """
 
-    def __init__(self, store: RunStore, *, scheduler: str | None = None) -> None:
+    def __init__(self, store: RunStore) -> None:
         self.store = store
-        self.scheduler = scheduler
+        self.executor: Executor | None = None
         self._queue: queue.Queue[str | None] = queue.Queue()
         self._thread: threading.Thread | None = None
+        self._stopping = threading.Event()
 
-    def start(self) -> list[str]:
-        """Start the thread and queue sweeps a previous server left unfinished.
+    def start(self, executor: Executor) -> list[str]:
+        """Start the thread on `executor`; queue sweeps a previous server left unfinished.
 
         Returns:
             The ids queued again.
         """
+        self.executor = executor
+        self._stopping.clear()
         if self._thread is None or not self._thread.is_alive():
-            # daemon: a sweep cannot be interrupted mid-chunk, and must not hold up the exit;
-            # it stays unfinished in the store and is rerun on the next start
-            self._thread = threading.Thread(target=self._loop, name="sweeps", daemon=True)
+            self._thread = threading.Thread(target=self._loop, name="twin-sweeps", daemon=True)
             self._thread.start()
         recovered = self.store.requeue_unfinished_sweeps()
         for sweep_id in recovered:
@@ -220,13 +280,22 @@ class SweepRunner:
         """Run a stored sweep after the ones already queued."""
         self._queue.put(sweep_id)
 
-    def shutdown(self) -> None:
-        """Stop after the current sweep; queued sweeps stay queued in the store."""
+    def shutdown(self, timeout: float = 2.0) -> None:
+        """Cancel the sweep in hand; it and the queued ones stay queued in the store."""
+        self._stopping.set()
         self._queue.put(None)
-        self._thread = None
+        if self._thread is not None:
+            self._thread.join(timeout)
+            self._thread = None
+        try:
+            self.store.requeue_unfinished_sweeps()
+        except StoreUnavailable:
+            log.warning("run store unavailable at shutdown: unfinished sweeps not requeued")
 
     def _loop(self) -> None:
         while (sweep_id := self._queue.get()) is not None:
+            if self._stopping.is_set():
+                return
             self.execute(sweep_id)
 
     def execute(self, sweep_id: str) -> None:
@@ -238,12 +307,18 @@ class SweepRunner:
             self.store.sweep_running(sweep_id)
             result = run_sweep(
                 spec,
-                scheduler=self.scheduler,
+                executor=self.executor,
                 progress=False,
                 on_progress=lambda done, _total: self.store.sweep_progress(sweep_id, done),
+                stop=self._stopping.is_set,
             )
             with tempfile.TemporaryDirectory() as folder:
                 png = heatmap_png(result, Path(folder) / "heatmap.png").read_bytes()
             self.store.finish_sweep(sweep_id, result.to_dict(), png)
         except Exception as exc:  # a thread has no caller to raise to: the store is its report
-            self.store.fail_sweep(sweep_id, f"{type(exc).__name__}: {exc}")
+            if self._stopping.is_set():
+                return  # cancelled by the shutdown: left queued, run again on the next start
+            try:
+                self.store.fail_sweep(sweep_id, f"{type(exc).__name__}: {exc}")
+            except Exception:
+                log.exception("sweep %s failed and could not be stored as failed", sweep_id)

@@ -1,4 +1,5 @@
-"""Limits on what a client may send: request size (413) and run submission rate (429).
+"""Limits on what a client may send: request size (413), submission rate (429), and (through
+`RateLimit`, used by `twin.web.access`) failed token attempts.
 
 A script in a loop, or a hostile client, must not fill the memory with one huge body nor the
 run queue and the disk with thousands of runs: bodies are capped before they are parsed, and
@@ -133,6 +134,14 @@ class RateLimit:
             if len(self._buckets) > 1024:
                 self._prune(now)
             return 0.0
+
+    def wait(self, key: str, now: float | None = None) -> float:
+        """[s] until `key` may take one (0 if it may now), taking nothing."""
+        now = time.monotonic() if now is None else now
+        with self._lock:
+            tokens, then = self._buckets.get(key, (float(self.burst), now))
+        tokens = min(float(self.burst), tokens + (now - then) * self.rate)
+        return 0.0 if tokens >= 1.0 else (1.0 - tokens) / self.rate
 
     def _prune(self, now: float) -> None:
         full = [

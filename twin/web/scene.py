@@ -17,15 +17,25 @@ The scene is drawn in the simulation's inertial (equilibrium) frame, z up:
 Nodes are added when a mechanism is built (at start and when the session switches mechanism)
 and otherwise only updated through their handles, so viser's per-client buffers keep just the
 newest value of each property and a slow browser only ever receives the latest frame.
+
+The viewer's websocket refuses a cross-origin handshake (403): a page from another site (or
+served under a DNS name of its own, DNS rebinding) cannot open it, so it can neither read the
+scene nor send a control. Allowed origins are the server's own (http on an allowed host at
+the viewer's or the REST port) and those given with `--allow-origin` (`twin.web.access`).
+viser offers no hook for the handshake, so `start_viewer` adds the check to the one
+`websockets` server viser starts (`_checked_handshake`), and fails to start if it could not.
+It also drops viser's handlers of share-URL requests: any browser could otherwise ask the
+server to open a public tunnel to itself.
 """
 
 from __future__ import annotations
 
 import contextlib
+import http
 import logging
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 import numpy as np
@@ -39,6 +49,7 @@ except ImportError:
     threadpoolctl = None
 
 from twin.assets import asset_path
+from twin.errors import TwinError
 from twin.sea.components import WaveComponents
 from twin.sea.surface import gerstner_points
 from twin.sim.live import LiveSession
@@ -46,6 +57,7 @@ from twin.sim.scenario import Scenario
 from twin.spatial import invert_transform, matrix_to_wxyz, pose_to_transform
 from twin.vessel import MOUNTS
 from twin.vessel.hulls import HULLS, Hull
+from twin.web.access import Access
 from twin.web.frame import VIEWS, FrameState, View, read_frame
 from twin.web.gui import TwinGui
 
@@ -527,7 +539,7 @@ class Viewer:
     """
 
     def __init__(
-        self, session: LiveSession, server: viser.ViserServer, token: str | None = None
+        self, session: LiveSession, server: viser.ViserServer, access: Access | None = None
     ) -> None:
         self.session = session
         self.server = server
@@ -537,7 +549,7 @@ class Viewer:
         fs = self._read()
         self.scene = TwinScene(server)
         self.scene.build(fs)
-        self.gui = TwinGui(server, session, fs, on_camera=self.scene.set_camera, token=token)
+        self.gui = TwinGui(server, session, fs, on_camera=self.scene.set_camera, access=access)
         self._version = fs.version
         self._frame(fs)
         self._stop = threading.Event()
@@ -595,12 +607,57 @@ class Viewer:
                 self.scene.build(fs)
             self.gui.restart(fs)
         with self.server.atomic():
-            self.scene.update(fs, show_trail=self.gui.show_trail.value)
+            self.scene.update(fs, show_trail=self.gui.trail)
             self.gui.update(fs)
 
 
+#: one viewer starts its websocket server at a time (the handshake check is added to it then)
+_STARTING = threading.Lock()
+#: messages from a browser that ask the server to open (or close) a public share tunnel
+_SHARE_MESSAGES = ("ShareUrlRequest", "ShareUrlDisconnect")
+
+Handshake = Callable[[Any, Any], Any]
+
+
+@contextlib.contextmanager
+def _checked_handshake(check: Handshake) -> Iterator[list[bool]]:
+    """While viser starts its websocket server, give it `check` as the first step of every
+    opening handshake: `check(connection, request)` returns a refusal (an HTTP response) or
+    None to let viser's own handling go on. Yields a list that holds True once installed.
+
+    viser (1.1) serves through `websockets.asyncio.server.serve` with a `process_request` of
+    its own (its static files); the wrapper composes the two, for that call only.
+    """
+    import websockets.asyncio.server as ws_server
+
+    original = ws_server.serve
+    installed: list[bool] = []
+
+    def serve(handler: Any, *args: Any, process_request: Any = None, **kwargs: Any) -> Any:
+        viser_own = process_request
+
+        def checked(connection: Any, request: Any) -> Any:
+            refusal = check(connection, request)
+            if refusal is not None:
+                return refusal
+            return None if viser_own is None else viser_own(connection, request)
+
+        installed.append(True)
+        return original(handler, *args, process_request=checked, **kwargs)
+
+    with _STARTING:
+        ws_server.serve = serve  # type: ignore[assignment]
+        try:
+            yield installed
+        finally:
+            ws_server.serve = original  # type: ignore[misc]
+
+
 def start_viewer(
-    session: LiveSession, host: str = "127.0.0.1", port: int = 8080, token: str | None = None
+    session: LiveSession,
+    host: str = "127.0.0.1",
+    port: int = 8080,
+    access: Access | None = None,
 ) -> Viewer:
     """Serve the live twin in viser: build scene and GUI and start the render thread.
 
@@ -611,15 +668,48 @@ def start_viewer(
         session: the live session to show and control.
         host: interface to bind (viser's own default would be 0.0.0.0: all of them).
         port: port to listen on; viser takes the next free one if it is in use.
-        token: if set, each browser enters it before its control edits apply.
+        access: the server's access policy: the origins the websocket accepts (its own,
+            at the viewer's actual port too) and the token that unlocks a browser's controls.
+            Default: loopback origins, no token.
 
     Returns:
         The running viewer: `.port`, `.stop()`.
+
+    Raises:
+        TwinError: the handshake check could not be added to viser's server (a viser that
+            starts its websocket server another way): nothing is left running.
     """
-    server = viser.ViserServer(host=host, port=port, label="wave-twin", verbose=False)
+    access = access if access is not None else Access()
+    bound: list[int] = []
+
+    def check(connection: Any, request: Any) -> Any:
+        if request.headers.get("Upgrade", "").lower() != "websocket":
+            return None  # the page and its assets: the same for anyone
+        origin = request.headers.get("Origin")
+        if origin is None or access.allows_origin(origin, port=bound[0] if bound else port):
+            return None  # no Origin: not a browser page (a script); the token still applies
+        logger.warning("viewer: cross-origin websocket from %s refused", origin)
+        return connection.respond(
+            http.HTTPStatus.FORBIDDEN, f"cross-origin websocket from {origin} refused\n"
+        )
+
+    with _checked_handshake(check) as installed:
+        server = viser.ViserServer(host=host, port=port, label="wave-twin", verbose=False)
+    bound.append(server.get_port())
+    if not installed:
+        server.stop()
+        raise TwinError(
+            f"viser {viser.__version__}: could not add the websocket origin check; the viewer "
+            "is not started (serve REST only with --no-viewer, or use a supported viser)"
+        )
+    websock = server._websock_server  # viser's own server object (no public accessor)
+    for name in _SHARE_MESSAGES:
+        message = getattr(viser._messages, name, None)
+        if message is not None and message in websock._incoming_handlers:
+            websock.unregister_handler(message)
     server.gui.configure_theme(control_width="large", show_share_button=False)
     try:
-        return Viewer(session, server, token)
+        return Viewer(session, server, access)
     except Exception:
         server.stop()
         raise

@@ -6,13 +6,19 @@ transaction, so a process killed mid-write leaves the previous state and the fil
 consistent. Series are a compressed npz blob (float64,
 exact), written once when the run is done.
 
-Status goes queued → running → done | failed; `progress` is the fraction of steps taken.
+Status goes queued → running → done | failed; `progress` is the fraction of steps taken, and
+only grows while a run is running (a late progress report never moves a done run back).
+
+The store is written by the server process alone (workers send results back through the
+executor), and one server holds a data directory at a time (`twin.web.lock`). It remembers
+which file it opened: if that file is deleted or replaced while the server runs, every access
+raises `StoreUnavailable` (a 503) instead of writing runs into a file nobody can open again.
 """
 
 from __future__ import annotations
 
-import io
 import json
+import os
 import sqlite3
 import threading
 import time
@@ -22,11 +28,11 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Literal
 
-import numpy as np
 from pydantic import BaseModel, Field
 
 from twin.errors import TwinError
 from twin.sim import Scenario, SimulationResult
+from twin.sim.executor import pack_series, unpack_series
 
 Status = Literal["queued", "running", "done", "failed"]
 
@@ -68,6 +74,18 @@ _SWEEP_COLUMNS = "id, created, finished, status, done, total, spec, result, erro
 
 class RunNotFound(TwinError):
     """No run has this id."""
+
+
+__all__ = [
+    "Run",
+    "RunNotFound",
+    "RunStore",
+    "StoreUnavailable",
+    "Sweep",
+    "SweepNotFound",
+    "pack_series",
+    "unpack_series",
+]
 
 
 class Run(BaseModel):
@@ -138,17 +156,8 @@ def _run(row: sqlite3.Row) -> Run:
     )
 
 
-def pack_series(series: dict[str, np.ndarray]) -> bytes:
-    """Series as a compressed npz (no pickles, so loading it runs no code)."""
-    buffer = io.BytesIO()
-    np.savez_compressed(buffer, **{k: np.asarray(v) for k, v in series.items()})
-    return buffer.getvalue()
-
-
-def unpack_series(blob: bytes) -> dict[str, np.ndarray]:
-    """Inverse of `pack_series`, keys in their original order."""
-    with np.load(io.BytesIO(blob), allow_pickle=False) as npz:
-        return {k: npz[k] for k in npz.files}
+class StoreUnavailable(RuntimeError):
+    """The store's file is gone or replaced, or SQLite cannot write it (a 503, not a 500)."""
 
 
 class RunStore:
@@ -184,16 +193,54 @@ class RunStore:
             self._conn.executescript(
                 f"BEGIN IMMEDIATE; {_SCHEMA} PRAGMA user_version = {SCHEMA_VERSION}; COMMIT;"
             )
+            self._identity = self._stat()
+
+    def _stat(self) -> tuple[int, int] | None:
+        try:
+            info = os.stat(self.path)
+        except OSError:
+            return None
+        return info.st_dev, info.st_ino
+
+    def _check(self) -> None:
+        """Raise `StoreUnavailable` if the file opened is no longer the one at `path`."""
+        now = self._stat()
+        if now != self._identity:
+            what = "deleted" if now is None else "replaced by another file"
+            raise StoreUnavailable(
+                f"run store {self.path} was {what} while the server runs: nothing more is "
+                "stored, so no run is written where nobody could read it back; restart the "
+                "server (with the file restored, or to start a new store)"
+            )
+
+    @property
+    def available(self) -> bool:
+        """Whether the file opened is still the one at `path`."""
+        return self._stat() == self._identity
+
+    def _execute(self, sql: str, parameters: tuple[Any, ...] = ()) -> sqlite3.Cursor:
+        """A read, under the lock, after the file check (SQLite errors are a 503)."""
+        self._check()
+        try:
+            return self._conn.execute(sql, parameters)
+        except sqlite3.OperationalError as exc:
+            raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
 
     # -- writers -----------------------------------------------------------------------------
     def _write(self, sql: str, parameters: tuple[Any, ...]) -> int:
         """One statement in one transaction; returns the number of rows changed."""
         with self._lock:
-            self._conn.execute("BEGIN IMMEDIATE")
+            self._check()
+            try:
+                self._conn.execute("BEGIN IMMEDIATE")
+            except sqlite3.OperationalError as exc:
+                raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
             try:
                 changed = self._conn.execute(sql, parameters).rowcount
-            except BaseException:
+            except BaseException as exc:
                 self._conn.execute("ROLLBACK")
+                if isinstance(exc, sqlite3.OperationalError):
+                    raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
                 raise
             self._conn.execute("COMMIT")
             return changed
@@ -207,16 +254,25 @@ class RunStore:
         )
         return self.get(run_id)
 
-    def mark_running(self, run_id: str) -> None:
-        self._changed(
-            run_id, "UPDATE runs SET status = 'running', progress = 0 WHERE id = ?", (run_id,)
+    def mark_running(self, run_id: str) -> bool:
+        """A queued run starts (a run in any other status stays as it is); whether it did.
+
+        Raises:
+            RunNotFound: no run has this id.
+        """
+        changed = self._write(
+            "UPDATE runs SET status = 'running', progress = 0 WHERE id = ? AND status = 'queued'",
+            (run_id,),
         )
+        if not changed:
+            self.get(run_id)  # RunNotFound for an unknown id
+        return bool(changed)
 
     def set_progress(self, run_id: str, progress: float) -> None:
-        """Progress of a running run, clipped to [0, 1]."""
-        self._changed(
-            run_id,
-            "UPDATE runs SET progress = ? WHERE id = ?",
+        """Progress of a running run, clipped to [0, 1]; it only grows, and only while the run
+        is running (a late report of a finished or requeued run changes nothing)."""
+        self._write(
+            "UPDATE runs SET progress = MAX(progress, ?) WHERE id = ? AND status = 'running'",
             (min(max(float(progress), 0.0), 1.0), run_id),
         )
 
@@ -226,14 +282,26 @@ class RunStore:
         Raises:
             ValueError: metrics that are not finite JSON (nothing is written).
         """
-        metrics = json.dumps(result.metrics, allow_nan=False)
+        return self.finish_packed(run_id, result.metrics, pack_series(result.series))
+
+    def finish_packed(self, run_id: str, metrics: dict[str, Any], series: bytes) -> Run:
+        """`finish` with the series already packed (`pack_series`, as a worker sends them).
+
+        Raises:
+            ValueError: metrics that are not finite JSON (nothing is written).
+        """
+        text = json.dumps(metrics, allow_nan=False)
         self._changed(
             run_id,
             "UPDATE runs SET status = 'done', progress = 1, finished = ?, metrics = ?, "
             "series = ?, error = NULL WHERE id = ?",
-            (time.time(), metrics, pack_series(result.series), run_id),
+            (time.time(), text, series, run_id),
         )
         return self.get(run_id)
+
+    def delete(self, run_id: str) -> None:
+        """Forget a run (one refused before it ran: a refused request leaves nothing)."""
+        self._write("DELETE FROM runs WHERE id = ?", (run_id,))
 
     def fail(self, run_id: str, error: str) -> None:
         self._changed(
@@ -245,6 +313,7 @@ class RunStore:
     def requeue_unfinished(self) -> list[str]:
         """Runs a stopped server left queued or running, set back to queued, oldest first."""
         with self._lock:
+            self._check()
             self._conn.execute("BEGIN IMMEDIATE")
             rows = self._conn.execute(
                 "SELECT id FROM runs WHERE status IN ('queued', 'running') ORDER BY created, rowid"
@@ -258,7 +327,7 @@ class RunStore:
     def pending(self, table: Literal["runs", "sweeps"] = "runs") -> int:
         """How many runs (or sweeps) are queued or running."""
         with self._lock:
-            return self._conn.execute(
+            return self._execute(
                 f"SELECT COUNT(*) FROM {table} WHERE status IN ('queued', 'running')"
             ).fetchone()[0]
 
@@ -269,9 +338,7 @@ class RunStore:
     # -- readers -----------------------------------------------------------------------------
     def _row(self, run_id: str, columns: str) -> sqlite3.Row:
         with self._lock:
-            row = self._conn.execute(
-                f"SELECT {columns} FROM runs WHERE id = ?", (run_id,)
-            ).fetchone()
+            row = self._execute(f"SELECT {columns} FROM runs WHERE id = ?", (run_id,)).fetchone()
         if row is None:
             raise RunNotFound(f"unknown run id {run_id!r}")
         return row
@@ -287,7 +354,7 @@ class RunStore:
     def list_runs(self, limit: int = 50) -> list[Run]:
         """The newest `limit` runs, newest first."""
         with self._lock:
-            rows = self._conn.execute(
+            rows = self._execute(
                 f"SELECT {_COLUMNS} FROM runs ORDER BY created DESC, rowid DESC LIMIT ?",
                 (limit,),
             ).fetchall()
@@ -328,7 +395,11 @@ class RunStore:
         )
 
     def sweep_progress(self, sweep_id: str, done: int) -> None:
-        self._sweep_changed(sweep_id, "UPDATE sweeps SET done = ? WHERE id = ?", (done, sweep_id))
+        """Runs done of a running sweep; it only grows (a late report changes nothing)."""
+        self._write(
+            "UPDATE sweeps SET done = MAX(done, ?) WHERE id = ? AND status = 'running'",
+            (done, sweep_id),
+        )
 
     def finish_sweep(self, sweep_id: str, result: dict[str, Any], heatmap: bytes) -> Sweep:
         """Store a finished sweep's `SweepResult.to_dict()` and heatmap PNG (status done)."""
@@ -350,6 +421,7 @@ class RunStore:
     def requeue_unfinished_sweeps(self) -> list[str]:
         """Sweeps a stopped server left queued or running, set back to queued, oldest first."""
         with self._lock:
+            self._check()
             self._conn.execute("BEGIN IMMEDIATE")
             rows = self._conn.execute(
                 "SELECT id FROM sweeps WHERE status IN ('queued', 'running') "
@@ -387,7 +459,7 @@ class RunStore:
 
     def _sweep_row(self, sweep_id: str, columns: str) -> sqlite3.Row:
         with self._lock:
-            row = self._conn.execute(
+            row = self._execute(
                 f"SELECT {columns} FROM sweeps WHERE id = ?", (sweep_id,)
             ).fetchone()
         if row is None:

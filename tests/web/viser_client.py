@@ -1,0 +1,113 @@
+"""A raw websocket client of the 3D viewer: viser's wire format, no browser.
+
+What an attacker's script (or a page from another origin) can do: open the websocket with any
+Origin, announce itself with a camera message (viser then counts it as a connected browser and
+builds its panel), read every message, and send any message viser parses: GUI updates of any
+widget id and property, share-URL requests, ...
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import msgspec
+import viser
+import viser._messages as messages
+import zstandard
+from websockets.sync.client import connect
+
+PROTOCOL = f"viser-v{viser.__version__}"
+
+
+def decode(frame: bytes) -> list[dict[str, Any]]:
+    """The messages of one server frame: 16-byte header, zstd msgpack, raw binary buffers."""
+    size = int.from_bytes(frame[8:16], "little")
+    inner = zstandard.ZstdDecompressor().decompress(frame[16 : 16 + size])
+    return list(msgspec.msgpack.decode(inner)["messages"])
+
+
+class ViserClient:
+    """One raw connection to a viser server on 127.0.0.1.
+
+    Args:
+        port: the viewer's port.
+        origin: the Origin header to send (None: none, as a script).
+
+    Raises:
+        websockets.exceptions.InvalidStatus: the server refused the handshake.
+    """
+
+    def __init__(self, port: int, origin: str | None = None, timeout: float = 10.0) -> None:
+        headers = {"Origin": origin} if origin is not None else None
+        self.ws = connect(
+            f"ws://127.0.0.1:{port}/", subprotocols=[PROTOCOL], additional_headers=headers,
+            open_timeout=timeout, max_size=None,
+        )  # fmt: skip
+        self.received: list[dict[str, Any]] = []
+        self._lock = threading.Lock()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        try:
+            for frame in self.ws:
+                with self._lock:
+                    self.received.extend(decode(frame))
+        except Exception:  # closed
+            return
+
+    def send(self, message: messages.Message) -> None:
+        self.ws.send(msgspec.msgpack.encode(message.as_serializable_dict()))
+
+    def hello(self) -> None:
+        """The camera message a browser sends first: viser then calls it connected."""
+        self.send(
+            messages.ViewerCameraMessage(
+                wxyz=(1.0, 0.0, 0.0, 0.0), position=(3.0, 3.0, 3.0), fov=1.3, near=0.01,
+                far=1000.0, image_height=600, image_width=800, look_at=(0.0, 0.0, 0.0),
+                up_direction=(0.0, 0.0, 1.0),
+            )
+        )  # fmt: skip
+
+    def widgets(self) -> dict[str, str]:
+        """Label → uuid of every GUI element this connection was sent (the newest of a label)."""
+        with self._lock:
+            found = {}
+            for message in self.received:
+                props = message.get("props")
+                if message["type"].startswith("Gui") and isinstance(props, dict):
+                    if "label" in props and "uuid" in message:
+                        found[props["label"]] = message["uuid"]
+            return found
+
+    def wait_widget(self, label: str, timeout: float = 10.0) -> str:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if label in (found := self.widgets()):
+                return found[label]
+            time.sleep(0.02)
+        raise AssertionError(f"no widget {label!r} within {timeout} s: {sorted(self.widgets())}")
+
+    def notifications(self) -> list[str]:
+        with self._lock:
+            return [
+                f"{m['props'].get('title')}: {m['props'].get('body')}"
+                for m in self.received
+                if m["type"] == "NotificationShowMessage" and isinstance(m.get("props"), dict)
+            ]
+
+    def update(self, uuid: str, **updates: Any) -> None:
+        """What a browser sends when a widget changes (any property, as a hostile one may)."""
+        self.send(messages.GuiUpdateMessage(uuid, updates))
+
+    def close(self) -> None:
+        self.ws.close()
+        self._reader.join(2.0)
+
+    def __enter__(self) -> ViserClient:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

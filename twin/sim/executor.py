@@ -1,0 +1,408 @@
+"""The one executor of runs, sweeps and scripts: a Dask client, started once, kept for good.
+
+Every simulation that is not the live session runs here, as a Dask future: a REST run (one
+`run_scenario` task), an operability sweep (`run_sweep`'s chunk tasks), `twin sweep`, and
+scripts that map a function over many jobs (`map_unordered`, e.g. scripts/reproduce.py).
+
+    with Executor.start() as executor:                  # a LocalCluster: one worker per core
+        future = executor.run({"sea_state": 5}, name="run-1")
+        output = future.result()                        # RunOutput: metrics, packed series
+    with Executor.start("tcp://10.0.0.5:8786") as executor: ...   # an existing cluster
+    with Executor.start("in-process") as executor: ...  # one worker thread in this process
+
+A LocalCluster has one single-threaded worker process per core (a run never competes with the
+web server for the GIL); every worker loads the compiled kernels (`twin.sim.engine.warm`) when
+it starts, through a worker plugin, so its first run is as fast as the next. Workers report a
+run's progress as Dask events (`Worker.log_event`) on the executor's topic; the client that
+submitted the run subscribes to them (`Executor.subscribe`). A run's series come back packed
+(`pack_series`: a compressed npz, no pickles), ready to store.
+
+Each run has a wall-clock budget as well as the scenario's step cap: `run_scenario` checks the
+clock between chunks of `PROGRESS_STEPS` steps (milliseconds each on the compiled engine) and
+raises `BudgetExceeded` past it.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import multiprocessing
+import os
+import time
+import uuid
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+import numpy as np
+
+from twin.errors import TwinError
+
+#: the scheduler name of an executor in this process (one worker thread, no Dask processes)
+IN_PROCESS = "in-process"
+#: [s] default wall-clock budget of one run (the longest a scenario may be, 200 000 steps with
+#: 2048 wave components, takes 1-2 s on a free core)
+RUN_BUDGET = 60.0
+#: [s] wall time between two progress reports of a running run
+PROGRESS_PERIOD = 0.5
+#: steps between two looks at the clock (a few milliseconds on the compiled engine)
+PROGRESS_STEPS = 1000
+#: Dask priorities: a REST run goes before the queued chunks of a sweep
+RUN_PRIORITY = 10
+SWEEP_PRIORITY = 0
+#: [s] how long `Executor.start` waits for a scheduler and its first worker
+CONNECT_TIMEOUT = 30.0
+#: [s] how long `Executor.close` gives the cluster to stop before its processes are killed
+CLOSE_TIMEOUT = 3.0
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+log = logging.getLogger(__name__)
+
+
+class BudgetExceeded(RuntimeError):
+    """A run went over its wall-clock budget (a failure of the run, not bad input)."""
+
+
+# -- what a worker runs -------------------------------------------------------------------------
+
+
+def pack_series(series: dict[str, np.ndarray]) -> bytes:
+    """Series as a compressed npz (no pickles, so loading it runs no code)."""
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **{k: np.asarray(v) for k, v in series.items()})
+    return buffer.getvalue()
+
+
+def unpack_series(blob: bytes) -> dict[str, np.ndarray]:
+    """Inverse of `pack_series`, keys in their original order."""
+    with np.load(io.BytesIO(blob), allow_pickle=False) as npz:
+        return {k: npz[k] for k in npz.files}
+
+
+@dataclass(frozen=True)
+class RunOutput:
+    """What a finished run sends back to the client that submitted it.
+
+    Attributes:
+        metrics: the run's metrics (JSON-ready).
+        series: its series, packed (`pack_series`).
+        steps: steps taken.
+        seconds: [s] wall time on the worker.
+    """
+
+    metrics: dict[str, Any]
+    series: bytes
+    steps: int
+    seconds: float
+
+
+def report(topic: str | None, message: dict[str, Any]) -> None:
+    """Log `message` on the Dask event `topic` from the worker running this task (nothing
+    outside a worker, or without a topic)."""
+    if topic is None:
+        return
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+    except (ImportError, ValueError):  # not inside a Dask task
+        return
+    worker.log_event(topic, {**message, "worker": worker.address})
+
+
+def run_scenario(
+    fields: dict[str, Any],
+    *,
+    name: str,
+    topic: str | None = None,
+    budget: float | None = RUN_BUDGET,
+) -> RunOutput:
+    """One run, as `simulate` steps it, with progress reports and a wall-clock budget.
+
+    Args:
+        fields: the scenario's fields (validated here).
+        name: the run's name in its progress reports (a run id).
+        topic: the Dask event topic of the reports (`Executor.topic`); None: no reports.
+        budget: [s] wall time allowed from the start of the run; None: no limit.
+
+    Raises:
+        ValueError: a scenario that cannot run (naming the field), zero steps included;
+            raised before any step.
+        BudgetExceeded: over `budget`, saying how far the run got.
+    """
+    from twin.sim.engine import Simulation
+    from twin.sim.scenario import Scenario
+
+    start = time.monotonic()
+    scenario = Scenario(**fields)
+    steps = round(scenario.duration / scenario.dt)
+    if steps < 1:
+        raise TwinError(
+            f"duration: {scenario.duration:g} s at dt = {scenario.dt:g} s is zero steps; "
+            "allowed: duration ≥ dt"
+        )
+    simulation = Simulation(scenario)
+    report(topic, {"name": name, "status": "running", "progress": 0.0})
+    last = time.monotonic()
+    while not simulation.done:
+        simulation.advance(PROGRESS_STEPS)
+        now = time.monotonic()
+        if budget is not None and now - start > budget and not simulation.done:
+            raise BudgetExceeded(
+                f"over the wall-clock budget of {budget:g} s: stopped after {simulation.k} of "
+                f"{simulation.n_steps} steps ({now - start:.2f} s); shorten the duration, "
+                "raise dt or lower n_components"
+            )
+        if now - last > PROGRESS_PERIOD:
+            report(topic, {"name": name, "status": "running", "progress": simulation.k / steps})
+            last = now
+    result = simulation.result()
+    return RunOutput(
+        result.metrics, pack_series(result.series), simulation.k, time.monotonic() - start
+    )
+
+
+def _warm_plugin() -> Any:
+    """A Dask worker plugin that loads the compiled kernels when a worker starts."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class WarmKernels(WorkerPlugin):
+        name = "twin-warm-kernels"
+        idempotent = True
+
+        def setup(self, worker: Any) -> None:
+            from twin.sim.engine import warm
+
+            warm()
+
+    return WarmKernels()
+
+
+# -- the client side ----------------------------------------------------------------------------
+
+
+class Executor:
+    """A Dask client with its cluster, if it started one: where runs and sweeps execute.
+
+    Build it with `Executor.start`; close it once (`close`, or a `with` block).
+
+    Attributes:
+        client: the Dask client.
+        where: "local cluster", "in-process" or the scheduler address.
+        numba_threads: numba threads a task may use (1 on a cluster of one worker per core;
+            None in process: all of them).
+        topic: the Dask event topic this executor's runs report progress on.
+        started: [s] `time.time()` when it was started.
+    """
+
+    def __init__(self, client: Any, cluster: Any = None, *, where: str) -> None:
+        self.client = client
+        self.cluster = cluster
+        self.where = where
+        self.numba_threads: int | None = None if where == IN_PROCESS else 1
+        self.topic = f"twin-progress-{uuid.uuid4().hex[:12]}"
+        self.started = time.time()
+        self.closed = False
+
+    @classmethod
+    def start(
+        cls,
+        scheduler: str | None = None,
+        *,
+        n_workers: int | None = None,
+        warm: bool = True,
+        timeout: float = CONNECT_TIMEOUT,
+    ) -> Executor:
+        """Start a LocalCluster (or join a scheduler) and load the kernels on every worker.
+
+        Args:
+            scheduler: None starts a `LocalCluster` of `n_workers` single-threaded worker
+                processes (default: one per core); "tcp://HOST:PORT" (or tls://, ucx://,
+                inproc://) joins an existing scheduler, whose workers need `twin` installed;
+                "in-process" starts one worker thread in this process (tests, small jobs).
+            n_workers: workers of a LocalCluster.
+            warm: load the compiled kernels on every worker, now and on any worker that joins.
+            timeout: [s] to reach the scheduler and its first worker.
+
+        Raises:
+            ValueError: an address that is not a Dask scheduler's, or a bad `n_workers`.
+            OSError, TimeoutError: the scheduler cannot be reached.
+        """
+        from distributed import Client, LocalCluster
+
+        if n_workers is not None and not 1 <= n_workers <= 256:
+            raise TwinError(f"n_workers: got {n_workers}; allowed 1 … 256")
+        if scheduler is None or scheduler == IN_PROCESS:
+            in_process = scheduler == IN_PROCESS
+            cluster = LocalCluster(
+                n_workers=1 if in_process else n_workers or os.cpu_count() or 1,
+                threads_per_worker=1,
+                processes=not in_process,
+                # scheduler and workers serve HTTP (health, metrics) in any case: on loopback
+                # (an in-process worker would listen on every interface) and on free ports
+                # (not 8787, which another cluster on the machine may hold)
+                dashboard_address="127.0.0.1:0",
+                worker_dashboard_address="127.0.0.1:0",
+                # workers log connection errors while a cluster shuts down; a task's own error
+                # still reaches its future
+                silence_logs=logging.CRITICAL,
+            )
+            try:
+                client = Client(cluster, timeout=timeout)
+            except BaseException:
+                cluster.close()
+                raise
+            executor = cls(client, cluster, where=IN_PROCESS if in_process else "local cluster")
+        else:
+            if not scheduler.startswith(("tcp://", "tls://", "inproc://", "ucx://")):
+                raise TwinError(
+                    f"scheduler: got {scheduler!r}; allowed None (a local cluster), "
+                    f"{IN_PROCESS!r} or a Dask address such as 'tcp://HOST:PORT'"
+                )
+            client = Client(scheduler, timeout=timeout)
+            executor = cls(client, where=scheduler)
+        try:
+            if not client.scheduler_info(n_workers=-1)["workers"]:
+                client.wait_for_workers(1, timeout=timeout)
+            if warm:
+                client.register_plugin(_warm_plugin())
+        except BaseException:
+            executor.close()
+            raise
+        return executor
+
+    # -- readers -----------------------------------------------------------------------------
+    @property
+    def workers(self) -> int:
+        """Worker threads the scheduler has now."""
+        info = self.client.scheduler_info(n_workers=-1)["workers"]
+        return sum(w.get("nthreads", 1) for w in info.values())
+
+    def info(self) -> dict[str, Any]:
+        """Where it runs, how many workers, since when (for `GET /api/health`)."""
+        workers = 0 if self.closed else self.workers
+        return {"scheduler": self.where, "workers": workers, "started": self.started}
+
+    # -- work ----------------------------------------------------------------------------------
+    def submit(
+        self, fn: Callable[..., R], *args: Any, priority: int = 0, key: str | None = None,
+        **kwargs: Any,
+    ) -> Any:  # fmt: skip
+        """Submit `fn(*args, **kwargs)`: a Dask future (never run twice as a cached result)."""
+        if self.closed:
+            raise RuntimeError("the executor is closed")
+        options = {"key": key} if key is not None else {}
+        return self.client.submit(fn, *args, priority=priority, pure=False, **options, **kwargs)
+
+    def run(
+        self, fields: dict[str, Any], *, name: str, budget: float | None = RUN_BUDGET
+    ) -> Any:
+        """A run as a future of its `RunOutput`, reporting progress on `topic` as `name`."""
+        return self.submit(
+            run_scenario, fields, name=name, topic=self.topic, budget=budget,
+            priority=RUN_PRIORITY, key=f"twin-run-{name}-{uuid.uuid4().hex[:8]}",
+        )  # fmt: skip
+
+    def map_unordered(
+        self, fn: Callable[[T], R], items: Iterable[T], *, priority: int = 0
+    ) -> Iterator[R]:
+        """`fn(item)` for every item on the workers; results as they finish (unordered).
+
+        Stopping early (or an error) cancels what has not finished.
+        """
+        from distributed import as_completed
+
+        futures = [self.submit(fn, item, priority=priority) for item in items]
+        try:
+            for future in as_completed(futures):
+                yield future.result()
+        finally:
+            self.cancel(futures)
+
+    def cancel(self, futures: Iterable[Any]) -> None:
+        """Cancel futures that have not finished (no-op for the others, or once closed)."""
+        pending = [f for f in futures if not f.done()]
+        if pending and not self.closed:
+            try:
+                self.client.cancel(pending)
+            except Exception:  # the client is going away: nothing left to cancel
+                log.debug("cancel failed", exc_info=True)
+
+    def subscribe(self, handler: Callable[[dict[str, Any]], None]) -> None:
+        """Call `handler(message)` for every progress report of this executor's runs (in the
+        client's event-loop thread: keep it short)."""
+        self.client.subscribe_topic(self.topic, lambda event: handler(event[1]))
+
+    def restart_worker(self, address: str) -> None:
+        """Restart one worker (a run stuck past its budget), without waiting for it."""
+        try:
+            self.client.restart_workers([address], timeout=CLOSE_TIMEOUT, raise_for_error=False)
+        except Exception:
+            log.warning("could not restart worker %s", address, exc_info=True)
+
+    # -- lifetime ------------------------------------------------------------------------------
+    def close(self, timeout: float = CLOSE_TIMEOUT) -> None:
+        """Stop at once: close the client and the cluster it started, if any. Worker processes
+        still busy with a task are killed first (what they were running is abandoned: a server
+        requeues its unfinished runs), so a worker deep in a kernel cannot hold the close up."""
+        if self.closed:
+            return
+        self.closed = True
+        busy = True
+        if self.cluster is not None:
+            try:
+                busy = any(self.client.processing().values())
+            except Exception:
+                log.debug("could not ask the scheduler what runs", exc_info=True)
+        workers = [p for p in multiprocessing.active_children() if "Dask Worker" in p.name]
+        try:
+            self.client.close(timeout=timeout)
+        except Exception:
+            log.debug("client close failed", exc_info=True)
+        if self.cluster is None:
+            return
+        if busy:
+            for process in workers:
+                process.kill()
+            for process in workers:
+                process.join(timeout)
+        try:
+            self.cluster.close(timeout=timeout)
+        except Exception:
+            log.debug("cluster close failed", exc_info=True)
+        finally:
+            # a close that timed out leaves the cluster registered, and distributed closes it
+            # again at interpreter exit, waiting its full default timeout
+            from distributed.deploy.spec import SpecCluster
+
+            SpecCluster._instances.discard(self.cluster)
+
+    def __enter__(self) -> Executor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def map_unordered(
+    fn: Callable[[T], R],
+    items: Iterable[T],
+    *,
+    scheduler: str | None = None,
+    n_workers: int | None = None,
+) -> Iterator[R]:
+    """`fn(item)` for every item on a fresh executor (`Executor.start(scheduler, n_workers)`),
+    results as they finish; the executor is closed once the iterator is exhausted or closed.
+
+    What scripts use instead of a process pool, e.g. scripts/reproduce.py:
+
+        for job, result in tqdm(map_unordered(run_job, todo, n_workers=2), total=len(todo)):
+            ...
+
+    `fn` and the items are pickled to the workers (a function of a script's `__main__` by
+    value); each worker has the kernels loaded before its first item.
+    """
+    with Executor.start(scheduler, n_workers=n_workers) as executor:
+        yield from executor.map_unordered(fn, items)

@@ -1,0 +1,313 @@
+"""What the REST API takes and answers: request and response models, and its 422s.
+
+Bad input is a 422 whose `detail` lists each field (`loc`), what is wrong (`msg`) and, for
+scenario and live fields, the `allowed` range; `message` says the same in one line. No model
+takes a path: a vessel is one of the shipped RAO tables by name.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Annotated, Any, Literal
+
+from fastapi.responses import JSONResponse
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    create_model,
+    field_validator,
+    model_validator,
+)
+
+from twin.mechanisms import MECHANISMS
+from twin.planners import PLANNERS, PlannerParameters, get_planner
+from twin.sea.sea_states import WMO_SEA_STATES
+from twin.sim import Scenario
+from twin.sim.live import LIVE_FIELDS as SESSION_FIELDS
+from twin.sim.live import LiveControls
+from twin.sim.scenario import DEFAULT_PLANNER
+from twin.sim.sweep import SweepSpec
+from twin.vessel.rao import available_raos
+
+# -- response models -------------------------------------------------------------------------
+
+
+class ExecutorInfo(BaseModel):
+    """The executor every run and sweep runs on: started once with the server."""
+
+    scheduler: str = Field(description="'local cluster', 'in-process' or the Dask address")
+    workers: int = Field(description="worker threads (one per core on a local cluster)")
+    started: float = Field(description="[s] when it started (Unix time)")
+
+
+class Health(BaseModel):
+    """The server is up."""
+
+    status: Literal["ok"] = "ok"
+    version: str = Field(description="wave-twin version")
+    viewer_port: int | None = Field(description="port of the 3D viewer on this host, if any")
+    executor: ExecutorInfo | None = Field(None, description="where runs and sweeps execute")
+
+
+class MechanismInfo(BaseModel):
+    """A mechanism of `twin.mechanisms.MECHANISMS` and the planners it can run."""
+
+    name: str = Field(description="registry name, the scenario's `mechanism`")
+    description: str
+    state_size: int = Field(description="values in the scenario's `initial_state`")
+    default_planner: str
+    planners: list[str] = Field(description="planners that plan for it")
+
+
+class PlannerInfo(BaseModel):
+    """A planner of `twin.planners.PLANNERS` and the knobs it reads."""
+
+    name: str = Field(description="registry name, the scenario's `planner`")
+    title: str
+    mechanisms: list[str]
+    source: str = Field(description="paper and equations")
+    default_for: list[str] = Field(description="mechanisms that use it when none is named")
+    parameters: dict[str, dict[str, Any]] = Field(
+        description="the scenario fields it reads, each with default, range and unit "
+        "(JSON schema of PlannerParameters)"
+    )
+
+
+class SeaStateInfo(BaseModel):
+    """A row of WMO code table 3700 with its representative sea."""
+
+    code: int = Field(description="WMO sea-state code, the scenario's `sea_state`")
+    description: str
+    hs_min: float = Field(description="[m] lower bound of the code's Hs range")
+    hs_max: float | None = Field(description="[m] upper bound; null: open (code 9)")
+    hs: float = Field(description="[m] representative significant wave height")
+    tp: float = Field(description="[s] representative peak period (fully developed sea)")
+
+
+class Registries(BaseModel):
+    """The read-only registries, built once per app."""
+
+    mechanisms: list[MechanismInfo]
+    planners: list[PlannerInfo]
+    sea_states: list[SeaStateInfo]
+
+    @classmethod
+    def build(cls) -> Registries:
+        schema = PlannerParameters.model_json_schema()["properties"]
+        mechanisms = [
+            MechanismInfo(
+                name=name,
+                description=(mechanism.__doc__ or name).strip().splitlines()[0],
+                state_size=mechanism().working_state.size,
+                default_planner=DEFAULT_PLANNER[name],
+                planners=[p for p, spec in PLANNERS.items() if name in spec.mechanisms],
+            )
+            for name, mechanism in MECHANISMS.items()
+        ]
+        planners = [
+            PlannerInfo(
+                name=spec.name,
+                title=spec.title,
+                mechanisms=list(spec.mechanisms),
+                source=spec.source,
+                default_for=[m for m, p in DEFAULT_PLANNER.items() if p == spec.name],
+                parameters={
+                    p: {k: v for k, v in schema[p].items() if k != "title"}
+                    for p in spec.parameters
+                },
+            )
+            for spec in PLANNERS.values()
+        ]
+        sea_states = [
+            SeaStateInfo(
+                code=s.code,
+                description=s.description,
+                hs_min=s.hs_min,
+                hs_max=s.hs_max if s.hs_max != float("inf") else None,
+                hs=s.hs,
+                tp=s.tp,
+            )
+            for s in WMO_SEA_STATES
+        ]
+        return cls(mechanisms=mechanisms, planners=planners, sea_states=sea_states)
+
+
+# -- request models ----------------------------------------------------------------------------
+
+#: the shipped RAO tables: over REST a vessel is named, never a path (a path would let a
+#: request make the server open any file it can read)
+VesselName = Literal[tuple(available_raos())]
+
+
+def _known_planner(value: str | None) -> str | None:
+    """A planner name is a registered one (an empty name included: refused, not defaulted)."""
+    if value is not None and value not in PLANNERS:
+        raise ValueError(f"unknown name {value!r}; allowed: {sorted(PLANNERS)}")
+    return value
+
+
+class RunRequest(Scenario):
+    """A scenario as a request gives it: the `Scenario` fields, `vessel` by name only."""
+
+    vessel: VesselName | None = Field(  # type: ignore[valid-type]
+        None,
+        description="shipped RAO table by name (assets/vessels); default: the mechanism's "
+        "mount. Your own .nc table is loaded from Python (`Scenario(vessel=path)`), not REST.",
+    )
+
+    @field_validator("planner")
+    @classmethod
+    def _planner_for_mechanism(cls, value: str | None, info: Any) -> str | None:
+        if value is not None:
+            get_planner(value, info.data.get("mechanism", "hybrid"))  # names the allowed ones
+        return value
+
+    @model_validator(mode="after")
+    def _at_least_one_step(self) -> RunRequest:
+        if round(self.duration / self.dt) < 1:
+            raise ValueError(
+                f"duration: {self.duration:g} s at dt = {self.dt:g} s is zero steps; allowed: "
+                "duration ≥ dt"
+            )
+        return self
+
+
+# -- live models: the scenario's fields, flat, plus the session's controls ---------------------
+
+#: Scenario fields the live session exposes (`duration` means nothing live).
+LIVE_FIELDS = tuple(name for name in SESSION_FIELDS if name not in LiveControls.model_fields)
+
+
+def _optional(model: type[BaseModel], name: str) -> tuple[Any, Any]:
+    """(annotation, field) of `model.name` made optional, its range kept."""
+    info = model.model_fields[name]
+    annotation = Annotated[info.annotation, *info.metadata] if info.metadata else info.annotation
+    return annotation | None, Field(None, description=info.description)
+
+
+LivePatch = create_model(
+    "LivePatch",
+    __config__=ConfigDict(extra="forbid", allow_inf_nan=False),
+    __doc__="Fields to change in the live session; omitted fields stay as they are.",
+    __validators__={"_known_planner": field_validator("planner")(_known_planner)},
+    **{name: _optional(RunRequest, name) for name in LIVE_FIELDS},
+    **{name: _optional(LiveControls, name) for name in LiveControls.model_fields},
+)
+
+LiveState = create_model(
+    "LiveState",
+    __doc__="The live session: its scenario fields, flat, with time, controls and metrics.",
+    **{
+        name: (info.annotation, Field(description=info.description))
+        for name, info in Scenario.model_fields.items()
+        if name in LIVE_FIELDS
+    },
+    t=(float, Field(description="[s] simulated time")),
+    **{
+        name: (info.annotation, Field(description=info.description))
+        for name, info in LiveControls.model_fields.items()
+    },
+    metrics=(dict[str, Any], Field(description="metrics over the live history")),
+    faults=(
+        dict[str, Any],
+        Field(
+            description="numerical faults since the last (re)start: `counts` per kind "
+            "(base_motion, planner, kinematics: the step was held; joint_limit: shortened at a "
+            "limit; singular: damped; infeasible: the qp planner took the closest feasible "
+            "rates), `held` steps, the newest `events` (t, kinds, message) "
+            "and `loop_errors`"
+        ),
+    ),
+)
+
+# -- errors ------------------------------------------------------------------------------------
+
+
+#: JSON-schema bound → how it reads on either side of the field's name
+_LOWER = {"minimum": "≤", "exclusiveMinimum": "<"}
+_UPPER = {"maximum": "≤", "exclusiveMaximum": "<"}
+
+
+def _allowed(name: str, schema: dict[str, Any]) -> str:
+    """A field's allowed values from its JSON schema, e.g. `0 ≤ beta ≤ 1 or null`."""
+    parts = []
+    for branch in schema.get("anyOf", [schema]):
+        if "enum" in branch:
+            parts.append("one of " + ", ".join(f"{v!r}" for v in branch["enum"]))
+            continue
+        low = "".join(f"{branch[k]:g} {op} " for k, op in _LOWER.items() if k in branch)
+        high = "".join(f" {op} {branch[k]:g}" for k, op in _UPPER.items() if k in branch)
+        parts.append(f"{low}{name}{high}" if low or high else branch.get("type", "any"))
+    return " or ".join(parts)
+
+
+def _ranges(*models: type[BaseModel]) -> dict[str, str]:
+    """Field name → allowed values of every field of the models."""
+    ranges: dict[str, str] = {}
+    for model in models:
+        for name, schema in model.model_json_schema()["properties"].items():
+            ranges[name] = _allowed(name, schema)
+    return ranges
+
+
+#: allowed values per body field, by the endpoint that receives the body
+RANGES = {
+    ("POST", "/api/runs"): _ranges(RunRequest),
+    ("PATCH", "/api/live"): _ranges(RunRequest, LiveControls),
+    ("POST", "/api/sweeps"): _ranges(SweepSpec),
+}
+
+
+def unprocessable(
+    errors: list[dict[str, Any]], ranges: dict[str, str], **extra: Any
+) -> JSONResponse:
+    """A 422 listing every error with its field, message and allowed values.
+
+    Args:
+        errors: pydantic-style errors (`loc`, `msg`, `type`); the request's input is not
+            echoed back (it may be large, or NaN, which JSON cannot carry).
+        ranges: field name → allowed values, for body fields.
+        extra: more top-level keys of the answer.
+    """
+    detail, lines = [], []
+    for error in errors:
+        loc = list(error["loc"])
+        item = {"loc": loc, "msg": error["msg"], "type": error["type"]}
+        field = loc[1] if len(loc) > 1 and loc[0] == "body" else None
+        if field in ranges:
+            item["allowed"] = ranges[field]
+        detail.append(item)
+        name = ".".join(map(str, loc[1:] or loc))
+        lines.append(f"{name}: {error['msg']}" + (f" (allowed: {item['allowed']})"
+                                                  if "allowed" in item else ""))  # fmt: skip
+    return JSONResponse({"detail": detail, "message": "; ".join(lines), **extra}, status_code=422)
+
+
+#: a TwinError's message names its field first: "planner: unknown name ''; …"
+_FIELD_FIRST = re.compile(r"^(?:Value error, )?([a-z_][a-z0-9_]*)(?:\[\d+\])?: ")
+
+
+def locate(errors: list[dict[str, Any]], fields: dict[str, str]) -> list[dict[str, Any]]:
+    """Errors of the whole body (a model's cross-field check) whose message starts with one
+    of `fields` ("duration: … zero steps") located at that field."""
+    out = []
+    for error in errors:
+        match = _FIELD_FIRST.match(error["msg"])
+        if tuple(error["loc"]) == ("body",) and match and match.group(1) in fields:
+            error = {**error, "loc": ("body", match.group(1))}
+        out.append(error)
+    return out
+
+
+def body_errors(exc: ValueError, fields: dict[str, str] | None = None) -> list[dict[str, Any]]:
+    """A model's ValidationError or a TwinError as errors located in the request body; one
+    whose message starts with one of `fields` is located at that field."""
+    if isinstance(exc, ValidationError):
+        errors = [
+            {"loc": ("body", *e["loc"]), "msg": e["msg"], "type": e["type"]} for e in exc.errors()
+        ]
+    else:
+        errors = [{"loc": ("body",), "msg": str(exc), "type": "value_error"}]
+    return locate(errors, fields or {})
