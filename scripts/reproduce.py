@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import multiprocessing
 import time
 from collections.abc import Callable, Sequence
 from itertools import pairwise
@@ -31,6 +30,7 @@ from tqdm import tqdm
 from twin.mechanisms import HybridBoardingSystem, Upr4, Upu3Up
 from twin.planners import PLANNERS, PlannerParameters
 from twin.sim import PAPER_PRESETS, simulate
+from twin.sim.executor import map_unordered
 from twin.sim.metrics import SETTLE
 from twin.sim.presets import MATCHED_HEADING, MATCHED_TP, SEED004_INITIAL_STATE
 from twin.spatial import invert_transform, pose_to_transform, se3_log
@@ -1672,11 +1672,10 @@ def main(n_seeds: int = 10, out: Path = Path("docs"), processes: int = 2) -> Non
     upr4_planners = platform_planners()
     todo = jobs(seeds, upr4_planners)
     runs: dict[Job, dict[str, Any]] = {}
-    with multiprocessing.Pool(processes) as pool:
-        for job, result in tqdm(
-            pool.imap_unordered(run_job, todo), total=len(todo), unit="run", desc="scenarios"
-        ):
-            runs[job] = result
+    # the executor of `twin serve` and `twin sweep` (a Dask LocalCluster, kernels warmed)
+    results = map_unordered(run_job, todo, n_workers=processes)
+    for job, result in tqdm(results, total=len(todo), unit="run", desc="scenarios"):
+        runs[job] = result
 
     hybrid = HybridBoardingSystem()
     plot_legs(runs, hybrid, figures / "legs_pi_wpi_mtmp.png")
@@ -1724,7 +1723,7 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="sea seeds 0 … n−1 (≥ 2)")
     parser.add_argument("--out", type=Path, default=Path("docs"), help="output directory")
-    parser.add_argument("--processes", type=int, default=2, help="worker processes")
+    parser.add_argument("--processes", type=int, default=2, help="Dask workers (processes)")
     args = parser.parse_args()
     if args.seeds < 2:
         parser.error("--seeds must be at least 2 (the report gives a spread over seeds)")

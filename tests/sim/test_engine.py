@@ -67,6 +67,7 @@ def test_base_pose_is_the_mount_on_the_vessel() -> None:
         ("dt", 0.0, "dt"),
         ("duration", MAX_DURATION + 1, "duration"),
         ("planner", "magic", "planner"),
+        ("planner", "", "unknown name ''"),
         ("planner", "pid", "does not plan for mechanism 'hybrid'"),
         ("mechanism", "crane", "mechanism"),
         ("sea_state", float("nan"), "sea_state"),

@@ -43,7 +43,7 @@ class Scenario(PlannerParameters):
     )
     planner: str | None = Field(
         None,
-        description="pi, wpi, mtmp, dwa, conv1, conv2 (hybrid); pid, ik (upu3up, upr4); "
+        description="pi, wpi, mtmp, dwa, conv1, conv2, qp (hybrid); pid, ik (upu3up, upr4); "
         "default mtmp for the hybrid system, pid for the small platforms",
     )
     sea_state: float = Field(4.0, ge=0.0, le=9.0, description="[-] WMO sea-state code 0-9")
@@ -113,8 +113,8 @@ class Scenario(PlannerParameters):
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
-        planner = self.planner or DEFAULT_PLANNER[self.mechanism]
-        get_planner(planner, self.mechanism)  # raises naming the allowed planners
+        planner = DEFAULT_PLANNER[self.mechanism] if self.planner is None else self.planner
+        get_planner(planner, self.mechanism)  # raises naming the allowed ones, "" included
         if self.planner is None:
             object.__setattr__(self, "planner", planner)
         steps = self.duration / self.dt
