@@ -113,7 +113,8 @@ def all_finite(values: dict) -> bool:
 )
 def test_hybrid_planner_step_is_finite_and_rate_limited(name, p, xi0, xi, offset, turn, twist, dt):
     """One step from any in-limit state towards a target near the held tip pose: finite
-    velocity and diagnostics; PI/WPI/MTMP stay within the rate limits with λ ∈ [0, λ_max]."""
+    velocity and diagnostics; PI/WPI/MTMP stay within the rate limits with λ ∈ [0, λ_max];
+    qp within its rate box."""
     planner = PLANNERS[name].build(H, p, xi0)
     planner.reset(xi0, TipTarget(H.end_effector(xi0), np.zeros(6)))
     target = TipTarget(near(H.end_effector(xi), offset, turn), twist)
@@ -126,6 +127,10 @@ def test_hybrid_planner_step_is_finite_and_rate_limited(name, p, xi0, xi, offset
         assert 0.0 < out.diagnostics["velocity_scale"] <= 1.0
         assert 0.0 <= out.diagnostics["damping"] <= p.damping
         assert np.all(out.diagnostics["weights"] >= 0.0)
+    elif name == "qp":  # the rate limits are a hard box, the level says what it met
+        assert np.all(np.abs(out.velocity) <= HYBRID_RATE_LIMITS * (1 + 1e-9))
+        assert out.diagnostics["qp_level"] in (0.0, 1.0, 2.0)
+        assert 0 <= out.diagnostics["qp_active"] <= 24
     else:
         share = out.diagnostics["position_share"]
         assert np.all((share >= 0.0) & (share <= 1.0))

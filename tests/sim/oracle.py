@@ -110,7 +110,8 @@ def hybrid_advance(
     hold: bool,
 ) -> HybridStep:
     """The former `HybridRig.advance` on one state xi (9,): plan; SINGULAR when the planner
-    damped (diagnostics `damping` > 0); a non-finite velocity holds the state (PLANNER, scale
+    damped (diagnostics `damping` > 0), INFEASIBLE when the qp planner relaxed its limits
+    (diagnostics `qp_level` 2); a non-finite velocity holds the state (PLANNER, scale
     0); in hold mode (`joint_limits == "hold"`) the step is shortened to `limit_scale`
     (JOINT_LIMIT when < 1); integrate the (scaled) velocity for dt. A planner that raises
     (`NUMERICAL`; e.g. `AllocationPlanner` on a NaN target) holds the state as the former
@@ -121,6 +122,8 @@ def hybrid_advance(
         return HybridStep(np.full(x.shape, np.nan), {}, x.copy(), 0.0, raised(exc))
     v = out.velocity
     bits = Fault.SINGULAR if out.diagnostics.get("damping", 0.0) > 0 else Fault(0)
+    if out.diagnostics.get("qp_level", 0.0) == 2:  # the qp planner relaxed its limits
+        bits |= Fault.INFEASIBLE
     if not np.all(np.isfinite(v)):
         return HybridStep(v, out.diagnostics, x.copy(), 0.0, int(bits | Fault.PLANNER))
     scale = limit_scale(mechanism, x, v, dt) if hold else 1.0

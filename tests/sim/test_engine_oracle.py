@@ -41,7 +41,7 @@ NEAR_LIMITS = list(
     H.working_state + 0.6 * np.r_[np.zeros(5), 1, 1, 1, 0] * (H.upper - H.working_state)
 )
 
-HYBRID = ("pi", "wpi", "mtmp", "dwa", "conv1", "conv2")
+HYBRID = ("pi", "wpi", "mtmp", "dwa", "conv1", "conv2", "qp")
 #: (mechanism, planner, joint_limits): every planner of every mechanism in both modes (the
 #: small platforms' end stops hold in either, so one mode each)
 CASES = [("hybrid", p, mode) for p in HYBRID for mode in ("record", "hold")] + [
@@ -56,7 +56,7 @@ FIELDS = {
 }
 #: a planner switch for each planner, across families where there are two
 SWITCH = {"pi": "mtmp", "wpi": "dwa", "mtmp": "conv1", "dwa": "pi", "conv1": "conv2",
-          "conv2": "wpi", "pid": "ik", "ik": "pid"}  # fmt: skip
+          "conv2": "qp", "qp": "wpi", "pid": "ik", "ik": "pid"}  # fmt: skip
 
 
 def scenario(mechanism: str, planner: str, joint_limits: str) -> dict:
@@ -129,12 +129,21 @@ def test_target_rows_round_trip(rng: np.random.Generator) -> None:
 @pytest.mark.parametrize("case", CASES, ids=IDS)
 def test_run_equals_oracle(case: tuple[str, str, str]) -> None:
     """A 3 s run: every step as the oracle's; the limits are met as the mode says (hybrid:
-    `hold` shortens steps, `record` passes the limits; Upr4: the end stops hold)."""
+    `hold` shortens steps, `record` passes the limits; qp: its limits bind, it passes none and
+    needs no shortening; Upr4: the end stops hold)."""
     sim, oracle = start(case)
     finish(sim, oracle)
     assert_equal_runs(sim, oracle)
     counts = oracle.fault_counts()
-    if case[0] == "hybrid":
+    if case[1] == "qp":
+        assert counts["joint_limit"] == 0
+        assert not np.any(H.limit_excess(np.array(oracle.states)) > 0)
+        assert max(d["qp_active"] for d in oracle.diagnostics) > 0
+        np.testing.assert_array_equal(sim.series()["qp_active"][1:],
+                                      [d["qp_active"] for d in oracle.diagnostics])  # fmt: skip
+        np.testing.assert_array_equal(sim.series()["qp_level"][1:],
+                                      [d["qp_level"] for d in oracle.diagnostics])  # fmt: skip
+    elif case[0] == "hybrid":
         passed = np.any(H.limit_excess(np.array(oracle.states)) > 1e-9)
         assert (counts["joint_limit"] > 0, passed) == (
             (True, False) if case[2] == "hold" else (False, True)
@@ -171,6 +180,8 @@ def test_update_equals_oracle(case: tuple[str, str, str], changes: dict) -> None
     finish(sim, oracle)
     assert_equal_runs(sim, oracle)
     reads = set(get_planner(case[1], case[0]).parameters) | {"planner", "joint_limits"}
+    if case[1] == "qp":  # it keeps its limits itself: `hold` never has a step to shorten
+        reads.discard("joint_limits")
     if set(changes) & reads:  # a knob the planner does not read: a reset, maybe a no-op
         assert_changed(sim, case)
 

@@ -12,9 +12,10 @@ from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.linalg import weighted_pinv
 from twin.planners.parameters import PlannerParameters
 from twin.planners.platform import PlatformModel, PlatformPlanner, advance_target
+from twin.planners.qp import QPPlanner
 from twin.planners.registry import HYBRID_RATE_LIMITS, PLANNERS, PlannerSpec, get_planner
 from twin.planners.target import PlannerOutput, TipTarget
-from twin.planners.tasks import JointPostureTask, TipPoseTask
+from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask
 from twin.planners.weights import BetaSplit, JointLimitWeights, ProductWeights
 
 __all__ = [
@@ -30,7 +31,9 @@ __all__ = [
     "PlannerSpec",
     "PlatformModel",
     "PlatformPlanner",
+    "PlatformYawTask",
     "ProductWeights",
+    "QPPlanner",
     "SlewPriority",
     "TipPoseTask",
     "TipTarget",

@@ -67,6 +67,35 @@ class PlannerParameters(BaseModel):
         le=1.0,
         description="[-] damped-least-squares λ_max at a singularity (docs/planners.md)",
     )
+    # The qp planner (twin.planners.qp; beyond the papers, docs/planners.md "qp").
+    w_orientation: float = Field(
+        1.0,
+        ge=0.0,
+        le=100.0,
+        description="[-] qp: weight of the tip orientation (the tip position is met exactly "
+        "when the limits allow)",
+    )
+    w_secondary: float = Field(
+        0.1,
+        ge=0.0,
+        le=1.0,
+        description="[-] qp: weight of MTMP's secondary terms (q2 held at its start, the "
+        "platform's yaw left to the slew joint)",
+    )
+    limit_gain: float = Field(
+        0.5,
+        gt=0.0,
+        le=1.0,
+        description="[-] qp: velocity-damper gain, the share of its room to a limit a leg or "
+        "joint may close in one step",
+    )
+    qp_damping: float = Field(
+        0.01,
+        ge=1e-4,
+        le=1.0,
+        description="[-] qp: regularisation μ of the rates, μ Σ v_j² / w_j with the β split w "
+        "(≥ 1e-4 keeps the QP well conditioned for its solver)",
+    )
     # Seed 002 §5 tunes an effort PID in Gazebo (kp = 5000, ki = 0.5, kd = 10); ours commands
     # velocity, so kp is a bandwidth: 120 1/s lags the 3 s wave of Table 2 by ω/kp ≈ 1.7 %,
     # the paper's level (η 98.23 %), and ki keeps the paper's ki/kp. The loop is sampled

@@ -15,6 +15,7 @@ from twin.planners.differential import DifferentialPlanner
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.parameters import PlannerParameters
 from twin.planners.platform import platform_builder
+from twin.planners.qp import QPPlanner, qp_planner
 from twin.planners.tasks import JointPostureTask, TipPoseTask
 from twin.planners.weights import BetaSplit, JointLimitWeights, ProductWeights
 
@@ -76,6 +77,15 @@ def _differential(
     return build
 
 
+def _qp(h: HybridBoardingSystem, p: PlannerParameters, xi0: np.ndarray) -> QPPlanner:
+    """The `qp` planner: q2 held at its start (seed 000 eq (40)), the limits hard."""
+    return qp_planner(
+        h, k_e=p.k_e, w_orientation=p.w_orientation, w_secondary=p.w_secondary,
+        limit_gain=p.limit_gain, beta=p.beta, l=p.l, k_a2=p.k_a2, yaw_hold=p.yaw_hold,
+        damping=p.qp_damping, q2_setpoint=float(xi0[7]), rate_limit=HYBRID_RATE_LIMITS,
+    )  # fmt: skip
+
+
 def _allocation(
     method: str,
 ) -> Callable[[HybridBoardingSystem, PlannerParameters, np.ndarray], AllocationPlanner]:
@@ -131,6 +141,25 @@ PLANNERS: dict[str, PlannerSpec] = {
             (),
             "seed 004 §4 b",
             _allocation("conv2"),
+        ),
+        PlannerSpec(
+            "qp",
+            "quadratic program with hard limits (beyond the papers)",
+            ("hybrid",),
+            (
+                "k_e",
+                "w_orientation",
+                "w_secondary",
+                "limit_gain",
+                "qp_damping",
+                "beta",
+                "l",
+                "k_a2",
+                "yaw_hold",
+            ),
+            "issue 15: task-based differential IK (as mink, pink) on seed 000 eqs (24), (34), "
+            "(39)-(40) and Algorithm 1, legs and Table 6 as hard limits",
+            _qp,
         ),
         PlannerSpec(
             "pid",

@@ -71,3 +71,34 @@ class JointPostureTask:
     def demand(self, xi: np.ndarray) -> np.ndarray:
         """(..., 1) [rad/s | m/s]."""
         return self.gain * (self.setpoint - xi[..., self.index : self.index + 1])
+
+
+@dataclass(frozen=True)
+class PlatformYawTask:
+    r"""Seed 000 Algorithm 1 as a task term (the `qp` planner): the platform keeps its yaw and
+    the slew joint turns the tip about P's z axis instead.
+
+    Algorithm 1 (`twin.planners.limits.SlewPriority`) hands the sum of the platform's body yaw
+    rate ω_pz and the slew rate q̇1 to q̇1, leaving the platform ω_pz,hold = −yaw_hold·tan(φ)·ω_py
+    (with yaw_hold = 1 the rate at which its Euler yaw stays put, docs/decisions.md "MTMP's
+    yaw"). As a residual: J_y v = ω_pz + yaw_hold·tan(φ)·ω_py, wanted 0; the slew joint's limits
+    and rate are the QP's hard limits, so Algorithm 1's σ bands are not needed.
+
+    Attributes:
+        yaw_hold: [-] as `SlewPriority.yaw_hold`.
+        n: number of joints.
+    """
+
+    yaw_hold: float = 1.0
+    n: int = 9
+
+    def jacobian(self, xi: np.ndarray) -> np.ndarray:
+        """J_y (..., 1, n): ω_pz (column 5) plus yaw_hold·tan(roll) ω_py (column 4)."""
+        J = np.zeros((*xi.shape[:-1], 1, self.n))
+        J[..., 0, 4] = self.yaw_hold * np.tan(xi[..., 3])
+        J[..., 0, 5] = 1.0
+        return J
+
+    def demand(self, xi: np.ndarray) -> np.ndarray:
+        """(..., 1) [rad/s]: zero."""
+        return np.zeros((*xi.shape[:-1], 1))

@@ -195,7 +195,7 @@ class Simulation:
     def _select(self, record: dict[str, np.ndarray], lane: int) -> dict[str, np.ndarray]:
         """The keys a lane's planner has: another family's diagnostics are left out."""
         mine = self.lanes.keys(self.scenarios[lane].planner)
-        every = self.lanes.keys("dwa") | self.lanes.keys("mtmp")
+        every = self.lanes.keys("dwa") | self.lanes.keys("mtmp") | self.lanes.keys("qp")
         return {k: v for k, v in record.items() if k in mine or k not in every}
 
     def metrics(self, series: dict[str, np.ndarray], lane: int = 0) -> dict[str, Any]:
@@ -206,6 +206,7 @@ class Simulation:
         metrics["fault_counts"] = {
             **{f.name.lower(): log.counts[f.name.lower()] for f in Fault if f in HOLDS},
             **series_faults(series),
+            "infeasible": log.counts["infeasible"],
         }
         return metrics
 
@@ -271,6 +272,7 @@ class Simulation:
         records["t"] = np.broadcast_to(t, (N, m))
         if self.k == 0:  # no step has been taken at t = 0: the first step's diagnostics repeat
             self.history.backfill_first(records, self.lanes.keys("dwa") | self.lanes.keys("mtmp")
+                                        | self.lanes.keys("qp")
                                         | {"limit_scale", "clipped", "saturated"})  # fmt: skip
         self.history.append(records)
         self.x = xs[:, -1].copy()
@@ -427,6 +429,7 @@ def warm(engine: str = "auto") -> float:
     for lanes in (
         [{**short, "planner": "mtmp"}],
         [{**short, "planner": "mtmp"}, {**short, "planner": "dwa"}],
+        [{**short, "planner": "qp"}],
         [{**short, "mechanism": "upr4"}],
         [{**short, "mechanism": "upr4"}, {**short, "mechanism": "upr4", "planner": "ik"}],
     ):

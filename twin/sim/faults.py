@@ -32,6 +32,8 @@ class Fault(IntFlag):
     JOINT_LIMIT = 8
     #: near-singular Jacobian: damped least squares engaged (the planner's `damping` > 0)
     SINGULAR = 16
+    #: no rates met every limit (the `qp` planner): the closest feasible rates were taken
+    INFEASIBLE = 32
 
 
 #: faults that stop the mechanism for the step (counted by the `faults` metric)

@@ -115,8 +115,10 @@ class HybridLanes:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Build the lane's planner from the registry, reset it at state x and target row
         (18,), and pack it: (prm row, memory row)."""
+        from twin.planners.qp import QPPlanner
         from twin.sim.kernels.allocation import pack_allocation
         from twin.sim.kernels.hybrid import pack_differential
+        from twin.sim.kernels.qp import pack_qp
 
         spec = get_planner(scenario.planner, "hybrid")
         planner = spec.build(self.mechanism, scenario.parameters(), self.x0[lane])
@@ -126,6 +128,8 @@ class HybridLanes:
             return pack_differential(planner, hold), np.zeros(layout.N_MEMORY)
         if isinstance(planner, AllocationPlanner):
             return pack_allocation(planner, hold)
+        if isinstance(planner, QPPlanner):
+            return pack_qp(planner, hold), np.zeros(layout.N_MEMORY)
         raise TwinError(f"planner {scenario.planner!r}: no kernel packs {type(planner).__name__}")
 
     def run(
@@ -139,8 +143,28 @@ class HybridLanes:
         diag: np.ndarray,
         faults: np.ndarray,
     ) -> None:
-        """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says)."""
-        run(xs, targets, prm, memory, self.const, dt, diag, faults)
+        """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says): the
+        lanes of the compiled families through `run` for the whole chunk, the qp lanes step by
+        step through `twin.sim.kernels.qp.run_qp` (compiled unless `run` is the plain
+        `run_hybrid`, the interpreted engine)."""
+        qp = prm[:, layout.P_KIND] == layout.KIND_QP
+        if not qp.any():
+            run(xs, targets, prm, memory, self.const, dt, diag, faults)
+            return
+        from twin.sim.kernels.hybrid import run_hybrid
+        from twin.sim.kernels.qp import run_qp
+
+        compiled = run is not run_hybrid
+        if qp.all():
+            run_qp(xs, targets, prm, self.const, dt, diag, faults, compiled)
+            return
+        rest, lanes = np.flatnonzero(~qp), np.flatnonzero(qp)
+        x, d, bits, rows = xs[rest], diag[rest], faults[rest], memory[rest]
+        run(x, targets[rest], prm[rest], rows, self.const, dt, d, bits)
+        xs[rest], diag[rest], faults[rest], memory[rest] = x, d, bits, rows
+        x, d, bits = xs[lanes], diag[lanes], faults[lanes]
+        run_qp(x, targets[lanes], prm[lanes], self.const, dt, d, bits, compiled)
+        xs[lanes], diag[lanes], faults[lanes] = x, d, bits
 
     def records(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float) -> dict:
         """Records (N, T, …) of states xs (N, T, 9) on base poses (N, T, 6), with the steps'
@@ -153,6 +177,8 @@ class HybridLanes:
         out["velocity_scale"] = diag[..., layout.D_SCALE]
         out["position_share"] = diag[..., layout.D_POSITION_SHARE : layout.D_POSITION_SHARE + 3]
         out["limit_scale"] = diag[..., layout.D_LIMIT_SCALE]
+        out["qp_level"] = diag[..., layout.D_QP_LEVEL]
+        out["qp_active"] = diag[..., layout.D_QP_ACTIVE]
         return out
 
     def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
@@ -161,9 +187,12 @@ class HybridLanes:
         return self.records(poses, x[:, None], diag, 1.0)
 
     def keys(self, planner: str) -> set[str]:
-        """The diagnostics a planner has: the differential ones' or the allocation ones'."""
+        """The diagnostics a planner has: the differential ones', the allocation ones' or the
+        qp planner's."""
         differential = {"weights", "null_space_share", "damping", "velocity_scale"}
         allocation = {"position_share"}
+        if planner == "qp":
+            return {"qp_level", "qp_active"}
         return allocation if planner in ("dwa", "conv1", "conv2") else differential
 
     def metrics(

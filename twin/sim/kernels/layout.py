@@ -23,6 +23,8 @@ N_TARGET = 18
 
 #: Planner families (prm[P_KIND]).
 KIND_DIFFERENTIAL, KIND_ALLOCATION, KIND_PLATFORM = 0, 1, 2
+#: the `qp` planner (`twin.sim.kernels.qp`: assembled compiled, solved by a QP library)
+KIND_QP = 3
 #: Common prm rows; a family's own rows start at P_FAMILY.
 P_KIND, P_HOLD, P_FAMILY = 0, 1, 2
 N_PARAMETERS = 48
@@ -31,6 +33,7 @@ N_MEMORY = 48
 #: Fault bits, the values of `twin.sim.faults.Fault` (tested equal), as plain ints for numba.
 FAULT_BASE_MOTION, FAULT_PLANNER, FAULT_KINEMATICS = 1, 2, 4
 FAULT_JOINT_LIMIT, FAULT_SINGULAR = 8, 16
+FAULT_INFEASIBLE = 32
 
 #: Hybrid-system constants (`const` of the hybrid runner): Table 6 joint limits, rate limits,
 #: gangway d1 and a1 (Table 1), the Stewart hinges (6 × 3 row-major, base hinges in B,
@@ -44,4 +47,7 @@ N_HYBRID_CONSTANTS = 67
 #: shares (3, allocation planners); the fraction of the step taken (1: all; `hold` mode).
 #: The engine hands diag in zeroed; a kernel leaves another family's rows alone (no NaN).
 D_WEIGHTS, D_SHARE, D_DAMPING, D_SCALE, D_POSITION_SHARE, D_LIMIT_SCALE = 0, 9, 10, 11, 12, 15
-N_HYBRID_DIAGNOSTICS = 16
+#: the qp planner's level (0: tip position exact, 1: weighted, 2: limits relaxed) and how many
+#: limit rows and rate bounds were active at its solution (`twin.planners.qp.solve_levels`).
+D_QP_LEVEL, D_QP_ACTIVE = 16, 17
+N_HYBRID_DIAGNOSTICS = 18

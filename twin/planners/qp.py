@@ -1,0 +1,445 @@
+r"""The `qp` planner: each step a small quadratic program over the nine virtual-joint rates,
+with the machine's limits as hard inequalities (beyond the papers; issue 15).
+
+The papers' planners are weighted pseudo-inverses whose limits are soft: MTMP's joint-limit
+weights (seed 000 eqs (35)-(37)) guard Table 6's virtual-joint box, not the legs, and nothing
+stops a rate limit but a common scale. The field's task-based differential IK (mink, pink,
+Drake's DifferentialInverseKinematics) solves each step as a QP with hard inequalities. Here,
+with v = [ᴾṖ; ω_P; q̇1; q̇2; ḋ3] (the platform's body twist in P, then the gangway rates, as
+every hybrid planner's velocity; `HybridBoardingSystem.integrate`):
+
+    minimise   ½ w_o |J_o v − b_o|²  +  ½ w_s Σ_a |J_a v − b_a|²  +  ½ μ Σ_j v_j² / w_j
+    subject to J_p v = b_p                                  (tip position, exactly)
+               lower ≤ C v ≤ upper                           (legs, Table 6: velocity dampers)
+               |v_j| ≤ v_j,max                               (HYBRID_RATE_LIMITS)
+
+- b = ẋ_d + k_e e, the closed-loop demand of seed 000 eq (34) (e with SPEC erratum 6), J the
+  task Jacobian of eq (24), split into its position rows (p) and orientation rows (o);
+- the secondary terms a are MTMP's, at the lower weight w_s: q2 held at its start (eqs (39)-
+  (40), SPEC erratum 5) and Algorithm 1's slew priority as a term that keeps the platform's
+  yaw (`PlatformYawTask`), the slew joint taking the rest of the tip's yaw;
+- μ Σ v_j² / w_j with w = `BetaSplit(β, l)` (eq (28)) picks among what is left and keeps the
+  Hessian positive definite (the Levenberg-Marquardt damping of mink and pink);
+- the inequalities are velocity dampers in mink's form: a coordinate s with limits
+  [s_min, s_max] moves by at most a fraction `gain` of its remaining room in one step,
+  gain (s_min + margin − s) / dt ≤ ṡ ≤ gain (s_max − margin − s) / dt, where ṡ is linear in v:
+  the six leg rates l̇ = J_P [ᴮR_P ᴾṖ; ᴮR_P ω_P] (seed 000 eq (8)); the platform's pose
+  coordinates, whose rates are ᴮR_P ᴾṖ and E(rpy)⁻¹ ᴮR_P ω_P (`twin.spatial.rpy_rate_matrix`:
+  the pose is [x, y, z, roll, pitch, yaw] while the velocity is a body twist); the gangway's
+  q1, q2, d3 (rates v_6, v_7, v_8). The margin is 1 mm plus a bound on a step's second-order
+  part (the rows are linear, the legs and Euler angles are not: `LegStrokeLimit`,
+  `JointLimit`), so a step within the rows never carries a coordinate past its limit.
+
+When the limits leave no rates that meet the tip position exactly, the position becomes a term
+of weight `position_weight` (level 1). When no rates meet every limit at all (a state outside
+its limits that the rate limits cannot bring back in one step), the limit rows take slacks
+s ≥ 0, lower − s ≤ C v ≤ upper + s, weighted `SLACK_WEIGHT` (level 2): the closest feasible
+rates; the engine flags the step `Fault.INFEASIBLE`. The rate limits are never relaxed.
+
+`QPPlanner.problem` states the matrices; `solve_levels` solves them with the chosen QP library
+(DAQP by default, docs/decisions.md "The qp planner's solver"). The compiled engine assembles
+the same matrices (`twin.sim.kernels.qp`, tested equal to 1e-9) and calls the same
+`solve_levels`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import daqp
+import numpy as np
+
+from twin.errors import TwinError
+from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.planners.target import PlannerOutput, TipTarget
+from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask
+from twin.planners.weights import BetaSplit
+from twin.spatial import rpy_rate_matrix, rpy_to_matrix
+
+#: QP libraries `solve_levels` can call: DAQP directly, or any through qpsolvers
+SOLVERS = ("daqp", "proxqp", "quadprog")
+#: weight of the limit slacks of level 2 (against the task terms, of order 1)
+SLACK_WEIGHT = 1e6
+#: smallest w_j of the regularisation's β split (β = 0 or 1 freezes a joint, not divides by 0)
+MIN_SPLIT = 1e-6
+#: DAQP's "infinite" bound
+INF = 1e30
+
+
+class Rows(NamedTuple):
+    """Linear rows of a limit: lower ≤ C v ≤ upper, C (m, 9), lower and upper (m,)."""
+
+    C: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+
+
+def damper(value: np.ndarray, low: np.ndarray, high: np.ndarray, gain: float,
+           margin_low: np.ndarray | float, margin_high: np.ndarray | float,
+           dt: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Velocity-damper bounds on a rate (mink's `ConfigurationLimit` form): the coordinate
+    `value` may close a fraction `gain` of its room to [low + margin_low, high − margin_high]
+    in dt; beyond it, it must come back by that fraction. Returns (lower, upper) [unit/s]."""
+    return gain * (low + margin_low - value) / dt, gain * (high - margin_high - value) / dt
+
+
+class StepBounds(NamedTuple):
+    """How far one step of rates inside the box can stray from its linearisation.
+
+    With θ = |ω_P| dt and s = |ᴾṖ| dt at most (the box's corners), a step moves the platform
+    by ᴮT_P exp([ᴾṖ; ω_P] dt) (`HybridBoardingSystem.integrate`, Lynch & Park eq (3.88)):
+    |exp([θ]×) − I − [θ]×| ≤ (1 − cos θ) + (θ − sin θ) = e_rot and |V(θ) − I| ≤
+    ((1 − cos θ) + (θ − sin θ)) / θ = e_trans, the rotation's and translation's second-order
+    parts."""
+
+    theta: float
+    s: float
+    e_rot: float
+    e_trans: float
+
+
+def step_bounds(rate: np.ndarray, dt: float) -> StepBounds:
+    """`StepBounds` of the rate box (9,) [m/s, rad/s] over dt [s]."""
+    theta = dt * float(np.sqrt(rate[3] ** 2 + rate[4] ** 2 + rate[5] ** 2))
+    s = dt * float(np.sqrt(rate[0] ** 2 + rate[1] ** 2 + rate[2] ** 2))
+    e_rot = (1.0 - np.cos(theta)) + (theta - np.sin(theta))
+    e_trans = e_rot / theta if theta > 0 else 0.0
+    return StepBounds(theta, s, float(e_rot), float(e_trans))
+
+
+@dataclass(frozen=True)
+class LegStrokeLimit:
+    r"""The six legs inside Table 1's stroke [l_min, l_max], as velocity dampers on
+    l̇ = J_P [ᴮR_P ᴾṖ; ᴮR_P ω_P] (seed 000 eq (8); `StewartPlatform.jacobian` takes the
+    platform's velocities in B, the planner's are in P).
+
+    The legs are not linear in the step, so the stroke's ends are kept further than `margin`
+    by a bound on the step's second-order part (`StepBounds` of the rate box): a leg vector
+    L = ᴮR_P ᴾP_i + ᴮp_P − ᴮB_i moves by ΔL = ᴮR_P[(exp([θ]×) − I) ᴾP_i + V(θ) ᴾṖ dt], whose
+    part beyond the rows' linear one is at most e_rot |ᴾP_i| + e_trans s. A length only loses
+    that much against its linear prediction (|L + ΔL| ≥ u·(L + ΔL)), and gains at most that
+    plus |ΔL|² / (2 l_min) (|L + ΔL| ≤ l + u·ΔL + |ΔL|² / (2l)), with |ΔL| ≤ θ |ᴾP_i| +
+    (1 + e_trans) s. So a step inside the box and the rows never carries a leg past its stroke.
+
+    Attributes:
+        mechanism: the hybrid system.
+        rate: (9,) [m/s, rad/s] the rate box the QP keeps (`RateLimit.maximum`).
+        gain: [-] fraction of the room to a limit a leg may close in one step, in (0, 1].
+        margin: [m] kept from the stroke's ends besides the second-order bound.
+    """
+
+    mechanism: HybridBoardingSystem
+    rate: np.ndarray
+    gain: float = 0.5
+    margin: float = 1e-3
+
+    def margins(self, dt: float) -> tuple[float, float]:
+        """[m] (kept from l_min, kept from l_max) at dt [s]."""
+        b = step_bounds(np.asarray(self.rate, dtype=float), dt)
+        arm = float(np.max(np.linalg.norm(self.mechanism.layout.platform_hinges, axis=1)))
+        shift = b.e_rot * arm + b.e_trans * b.s
+        stretch = (b.theta * arm + (1.0 + b.e_trans) * b.s) ** 2 / (
+            2.0 * self.mechanism.stewart.leg_min
+        )
+        return self.margin + shift, self.margin + shift + stretch
+
+    def rows(self, xi: np.ndarray, dt: float) -> Rows:
+        """(C (6, 9), lower (6,), upper (6,)) [m/s] at the state xi (9,)."""
+        stewart = self.mechanism.stewart
+        J_P = stewart.jacobian(xi[:6])
+        R = rpy_to_matrix(xi[3:6])
+        C = np.zeros((6, 9))
+        C[:, :3] = J_P[:, :3] @ R
+        C[:, 3:6] = J_P[:, 3:] @ R
+        low, high = damper(stewart.leg_lengths(xi[:6]), stewart.leg_min, stewart.leg_max,
+                           self.gain, *self.margins(dt), dt)  # fmt: skip
+        return Rows(C, low, high)
+
+
+@dataclass(frozen=True)
+class JointLimit:
+    r"""The nine virtual joints inside Table 6 (absolute, SPEC erratum 3), as velocity dampers
+    on their coordinate rates: the platform's position ẋ = ᴮR_P ᴾṖ, its roll-pitch-yaw rates
+    E(rpy)⁻¹ ᴮR_P ω_P (`twin.spatial.rpy_rate_matrix`), the gangway's q̇1, q̇2, ḋ3.
+
+    Besides `margin`, the limits are kept further by the step's second-order part
+    (`StepBounds` of the rate box): e_trans s on the platform's position (its step is
+    ᴮR_P V(θ) ᴾṖ dt); θ² on its roll, pitch and yaw, a bound of their second-order part over
+    Table 6's box (|pitch| ≤ 30°: at most 0.45 θ² there, tests/planners/test_qp.py); none on
+    the gangway joints, which integrate linearly.
+
+    Attributes:
+        lower, upper: (9,) [m, rad] the limits.
+        rate: (9,) [m/s, rad/s] the rate box the QP keeps (`RateLimit.maximum`).
+        gain: [-] fraction of the room to a limit a joint may close in one step, in (0, 1].
+        margin: [m | rad] kept from the limits besides the second-order bound.
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    rate: np.ndarray
+    gain: float = 0.5
+    margin: float = 1e-3
+
+    def margins(self, dt: float) -> np.ndarray:
+        """(9,) [m, rad] kept from either limit at dt [s]."""
+        b = step_bounds(np.asarray(self.rate, dtype=float), dt)
+        return self.margin + np.r_[np.full(3, b.e_trans * b.s), np.full(3, b.theta**2),
+                                   np.zeros(3)]  # fmt: skip
+
+    def rows(self, xi: np.ndarray, dt: float) -> Rows:
+        """(C (9, 9), lower (9,), upper (9,)) [m/s, rad/s] at the state xi (9,)."""
+        R = rpy_to_matrix(xi[3:6])
+        C = np.zeros((9, 9))
+        C[:3, :3] = R
+        C[3:6, 3:6] = np.linalg.solve(rpy_rate_matrix(xi[3:6]), R)
+        C[6:, 6:] = np.eye(3)
+        margin = self.margins(dt)
+        low, high = damper(xi, self.lower, self.upper, self.gain, margin, margin, dt)
+        return Rows(C, low, high)
+
+
+@dataclass(frozen=True)
+class RateLimit:
+    """|v_j| ≤ maximum_j: the box of joint rates (`HYBRID_RATE_LIMITS`), never relaxed.
+
+    Attributes:
+        maximum: (9,) [m/s, rad/s].
+    """
+
+    maximum: np.ndarray
+
+
+class QPProblem(NamedTuple):
+    """One step's QP (module doc), in the layout DAQP takes (the first 9 bounds bound v):
+
+        min ½ vᵀ H v + fᵀ v   s.t.   lower ≤ [v; A v] ≤ upper
+
+    H (9, 9) and f (9,) hold every term but the position; A (3 + m, 9) is the position rows
+    J_p (3) then the limit rows C (m); lower and upper (9 + 3 + m,) are the rate box (9), b_p
+    twice (the position an equality) and the limits' bounds (m). `position_weight` is the
+    position's weight when it turns into a term (level 1)."""
+
+    H: np.ndarray
+    f: np.ndarray
+    A: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    position_weight: float
+
+
+class QPSolution(NamedTuple):
+    """Rates v (9,) (NaN if even level 2 failed) and the level solved (0: position exact,
+    1: position weighted, 2: limits relaxed, the closest feasible rates)."""
+
+    velocity: np.ndarray
+    level: int
+
+
+@dataclass
+class QPPlanner:
+    r"""Task-based differential IK with hard limits for the hybrid system (module doc).
+
+    Attributes:
+        tip: the tip pose task (gain k_e): its position rows an equality, its orientation rows
+            a term of weight `orientation_weight`.
+        orientation_weight: w_o [-].
+        position_weight: [-] the position's weight when it cannot be met exactly (level 1).
+        secondary: MTMP's secondary tasks (`JointPostureTask` on q2, `PlatformYawTask`).
+        secondary_weight: w_s [-].
+        split: `BetaSplit` w_j of the regularisation.
+        damping: μ [-] of the regularisation.
+        limits: the limit objects (`LegStrokeLimit`, `JointLimit`): rows of inequalities.
+        rate_limit: the rate box.
+        solver: a QP library of `SOLVERS`.
+    """
+
+    tip: TipPoseTask
+    limits: tuple
+    rate_limit: RateLimit
+    orientation_weight: float = 1.0
+    position_weight: float = 1e4
+    secondary: tuple = ()
+    secondary_weight: float = 0.1
+    split: BetaSplit | None = None
+    damping: float = 0.01
+    solver: str = "daqp"
+
+    def __post_init__(self) -> None:
+        if self.solver not in SOLVERS:
+            raise TwinError(f"QPPlanner solver: unknown {self.solver!r}; allowed: {SOLVERS}")
+
+    def reset(self, xi: np.ndarray, target: TipTarget) -> None:
+        """A velocity-level planner keeps no state between steps."""
+        del xi, target  # Unused.
+
+    def problem(self, xi: np.ndarray, target: TipTarget, dt: float) -> QPProblem:
+        """The step's QP at the state xi (9,) (module doc)."""
+        J = self.tip.jacobian(xi)
+        b, _ = self.tip.demand(xi, target)
+        w_o = self.orientation_weight
+        H = w_o * J[3:].T @ J[3:]
+        f = -w_o * J[3:].T @ b[3:]
+        for task in self.secondary:
+            J_a, b_a = task.jacobian(xi), task.demand(xi)
+            H = H + self.secondary_weight * J_a.T @ J_a
+            f = f - self.secondary_weight * J_a.T @ b_a
+        w = np.ones(9) if self.split is None else self.split(xi)
+        H = H + np.diag(self.damping / np.maximum(w, MIN_SPLIT))
+        rows = [limit.rows(xi, dt) for limit in self.limits]
+        rate = np.broadcast_to(np.asarray(self.rate_limit.maximum, dtype=float), (9,))
+        A = np.concatenate([J[:3], *(r.C for r in rows)])
+        lower = np.concatenate([-rate, b[:3], *(r.lower for r in rows)])
+        upper = np.concatenate([rate, b[:3], *(r.upper for r in rows)])
+        return QPProblem(H, f, A, lower, upper, self.position_weight)
+
+    def step(self, xi: np.ndarray, target: TipTarget, dt: float) -> PlannerOutput:
+        """Joint rates (9,) for the state xi (9,): the QP's solution (`solve_levels`)."""
+        problem = self.problem(xi, target, dt)
+        solution = solve_levels(problem, self.solver)
+        return PlannerOutput(
+            velocity=solution.velocity,
+            diagnostics={
+                "task_error": self.tip.error(xi, target),
+                "qp_level": float(solution.level),
+                "qp_active": float(count_active(problem, solution.velocity)),
+            },
+        )
+
+
+# ------------------------------------------------------------------------------------ solving
+
+
+def solve_daqp(
+    H: np.ndarray, f: np.ndarray, A: np.ndarray, upper: np.ndarray, lower: np.ndarray,
+    n_equal: int,
+) -> np.ndarray | None:  # fmt: skip
+    """DAQP (Arnström et al. 2022, a dual active-set method in C) on
+    min ½xᵀHx + fᵀx s.t. lower ≤ [x; A x] ≤ upper (the first len(x) entries bound x), the
+    first `n_equal` rows of A equalities; the solution, or None when DAQP finds none."""
+    sense = np.zeros(upper.size, dtype=np.intc)
+    n = f.size
+    sense[n : n + n_equal] = 5  # DAQP's "equality"
+    x, _, exitflag, _ = daqp.solve(H, f, A, upper, lower, sense)
+    return np.asarray(x) if exitflag > 0 else None
+
+
+def solve_qpsolvers(
+    H: np.ndarray, f: np.ndarray, A: np.ndarray, upper: np.ndarray, lower: np.ndarray,
+    n_equal: int, solver: str,
+) -> np.ndarray | None:  # fmt: skip
+    """`solve_daqp`'s problem through qpsolvers with `solver` (one-sided G x ≤ h rows)."""
+    import qpsolvers
+
+    n = f.size
+    E, rows = A[:n_equal], A[n_equal:]
+    low, high = lower[n + n_equal :], upper[n + n_equal :]
+    keep_high, keep_low = high < INF / 2, low > -INF / 2
+    G = np.concatenate([rows[keep_high], -rows[keep_low]])
+    h = np.concatenate([high[keep_high], -low[keep_low]])
+    problem = qpsolvers.Problem(
+        H, f, G if G.size else None, h if G.size else None,
+        E if n_equal else None, upper[n : n + n_equal] if n_equal else None,
+        lower[:n], np.minimum(upper[:n], INF),
+    )  # fmt: skip
+    solution = qpsolvers.solve_problem(problem, solver=solver)
+    if not solution.found or solution.x is None or not np.all(np.isfinite(solution.x)):
+        return None
+    return np.asarray(solution.x)
+
+
+def solve_qp(
+    H: np.ndarray, f: np.ndarray, A: np.ndarray, upper: np.ndarray, lower: np.ndarray,
+    n_equal: int, solver: str = "daqp",
+) -> np.ndarray | None:  # fmt: skip
+    """`solve_daqp`'s problem with `solver` (`SOLVERS`); None when there is no solution."""
+    if solver == "daqp":
+        return solve_daqp(H, f, A, upper, lower, n_equal)
+    return solve_qpsolvers(H, f, A, upper, lower, n_equal, solver)
+
+
+def count_active(problem: QPProblem, v: np.ndarray, tol: float = 1e-9) -> int:
+    """Limit rows and rate bounds at their bound at v (to tol, relative to the bound's size);
+    0 for a non-finite v."""
+    if not np.all(np.isfinite(v)):
+        return 0
+    n = v.size
+    Cv = problem.A[3:] @ v
+    low, high = problem.lower[n + 3 :], problem.upper[n + 3 :]
+    rows = (Cv >= high - tol * (1 + np.abs(high))) | (Cv <= low + tol * (1 + np.abs(low)))
+    box = np.abs(v) >= problem.upper[:n] * (1 - tol)
+    return int(np.count_nonzero(rows) + np.count_nonzero(box))
+
+
+def solve_levels(problem: QPProblem, solver: str = "daqp") -> QPSolution:
+    """The step's rates: level 0 (position an equality), else level 1 (position a term of
+    `position_weight`), else level 2 (limit rows relaxed by slacks of weight `SLACK_WEIGHT`;
+    the closest feasible rates); NaN rates if all three fail or the problem is not finite (a
+    NaN target: the engine then holds the machine)."""
+    H, f, A, lower, upper, rho = problem
+    n = f.size
+    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
+        return QPSolution(np.full(n, np.nan), 0)
+    # level 0: the rate box, the position rows (equalities), the limit rows
+    v = solve_qp(H, f, A, upper, lower, 3, solver)
+    if v is not None:
+        return QPSolution(v, 0)
+    # level 1: the position a weighted term
+    J_p, b_p = A[:3], upper[n : n + 3]
+    H1 = H + rho * J_p.T @ J_p
+    f1 = f - rho * J_p.T @ b_p
+    C, low, high, rate = A[3:], lower[n + 3 :], upper[n + 3 :], upper[:n]
+    v = solve_qp(H1, f1, C, np.r_[rate, high], np.r_[-rate, low], 0, solver)
+    if v is not None:
+        return QPSolution(v, 1)
+    # level 2: z = [v; s], low − s ≤ C v ≤ high + s, s ≥ 0, cost + SLACK_WEIGHT |s|²
+    m = C.shape[0]
+    H2 = np.zeros((n + m, n + m))
+    H2[:n, :n] = H1
+    H2[n:, n:] = SLACK_WEIGHT * np.eye(m)
+    A2 = np.block([[C, np.eye(m)], [C, -np.eye(m)]])
+    upper2 = np.r_[rate, np.full(m, INF), np.full(m, INF), high]
+    lower2 = np.r_[-rate, np.zeros(m), low, np.full(m, -INF)]
+    z = solve_qp(H2, np.r_[f1, np.zeros(m)], A2, upper2, lower2, 0, solver)
+    if z is not None:
+        return QPSolution(z[:n], 2)
+    return QPSolution(np.full(n, np.nan), 2)
+
+
+def qp_planner(
+    mechanism: HybridBoardingSystem,
+    *,
+    k_e: float,
+    w_orientation: float,
+    w_secondary: float,
+    limit_gain: float,
+    beta: float,
+    l: float,
+    k_a2: float,
+    yaw_hold: float,
+    damping: float,
+    q2_setpoint: float,
+    rate_limit: np.ndarray,
+    solver: str = "daqp",
+) -> QPPlanner:
+    """The registry's `qp`: the tip task, MTMP's two secondary terms, the leg and Table 6
+    dampers at `limit_gain`, the rate box."""
+    rate = np.asarray(rate_limit, dtype=float)
+    return QPPlanner(
+        tip=TipPoseTask(mechanism, gain=k_e),
+        limits=(
+            LegStrokeLimit(mechanism, rate, gain=limit_gain),
+            JointLimit(mechanism.lower, mechanism.upper, rate, gain=limit_gain),
+        ),
+        rate_limit=RateLimit(rate),
+        orientation_weight=w_orientation,
+        secondary=(
+            JointPostureTask(index=7, setpoint=q2_setpoint, gain=k_a2),
+            PlatformYawTask(yaw_hold=yaw_hold),
+        ),
+        secondary_weight=w_secondary,
+        split=BetaSplit(beta, l),
+        damping=damping,
+        solver=solver,
+    )
