@@ -15,7 +15,7 @@ web server for the GIL); every worker loads the compiled kernels (`twin.sim.engi
 it starts, through a worker plugin, so its first run is as fast as the next. Workers report a
 run's progress as Dask events (`Worker.log_event`) on the executor's topic; the client that
 submitted the run subscribes to them (`Executor.subscribe`). A run's series come back packed
-(`pack_series`: a compressed npz, no pickles), ready to store.
+(`pack_series`: an npz, no pickles), ready to store.
 
 Each run has a wall-clock budget as well as the scenario's step cap: `run_scenario` checks the
 clock between chunks of `PROGRESS_STEPS` steps (milliseconds each on the compiled engine) and
@@ -69,9 +69,10 @@ class BudgetExceeded(RuntimeError):
 
 
 def pack_series(series: dict[str, np.ndarray]) -> bytes:
-    """Series as a compressed npz (no pickles, so loading it runs no code)."""
+    """Series as an npz (no pickles, so loading it runs no code). Not compressed: float series
+    shrink by a sixth at 40 times the cost of writing them (measured, benchmarks/run.py)."""
     buffer = io.BytesIO()
-    np.savez_compressed(buffer, **{k: np.asarray(v) for k, v in series.items()})
+    np.savez(buffer, **{k: np.asarray(v) for k, v in series.items()})
     return buffer.getvalue()
 
 
