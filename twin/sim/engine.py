@@ -148,7 +148,7 @@ class Simulation:
         at_rest = np.stack([b.mount.pose(np.zeros((1, 6)))[0] for b in self.base_motions])
         block = self._sample(self.base_motions, 0, at_rest)
         T_IB0 = pose_to_transform(block.poses[:, 0])
-        self.lanes = LANES[first.mechanism](self.mechanism, x0, T_IB0)
+        self.lanes = LANES[first.mechanism](self.mechanism, x0, T_IB0, self.compiled)
         self._block = self._with_targets(block)
         self.x = x0.copy()
         self.prm, self.memory = self._pack(self.scenarios, self._block, 0)
@@ -281,7 +281,9 @@ class Simulation:
         self.k += m
 
     # -- changes -----------------------------------------------------------------------------
-    def update(self, changes: dict[str, Any]) -> set[str]:
+    def update(
+        self, changes: dict[str, Any], lanes: Sequence[dict[str, Any]] | None = None
+    ) -> set[str]:
         """Apply changed scenario fields to every lane from the next step on, without a reset.
 
         Everything is validated and built before anything changes, so a bad value raises a
@@ -290,15 +292,26 @@ class Simulation:
         in base motion); a planner or parameter change rebuilds and repacks the planner at the
         current state; `joint_limits` switches holding at the limits on or off.
 
+        Args:
+            changes: fields every lane takes.
+            lanes: per lane, fields it takes over `changes` (a comparison lane keeping its own
+                planner, say); None: none.
+
         Returns:
             The names of the fields whose value changed (in any lane).
 
         Raises:
             ValueError: a bad value, or a field in `RESTART_FIELDS` (start a new Simulation).
         """
-        new = [Scenario(**{**s.model_dump(), **changes}) for s in self.scenarios]
+        own = [{}] * self.n_lanes if lanes is None else list(lanes)
+        if len(own) != self.n_lanes:
+            raise TwinError(f"lanes: {len(own)} given for {self.n_lanes} lanes")
+        new = [
+            Scenario(**{**s.model_dump(), **changes, **mine})
+            for s, mine in zip(self.scenarios, own, strict=True)
+        ]
         changed = {
-            k for k in changes for n, s in zip(new, self.scenarios, strict=True)
+            k for k in set(changes).union(*own) for n, s in zip(new, self.scenarios, strict=True)
             if getattr(n, k) != getattr(s, k)
         }  # fmt: skip
         if changed & RESTART_FIELDS:

@@ -99,10 +99,20 @@ class HybridLanes:
     kind = "hybrid"
     state_key = "xi"
 
-    def __init__(self, mechanism: HybridBoardingSystem, x0: np.ndarray, T_IB0: np.ndarray):
+    def __init__(
+        self,
+        mechanism: HybridBoardingSystem,
+        x0: np.ndarray,
+        T_IB0: np.ndarray,
+        compiled: bool = True,
+    ):
         from twin.sim.kernels.hybrid import hybrid_constants
+        from twin.sim.kernels.records import compiled_records, run_hybrid_records
 
         self.mechanism = mechanism
+        # records of a chunk: compiled, parallel over lanes when there are several
+        parallel = compiled and len(x0) > 1 and _threads() > 1
+        self._records = compiled_records(parallel) if compiled else run_hybrid_records
         self.x0 = np.array(x0, dtype=float)
         self.held = T_IB0 @ mechanism.end_effector(self.x0)
         self.landing, self.gangway0 = landing_frame(T_IB0, self.x0, mechanism)
@@ -170,7 +180,9 @@ class HybridLanes:
         """Records (N, T, …) of states xs (N, T, 9) on base poses (N, T, 6), with the steps'
         diagnostics (N, T, N_HYBRID_DIAGNOSTICS)."""
         del dt  # Unused: nothing recorded is a rate.
-        out = hybrid_records(self.mechanism, poses, xs, self.held, self.landing, self.gangway0)
+        out = hybrid_records(
+            poses, xs, self.held, self.landing, self.gangway0, self.const, self._records
+        )
         out["weights"] = diag[..., layout.D_WEIGHTS : layout.D_WEIGHTS + 9]
         out["null_space_share"] = diag[..., layout.D_SHARE]
         out["damping"] = diag[..., layout.D_DAMPING]
@@ -216,9 +228,10 @@ class PlatformLanes:
     kind = "platform"
     state_key = "state"
 
-    def __init__(self, mechanism: Any, x0: np.ndarray, T_IB0: np.ndarray):
+    def __init__(self, mechanism: Any, x0: np.ndarray, T_IB0: np.ndarray, compiled: bool = True):
         from twin.sim.kernels.platform import N_PLATFORM_DIAGNOSTICS, platform_constants
 
+        del compiled  # Unused: the platforms' records are numpy (one model per lane).
         self.mechanism = mechanism
         self.x0 = np.array(x0, dtype=float)
         self.models = [PlatformModel(mechanism, z_hold=float(z)) for z in self.x0[:, 0]]

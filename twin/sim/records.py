@@ -7,13 +7,15 @@ the states and base poses of a chunk, vectorised over lanes and time, each trans
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from twin.mechanisms import HybridBoardingSystem
 from twin.mechanisms.upu3up import Upu3Up
 from twin.planners.platform import PlatformModel
 from twin.sim.target import tilt
-from twin.spatial import invert_transform, pose_error, pose_to_transform, rpy_to_matrix, so3_log
+from twin.spatial import invert_transform, pose_error, pose_to_transform
 
 
 def gangway_tip(mechanism: HybridBoardingSystem, q: np.ndarray) -> np.ndarray:
@@ -61,21 +63,24 @@ def gangway_direction(
 
 
 def hybrid_records(
-    mechanism: HybridBoardingSystem,
     poses: np.ndarray,
     xi: np.ndarray,
     held: np.ndarray,
     landing: np.ndarray,
     gangway0: np.ndarray,
+    const: np.ndarray,
+    runner: Callable,
 ) -> dict[str, np.ndarray]:
-    """The hybrid system's record at T samples of N lanes.
+    """The hybrid system's record at T samples of N lanes, computed by the compiled records
+    runner (`twin.sim.kernels.records`, one pass over the chunk).
 
     Args:
-        mechanism: the hybrid system.
         poses: (N, T, 6) inertial base poses [m, rad].
         xi: (N, T, 9) virtual joints [m, rad].
         held: (N, 4, 4) ᴵT_E*, the held tip pose.
         landing, gangway0: (N, 3, 3) and (N, 3), `landing_frame` at t = 0.
+        const: the hybrid constants (`twin.sim.kernels.hybrid.hybrid_constants`).
+        runner: `compiled_records(...)` or the plain `run_hybrid_records`.
 
     Returns:
         base_pose, xi, legs, tip_error (tip pose error against ᴮT_d, [m, rad] in B),
@@ -83,54 +88,25 @@ def hybrid_records(
         change since t = 0 [rad]), alpha_top (tilt of the tip's "up" axis from its held
         direction [rad]), alpha_bottom (the base's tilt [rad]), each (N, T, ...).
     """
-    R_IB, p_IB = rpy_to_matrix(poses[..., 3:]), poses[..., :3]
-    R_BP, p_BP = rpy_to_matrix(xi[..., 3:6]), xi[..., :3]
-    G = gangway_tip(mechanism, xi[..., 6:])
-    R_BE = R_BP @ G[..., :3, :3]  # ᴮT_E = ᴮT_P ᴾT_E, HybridBoardingSystem.end_effector (eq (14))
-    p_BE = mat_vec(R_BP, G[..., :3, 3]) + p_BP
-    # the held pose in B, ᴮT_d = ᴵT_B⁻¹ ᴵT_E*, and the tip's error against it (pose_error)
-    R_IBt = np.swapaxes(R_IB, -1, -2)
-    R_BD = R_IBt @ held[:, None, :3, :3]
-    p_BD = mat_vec(R_IBt, held[:, None, :3, 3] - p_IB)
-    error = np.concatenate([p_BD - p_BE, so3_log(R_BD @ np.swapaxes(R_BE, -1, -2))], -1)
-    R_IP = R_IB @ R_BP
-    g = mat_vec(R_IP, xi[..., 8:9] * G[..., :3, 2])  # luff pivot → tip, inertial
-    g = mat_vec(landing[:, None], g)
-    g0 = gangway0[:, None]
-    up0 = held[:, None, :3, 0]  # the tip's x axis is "up" at q = 0
-    up = mat_vec(R_IB, R_BE[..., :, 0])
-    # StewartPlatform.legs and .manipulability (sqrt det(J Jᵀ) = |det J| for the square J_P)
-    layout = mechanism.layout
-    arms = layout.platform_hinges @ np.swapaxes(R_BP, -1, -2)  # (..., 6, 3)
-    vectors = arms + p_BP[..., None, :] - layout.base_hinges
-    lengths = np.sqrt(np.sum(vectors * vectors, axis=-1))
-    units = vectors / lengths[..., None]
-    J = np.concatenate([units, cross(arms, units)], -1)  # legs.twist_jacobian
+    from twin.sim.kernels import records as kernel
+
+    N, T = xi.shape[:2]
+    legs, errors = np.empty((N, T, 6)), np.empty((N, T, 6))
+    scalars = np.empty((N, T, kernel.N_SCALARS))
+    runner(np.ascontiguousarray(poses), np.ascontiguousarray(xi), np.ascontiguousarray(held),
+           np.ascontiguousarray(landing), np.ascontiguousarray(gangway0), const, legs, errors,
+           scalars)  # fmt: skip
     return {
         "base_pose": poses,
         "xi": xi,
-        "legs": lengths,
-        "tip_error": error,
-        "manipulability": np.abs(np.linalg.det(J)),
-        "phi_e": np.arctan2(g[..., 1], g[..., 0]) - np.arctan2(g0[..., 1], g0[..., 0]),
-        "theta_e": np.arctan2(g[..., 2], g[..., 0]) - np.arctan2(g0[..., 2], g0[..., 0]),
-        "alpha_top": np.arctan2(
-            np.linalg.norm(cross(up, up0), axis=-1), np.sum(up * up0, axis=-1)
-        ),
-        "alpha_bottom": tilt(R_IB),
+        "legs": legs,
+        "tip_error": errors,
+        "manipulability": scalars[..., kernel.S_MANIPULABILITY],
+        "phi_e": scalars[..., kernel.S_PHI_E],
+        "theta_e": scalars[..., kernel.S_THETA_E],
+        "alpha_top": scalars[..., kernel.S_ALPHA_TOP],
+        "alpha_bottom": scalars[..., kernel.S_ALPHA_BOTTOM],
     }
-
-
-def mat_vec(R: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """R v for stacks of 3 × 3 matrices (..., 3, 3) and vectors (..., 3)."""
-    return np.einsum("...ij,...j->...i", R, v)
-
-
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b over the last axis (..., 3), without `np.cross`'s conversions."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], -1)
 
 
 def platform_records(

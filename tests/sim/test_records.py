@@ -1,0 +1,43 @@
+"""What a run records, computed per chunk by the compiled records runner, equals the mechanism
+objects' own methods (legs, tip pose error, manipulability, tilt), compiled or interpreted."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.conftest import random_hybrid_states
+from twin.mechanisms import HybridBoardingSystem
+from twin.planners import HYBRID_RATE_LIMITS
+from twin.sim.kernels.hybrid import hybrid_constants
+from twin.sim.kernels.records import compiled_records, run_hybrid_records
+from twin.sim.records import hybrid_records, landing_frame
+from twin.sim.target import tilt
+from twin.spatial import invert_transform, pose_error, pose_to_transform
+
+H = HybridBoardingSystem()
+
+
+@pytest.mark.parametrize("runner", ["compiled", "python"])
+def test_hybrid_records_equal_the_mechanism(rng: np.random.Generator, runner: str) -> None:
+    n_lanes, n = 2, 40
+    xi = random_hybrid_states(rng, n_lanes * n, shrink=0.8).reshape(n_lanes, n, 9)
+    poses = rng.normal(scale=[0.5, 0.5, 0.5, 0.1, 0.1, 0.3], size=(n_lanes, n, 6))
+    T_IB0 = pose_to_transform(poses[:, 0])
+    held = T_IB0 @ H.end_effector(xi[:, 0])
+    landing, g0 = landing_frame(T_IB0, xi[:, 0], H)
+    run = compiled_records(False) if runner == "compiled" else run_hybrid_records
+    out = hybrid_records(poses, xi, held, landing, g0, hybrid_constants(H, HYBRID_RATE_LIMITS),
+                         run)  # fmt: skip
+    T_IB = pose_to_transform(poses)
+    np.testing.assert_allclose(out["legs"], H.leg_lengths(xi), atol=1e-12)
+    expected = pose_error(invert_transform(T_IB) @ held[:, None], H.end_effector(xi))
+    np.testing.assert_allclose(out["tip_error"], expected, atol=1e-12)
+    np.testing.assert_allclose(out["manipulability"], H.manipulability(xi), rtol=1e-10)
+    np.testing.assert_allclose(out["alpha_bottom"], tilt(T_IB[..., :3, :3]), atol=1e-14)
+    # at t = 0 the tip is where it is held and the gangway points where it started
+    np.testing.assert_allclose(out["tip_error"][:, 0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(out["alpha_top"][:, 0], 0.0, atol=1e-7)
+    np.testing.assert_allclose(out["phi_e"][:, 0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(out["theta_e"][:, 0], 0.0, atol=1e-12)
+    assert np.abs(out["phi_e"][:, 1:]).max() > 1e-3  # and moves with the states

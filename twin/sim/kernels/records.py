@@ -1,0 +1,143 @@
+r"""What the hybrid system records at each sample, for a whole chunk, compiled.
+
+Nothing here feeds back into the stepping: the runner is called once per chunk, after the
+kernel has stepped it, over every lane and sample (`twin.sim.records.hybrid_records`). It uses
+the kernels' one-lane primitives (`twin.sim.kernels.hybrid`, `twin.sim.kernels.allocation`), so
+the tip, the legs and the manipulability are computed as the planners see them.
+
+Per sample, with ᴵT_B the base, ᴮT_E the tip (seed 000 eq (14)) and ᴵT_E* the held tip pose:
+
+- legs: |ᴮR_P ᴾP_i + ᴮp_P − ᴮB_i| (seed 000 eqs (4)-(5));
+- tip error: [ᴮp_d − ᴮp_E; log(ᴮR_d ᴮR_Eᵀ)] with ᴮT_d = ᴵT_B⁻¹ ᴵT_E* (eq (34), SPEC erratum 6);
+- manipulability: |det J_P| = sqrt(det(J_P J_Pᵀ)) (SPEC erratum 7);
+- φe, θe: the azimuth and elevation of the gangway (luff pivot → tip, d3 along the tip's z
+  axis) in the landing frame, minus their values at t = 0 (seed 004 §3.1 a);
+- α_top: the angle between the tip's x axis ("up" at q = 0) and its held direction;
+  α_bottom: the base's tilt from inertial z.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from functools import cache
+
+import numpy as np
+
+from twin.sim.kernels.allocation import leg_vectors_lane, manipulability_lane
+from twin.sim.kernels.compile import compile_runner, prange, register_jitable
+from twin.sim.kernels.hybrid import rpy_to_matrix_lane, so3_log_lane, tip_transform
+
+#: Scalar record rows (`run_hybrid_records`' `scalars`).
+S_MANIPULABILITY, S_PHI_E, S_THETA_E, S_ALPHA_TOP, S_ALPHA_BOTTOM = 0, 1, 2, 3, 4
+N_SCALARS = 5
+#: work space of one sample's record: ᴵR_B, ᴮR_P, ᴮT_E, the error rotation, its log, two
+#: directions, the leg vectors
+N_SCRATCH = 70
+
+
+@register_jitable
+def hybrid_record_lane(
+    pose: np.ndarray,
+    x: np.ndarray,
+    held: np.ndarray,
+    landing: np.ndarray,
+    g0: np.ndarray,
+    const: np.ndarray,
+    legs_out: np.ndarray,
+    error_out: np.ndarray,
+    scalars_out: np.ndarray,
+    scratch: np.ndarray,
+) -> None:
+    """One sample's record (module docstring).
+
+    Args:
+        pose: (6,) ᴵT_B as [x, y, z, roll, pitch, yaw] [m, rad].
+        x: (9,) xi [m, rad].
+        held: (4, 4) ᴵT_E*.
+        landing: (3, 3) inertial → landing frame; g0: (3,) the gangway vector at t = 0 in it.
+        const: hybrid constants.
+        legs_out: (6,) [m]; error_out: (6,) [m, rad] in B; scalars_out: (N_SCALARS,) written.
+        scratch: (N_SCRATCH,) work space (allocated once per lane by the runner).
+    """
+    R_IB, R_BP = scratch[0:9].reshape(3, 3), scratch[9:18].reshape(3, 3)
+    T_E, R_err = scratch[18:34].reshape(4, 4), scratch[34:43].reshape(3, 3)
+    w, up, g = scratch[43:46], scratch[46:49], scratch[49:52]
+    vectors = scratch[52:70].reshape(6, 3)
+    rpy_to_matrix_lane(pose[3], pose[4], pose[5], R_IB)
+    rpy_to_matrix_lane(x[3], x[4], x[5], R_BP)
+    tip_transform(x, const, T_E)
+    # ᴮT_d = ᴵT_B⁻¹ ᴵT_E*; error against ᴮT_E, log of ᴮR_d ᴮR_Eᵀ
+    for i in range(3):
+        d = 0.0
+        for k in range(3):
+            d += R_IB[k, i] * (held[k, 3] - pose[k])
+        error_out[i] = d - T_E[i, 3]
+        for j in range(3):
+            s = 0.0
+            for k in range(3):
+                # (ᴮR_d)_ik = Σ_m R_IB[m, i] held[m, k]; times (ᴮR_E)_jk
+                rd = R_IB[0, i] * held[0, k] + R_IB[1, i] * held[1, k] + R_IB[2, i] * held[2, k]
+                s += rd * T_E[j, k]
+            R_err[i, j] = s
+    so3_log_lane(R_err, w)
+    error_out[3], error_out[4], error_out[5] = w[0], w[1], w[2]
+    # legs and manipulability
+    leg_vectors_lane(R_BP, x[:3], const, vectors, legs_out)
+    scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, const)
+    # inertial directions of the tip's axes: ᴵR_B ᴮR_E e_x (up) and d3 ᴵR_B ᴮR_E e_z (gangway)
+    for i in range(3):
+        up[i] = R_IB[i, 0] * T_E[0, 0] + R_IB[i, 1] * T_E[1, 0] + R_IB[i, 2] * T_E[2, 0]
+        g[i] = x[8] * (R_IB[i, 0] * T_E[0, 2] + R_IB[i, 1] * T_E[1, 2] + R_IB[i, 2] * T_E[2, 2])
+    gl0 = landing[0, 0] * g[0] + landing[0, 1] * g[1] + landing[0, 2] * g[2]
+    gl1 = landing[1, 0] * g[0] + landing[1, 1] * g[1] + landing[1, 2] * g[2]
+    gl2 = landing[2, 0] * g[0] + landing[2, 1] * g[1] + landing[2, 2] * g[2]
+    scalars_out[S_PHI_E] = math.atan2(gl1, gl0) - math.atan2(g0[1], g0[0])
+    scalars_out[S_THETA_E] = math.atan2(gl2, gl0) - math.atan2(g0[2], g0[0])
+    u0, u1, u2 = held[0, 0], held[1, 0], held[2, 0]
+    c0 = up[1] * u2 - up[2] * u1
+    c1 = up[2] * u0 - up[0] * u2
+    c2 = up[0] * u1 - up[1] * u0
+    dot = up[0] * u0 + up[1] * u1 + up[2] * u2
+    scalars_out[S_ALPHA_TOP] = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot)
+    scalars_out[S_ALPHA_BOTTOM] = math.atan2(math.hypot(R_IB[0, 2], R_IB[1, 2]), R_IB[2, 2])
+
+
+def run_hybrid_records(
+    poses: np.ndarray,
+    xs: np.ndarray,
+    held: np.ndarray,
+    landing: np.ndarray,
+    gangway0: np.ndarray,
+    const: np.ndarray,
+    legs: np.ndarray,
+    errors: np.ndarray,
+    scalars: np.ndarray,
+) -> None:
+    """Records of N lanes × T samples.
+
+    Args:
+        poses: (N, T, 6) base poses; xs: (N, T, 9) states; held: (N, 4, 4);
+        landing: (N, 3, 3); gangway0: (N, 3); const: hybrid constants.
+        legs: (N, T, 6), errors: (N, T, 6), scalars: (N, T, N_SCALARS), written.
+    """
+    for n in prange(xs.shape[0]):
+        scratch = np.empty(N_SCRATCH)
+        for k in range(xs.shape[1]):
+            hybrid_record_lane(poses[n, k], xs[n, k], held[n], landing[n], gangway0[n], const,
+                               legs[n, k], errors[n, k], scalars[n, k], scratch)  # fmt: skip
+
+
+@cache
+def compiled_records(parallel: bool) -> Callable:
+    """`run_hybrid_records` compiled (`compile_runner`); plain Python without numba."""
+    return compile_runner(
+        run_hybrid_records,
+        parallel,
+        (
+            "twin.sim.kernels.records",
+            "twin.sim.kernels.hybrid",
+            "twin.sim.kernels.allocation",
+            "twin.sim.kernels.layout",
+        ),
+    )
