@@ -9,7 +9,7 @@ import pytest
 
 from tests.figures import record
 from twin.mechanisms import HybridBoardingSystem
-from twin.sim.base_motion import BaseMotion, BaseSamples
+from twin.sim.base_motion import BaseMotion
 from twin.sim.engine import Simulation
 from twin.sim.kernels.layout import TARGET_V
 
@@ -35,19 +35,18 @@ def random_hybrid_states(rng: np.random.Generator, n: int, shrink: float = 0.5) 
 @pytest.fixture
 def nan_sea(monkeypatch: pytest.MonkeyPatch) -> Callable[[float, float], None]:
     """`nan_sea(start, end)`: every BaseMotion built afterwards (or re-sampled) returns NaN
-    poses and transforms for start ≤ t ≤ end [s] (± 1e-9), as a fault injection."""
+    poses (and so transforms) for start ≤ t ≤ end [s] (± 1e-9), as a fault injection."""
 
     def inject(start: float, end: float = np.inf) -> None:
-        original = BaseMotion.sample
+        original = BaseMotion.poses
 
-        def sample(self: BaseMotion, t: np.ndarray) -> BaseSamples:
-            samples = original(self, t)
-            bad = (samples.t >= start - 1e-9) & (samples.t <= end + 1e-9)
-            pose, transform = samples.pose.copy(), samples.transform.copy()
-            pose[bad], transform[bad] = np.nan, np.nan
-            return BaseSamples(samples.t, pose, transform)
+        def poses(self: BaseMotion, t: np.ndarray) -> np.ndarray:
+            out = original(self, t).copy()
+            t = np.asarray(t, dtype=float)
+            out[(t >= start - 1e-9) & (t <= end + 1e-9)] = np.nan
+            return out
 
-        monkeypatch.setattr(BaseMotion, "sample", sample)
+        monkeypatch.setattr(BaseMotion, "poses", poses)
 
     return inject
 

@@ -12,7 +12,7 @@ import pytest
 
 from tests.figures import record
 from twin.sim import Simulation
-from twin.sim.base_motion import BaseMotion, BaseSamples
+from twin.sim.base_motion import BaseMotion
 from twin.sim.faults import Fault, FaultLog, hold_invalid, hold_nonfinite
 from twin.sim.kernels.layout import P_HOLD
 from twin.sim.live import LiveSession
@@ -54,10 +54,10 @@ def test_a_sea_that_raises_is_held_like_nan(monkeypatch: pytest.MonkeyPatch) -> 
     # a live session's history: base motion is sampled 256 steps (12.8 s) ahead
     sim = Simulation({"sea_state": 3, "duration": 20.0}, history_limit=1000)
 
-    def broken(self: BaseMotion, t: np.ndarray) -> BaseSamples:
+    def broken(self: BaseMotion, t: np.ndarray) -> np.ndarray:
         raise FloatingPointError("overflow in the RAO interpolation")
 
-    monkeypatch.setattr(BaseMotion, "sample", broken)
+    monkeypatch.setattr(BaseMotion, "poses", broken)
     run = sim.run()  # the second chunk (t > 12.8 s) cannot be evaluated
     assert all_finite(run.series) and run.metrics["fault_counts"]["base_motion"] > 100
     held = run.series["base_pose"][run.series["t"] > 13.0]
@@ -152,18 +152,14 @@ def test_joint_limits_switch_live_without_a_restart() -> None:
 
 
 def test_hold_invalid_carries_the_last_good_pose_across_batches() -> None:
-    t = np.arange(5.0)
     pose = np.arange(30.0).reshape(5, 6)
-    pose[0], pose[3] = np.nan, np.inf
-    from twin.spatial import pose_to_transform
-
-    samples = BaseSamples(t, pose, pose_to_transform(np.nan_to_num(pose)))
-    out, bad, last = hold_invalid(samples, last_good=np.full(6, 7.0))
-    assert bad.tolist() == [True, False, False, True, False]
-    np.testing.assert_array_equal(out.pose[0], np.full(6, 7.0))
-    np.testing.assert_array_equal(out.pose[3], out.pose[2])
-    np.testing.assert_array_equal(last, out.pose[4])
-    np.testing.assert_allclose(out.transform, pose_to_transform(out.pose))
+    pose[0], pose[3], pose[4] = np.nan, np.inf, np.nan
+    out, bad = hold_invalid(pose, last_good=np.full(6, 7.0))
+    assert bad.tolist() == [True, False, False, True, True]
+    np.testing.assert_array_equal(out[0], np.full(6, 7.0))
+    np.testing.assert_array_equal(out[3], out[2])
+    np.testing.assert_array_equal(out[4], out[2])
+    np.testing.assert_array_equal(out[1:3], np.arange(6.0, 18.0).reshape(2, 6))
 
 
 def test_hold_nonfinite_fills_from_the_sample_before() -> None:

@@ -34,7 +34,7 @@ from tqdm import tqdm
 
 from twin.errors import TwinError
 from twin.mechanisms import MECHANISMS
-from twin.sim.base_motion import BaseMotion, BaseSamples
+from twin.sim.base_motion import BaseMotion
 from twin.sim.faults import (
     HOLDS,
     Fault,
@@ -368,11 +368,11 @@ class Simulation:
         poses, bad = [], []
         for motion, good in zip(base_motions, last_good, strict=True):
             try:
-                samples = motion.sample(t)
+                pose = motion.poses(t)
             except NUMERICAL:
-                samples = BaseSamples(t, np.full((t.size, 6), np.nan), np.zeros((t.size, 4, 4)))
-            samples, invalid, _ = hold_invalid(samples, good)
-            poses.append(samples.pose)
+                pose = np.full((t.size, 6), np.nan)
+            pose, invalid = hold_invalid(pose, good)
+            poses.append(pose)
             bad.append(invalid)
         return _Block(start, np.stack(poses), np.stack(bad), np.empty((len(poses), steps, 0)))
 

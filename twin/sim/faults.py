@@ -15,9 +15,6 @@ from enum import IntFlag
 
 import numpy as np
 
-from twin.sim.base_motion import BaseSamples
-from twin.spatial import pose_to_transform
-
 
 class Fault(IntFlag):
     """What happened at a step; several may at once."""
@@ -45,32 +42,22 @@ def fault_names(fault: Fault) -> list[str]:
     return [f.name.lower() for f in Fault if f in fault]
 
 
-def hold_invalid(
-    samples: BaseSamples, last_good: np.ndarray
-) -> tuple[BaseSamples, np.ndarray, np.ndarray]:
-    """Base samples with every non-finite pose replaced by the last finite one before it.
+def hold_invalid(pose: np.ndarray, last_good: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Base poses with every non-finite row replaced by the last finite one before it.
 
     Args:
-        samples: base motion at N times (any row may hold NaN or inf).
+        pose: (N, 6) [m, rad] base poses at N times (any row may hold NaN or inf).
         last_good: (6,) [m, rad] the finite pose to hold if the first rows are bad.
 
     Returns:
-        (samples with finite poses and transforms, (N,) bool: rows replaced, (6,) the last
-        finite pose, to carry into the next batch).
+        (finite poses (N, 6), (N,) bool: the rows replaced).
     """
-    pose = np.array(samples.pose, dtype=float)
-    bad = ~np.all(np.isfinite(pose), axis=1) | ~np.all(
-        np.isfinite(samples.transform.reshape(len(pose), -1)), axis=1
-    )
-    if not bad.any():
-        return samples, bad, pose[-1].copy()
+    pose = np.array(pose, dtype=float)
+    bad = ~np.all(np.isfinite(pose), axis=1)
     held = np.array(last_good, dtype=float)
-    for i in range(len(pose)):
-        if bad[i]:
-            pose[i] = held
-        else:
-            held = pose[i]
-    return BaseSamples(samples.t, pose, pose_to_transform(pose)), bad, held.copy()
+    for i in np.flatnonzero(bad):
+        pose[i] = pose[i - 1] if i else held
+    return pose, bad
 
 
 def hold_nonfinite(records: dict[str, np.ndarray], previous: dict[str, np.ndarray]) -> np.ndarray:
