@@ -543,6 +543,58 @@ def svd_pinv_apply(
 
 
 @register_jitable
+def tip_task_lane(
+    x: np.ndarray,
+    target: np.ndarray,
+    gain: float,
+    const: np.ndarray,
+    R: np.ndarray,
+    G: np.ndarray,
+    K: np.ndarray,
+    demand: np.ndarray,
+) -> None:
+    """The tip task of one lane (`TipPoseTask`): ᴮR_P into R (3, 3), ᴾT_E into G (4, 4), the
+    task Jacobian in P, K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]] (seed 000 eq (24) with
+    D = diag(ᴮR_P, ᴮR_P) factored out; J_s eq (11)) into K (6, 9), and the demand
+    ẋ_d + k_e e in B (eq (34); e = [p_d − p; log(R_d Rᵀ)], SPEC erratum 6) into demand (6,).
+
+    Args:
+        x: (9,) xi [m, rad]; target: (18,) the target row (layout `TARGET_*`);
+        gain: k_e [1/s]; const: hybrid constants.
+    """
+    rpy_to_matrix_lane(x[3], x[4], x[5], R)
+    gangway_tip_lane(x[6], x[7], x[8], const, G)
+    E = np.empty((3, 4))  # ᴮT_E = ᴮT_P ᴾT_E (eq (14))
+    for i in range(3):
+        for j in range(4):
+            E[i, j] = R[i, 0] * G[0, j] + R[i, 1] * G[1, j] + R[i, 2] * G[2, j]
+        E[i, 3] += x[i]
+    M = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            M[i, j] = (
+                target[3 * i] * E[j, 0] + target[3 * i + 1] * E[j, 1] + target[3 * i + 2] * E[j, 2]
+            )
+    log = np.empty(3)
+    so3_log_lane(M, log)
+    for i in range(3):
+        demand[i] = target[12 + i] + gain * (target[9 + i] - E[i, 3])
+        demand[3 + i] = target[15 + i] + gain * log[i]
+    for a in range(6):
+        for j in range(9):
+            K[a, j] = 1.0 if a == j else 0.0
+    gx, gy, gz = G[0, 3], G[1, 3], G[2, 3]
+    K[0, 4], K[0, 5], K[1, 3], K[1, 5], K[2, 3], K[2, 4] = gz, -gy, -gz, gx, gy, -gx
+    s1, c1 = math.sin(x[6]), math.cos(x[6])
+    s2, c2 = math.sin(x[7] + HALF_PI), math.cos(x[7] + HALF_PI)
+    d3, a1 = x[8], const[C_A1]
+    K[0, 6], K[0, 7], K[0, 8] = -a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2
+    K[1, 6], K[1, 7], K[1, 8] = a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2
+    K[2, 7], K[2, 8] = d3 * s2, -c2
+    K[3, 7], K[4, 7], K[5, 6] = s1, -c1, 1.0
+
+
+@register_jitable
 def differential_velocity(
     x: np.ndarray,
     target: np.ndarray,
@@ -576,50 +628,14 @@ def differential_velocity(
     Returns:
         Fault bits: FAULT_SINGULAR when the damping λ > 0.
     """
-    # ᴮT_P, ᴾT_E and ᴮT_E = ᴮT_P ᴾT_E (seed 000 eq (14))
-    R = np.empty((3, 3))
-    rpy_to_matrix_lane(x[3], x[4], x[5], R)
-    G = np.empty((4, 4))
-    gangway_tip_lane(x[6], x[7], x[8], const, G)
-    E = np.empty((3, 4))
-    for i in range(3):
-        for j in range(4):
-            E[i, j] = R[i, 0] * G[0, j] + R[i, 1] * G[1, j] + R[i, 2] * G[2, j]
-        E[i, 3] += x[i]
-
-    # e = [p_d − p; log(R_d Rᵀ)] in B (twin.spatial.pose_error, SPEC erratum 6) and the
-    # demand ẋ_d + k_e e (eq (34)), turned into P: b = Dᵀ (ẋ_d + k_e e)
-    M = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            M[i, j] = (
-                target[3 * i] * E[j, 0] + target[3 * i + 1] * E[j, 1] + target[3 * i + 2] * E[j, 2]
-            )
-    log = np.empty(3)
-    so3_log_lane(M, log)
-    k_e = prm[P_GAIN]
-    demand = np.empty(6)
-    for i in range(3):
-        demand[i] = target[12 + i] + k_e * (target[9 + i] - E[i, 3])
-        demand[3 + i] = target[15 + i] + k_e * log[i]
+    # the tip task: ᴮR_P, ᴾT_E, K and the demand ẋ_d + k_e e in B (eqs (14), (24), (34))
+    R, G, demand = np.empty((3, 3)), np.empty((4, 4)), np.empty(6)
+    tip_task_lane(x, target, prm[P_GAIN], const, R, G, K, demand)
+    # turned into P: b = Dᵀ (ẋ_d + k_e e)
     b = np.empty(6)
     for i in range(3):
         b[i] = R[0, i] * demand[0] + R[1, i] * demand[1] + R[2, i] * demand[2]
         b[3 + i] = R[0, i] * demand[3] + R[1, i] * demand[4] + R[2, i] * demand[5]
-
-    # K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]] (eq (24) with D factored out; J_s eq (11))
-    for a in range(6):
-        for j in range(9):
-            K[a, j] = 1.0 if a == j else 0.0
-    gx, gy, gz = G[0, 3], G[1, 3], G[2, 3]
-    K[0, 4], K[0, 5], K[1, 3], K[1, 5], K[2, 3], K[2, 4] = gz, -gy, -gz, gx, gy, -gx
-    s1, c1 = math.sin(x[6]), math.cos(x[6])
-    s2, c2 = math.sin(x[7] + HALF_PI), math.cos(x[7] + HALF_PI)
-    d3, a1 = x[8], const[C_A1]
-    K[0, 6], K[0, 7], K[0, 8] = -a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2
-    K[1, 6], K[1, 7], K[1, 8] = a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2
-    K[2, 7], K[2, 8] = d3 * s2, -c2
-    K[3, 7], K[4, 7], K[5, 6] = s1, -c1, 1.0
 
     # diag(W⁻¹): β split (eqs (27)-(30)) × joint-limit weights (eqs (35)-(37), SPEC erratum 4)
     joint_limits = prm[P_JOINT_LIMITS] > 0.0

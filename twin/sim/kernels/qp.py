@@ -40,16 +40,12 @@ import numpy as np
 
 from twin.sim.kernels.compile import compile_runner, register_jitable
 from twin.sim.kernels.hybrid import (
-    HALF_PI,
-    gangway_tip_lane,
     hybrid_constants,
     integrate_hybrid,
     limit_scale_lane,
-    rpy_to_matrix_lane,
-    so3_log_lane,
+    tip_task_lane,
 )
 from twin.sim.kernels.layout import (
-    C_A1,
     C_BASE_HINGES,
     C_LEG_MAX,
     C_LEG_MIN,
@@ -219,43 +215,9 @@ def qp_problem_lane(
     """One lane's QP (`QPPlanner.problem`) at the state x (9,) and the target row (18,),
     written into H (9, 9), f (9,), A (N_QP_ROWS, 9), lower and upper (9 + N_QP_ROWS,)
     (module doc)."""
-    # ᴮT_P, ᴾT_E, ᴮT_E (seed 000 eq (14)) and the demand b = ẋ_d + k_e e (eq (34), erratum 6)
-    R = np.empty((3, 3))
-    rpy_to_matrix_lane(x[3], x[4], x[5], R)
-    G = np.empty((4, 4))
-    gangway_tip_lane(x[6], x[7], x[8], const, G)
-    E = np.empty((3, 4))
-    for i in range(3):
-        for j in range(4):
-            E[i, j] = R[i, 0] * G[0, j] + R[i, 1] * G[1, j] + R[i, 2] * G[2, j]
-        E[i, 3] += x[i]
-    M = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            M[i, j] = (
-                target[3 * i] * E[j, 0] + target[3 * i + 1] * E[j, 1] + target[3 * i + 2] * E[j, 2]
-            )
-    log = np.empty(3)
-    so3_log_lane(M, log)
-    k_e = prm[P_QP_GAIN]
-    b = np.empty(6)
-    for i in range(3):
-        b[i] = target[12 + i] + k_e * (target[9 + i] - E[i, 3])
-        b[3 + i] = target[15 + i] + k_e * log[i]
-
-    # K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]] (seed 000 eq (24) with D factored out, eq (11))
-    K = np.zeros((6, 9))
-    for a in range(6):
-        K[a, a] = 1.0
-    gx, gy, gz = G[0, 3], G[1, 3], G[2, 3]
-    K[0, 4], K[0, 5], K[1, 3], K[1, 5], K[2, 3], K[2, 4] = gz, -gy, -gz, gx, gy, -gx
-    s1, c1 = math.sin(x[6]), math.cos(x[6])
-    s2, c2 = math.sin(x[7] + HALF_PI), math.cos(x[7] + HALF_PI)
-    d3, a1 = x[8], const[C_A1]
-    K[0, 6], K[0, 7], K[0, 8] = -a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2
-    K[1, 6], K[1, 7], K[1, 8] = a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2
-    K[2, 7], K[2, 8] = d3 * s2, -c2
-    K[3, 7], K[4, 7], K[5, 6] = s1, -c1, 1.0
+    # the tip task: ᴮR_P, ᴾT_E, K and the demand b = ẋ_d + k_e e in B (eqs (14), (24), (34))
+    R, G, K, b = np.empty((3, 3)), np.empty((4, 4)), np.empty((6, 9)), np.empty(6)
+    tip_task_lane(x, target, prm[P_QP_GAIN], const, R, G, K, b)
 
     # H, f: orientation (w_o, in P), posture and yaw terms (w_s), μ diag(1 / w_β)
     w_o, w_s, mu = prm[P_QP_ORIENTATION], prm[P_QP_SECONDARY], prm[P_QP_DAMPING]
