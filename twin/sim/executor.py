@@ -251,7 +251,7 @@ class Executor:
                 silence_logs=logging.CRITICAL,
             )
             try:
-                client = Client(cluster, timeout=timeout)
+                client = Client(cluster, timeout=timeout, set_as_default=False)
             except BaseException:
                 cluster.close()
                 raise
@@ -262,7 +262,7 @@ class Executor:
                     f"scheduler: got {scheduler!r}; allowed None (a local cluster), "
                     f"{IN_PROCESS!r} or a Dask address such as 'tcp://HOST:PORT'"
                 )
-            client = Client(scheduler, timeout=timeout)
+            client = Client(scheduler, timeout=timeout, set_as_default=False)
             executor = cls(client, where=scheduler)
         try:
             if not client.scheduler_info(n_workers=-1)["workers"]:
@@ -313,14 +313,19 @@ class Executor:
 
         Stopping early (or an error) cancels what has not finished.
         """
-        from distributed import as_completed
-
         futures = [self.submit(fn, item, priority=priority) for item in items]
         try:
-            for future in as_completed(futures):
+            for future in self.as_completed(futures):
                 yield future.result()
         finally:
             self.cancel(futures)
+
+    def as_completed(self, futures: Iterable[Any]) -> Iterator[Any]:
+        """The futures as they finish, on this executor's client (which is never made the
+        process's default Dask client: that would leak into unrelated code, e.g. xarray)."""
+        from distributed import as_completed
+
+        return as_completed(futures, loop=self.client.loop)
 
     def cancel(self, futures: Iterable[Any]) -> None:
         """Cancel futures that have not finished (no-op for the others, or once closed)."""

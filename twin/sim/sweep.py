@@ -249,8 +249,6 @@ def run_sweep(
                 spec, executor=own, progress=progress, chunk_size=chunk_size,
                 on_progress=on_progress, stop=stop,
             )  # fmt: skip
-    from distributed import as_completed
-
     scenarios = spec.scenarios()
     order = sorted(range(len(scenarios)), key=lambda i: scenarios[i]["planner"])
     chunks = [order[s : s + chunk_size] for s in range(0, len(order), chunk_size)]
@@ -266,7 +264,7 @@ def run_sweep(
     }  # fmt: skip
     try:
         with tqdm(total=len(scenarios), disable=not progress, unit="run") as bar:
-            for future in as_completed(futures):
+            for future in executor.as_completed(futures):
                 if stop is not None and stop():
                     raise SweepStopped("sweep stopped before its end; its chunks were cancelled")
                 _collect(rows, futures[future], future.result(), bar, on_progress)
