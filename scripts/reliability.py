@@ -439,7 +439,8 @@ on this 2-core machine); the same tests run in `make test` (CI), where they reco
 A step never raises for a numerical reason and never records NaN (docs/simulation.md): it
 holds, damps or clamps, and flags the step. Flags are counted in a run's `fault_counts`, and
 live in `GET /api/live`'s `faults` (counts, steps held, the newest events) and on the
-viewer's readout ("⚠ Faults: …").
+viewer's readout, which keeps apart steps a fault held ("⚠ Faults: …"), steps shortened at a
+limit or damped ("Limit handling") and samples beyond a limit ("Limit violations").
 
 {fault_table(records)}
 

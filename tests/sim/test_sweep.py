@@ -150,3 +150,26 @@ def test_bad_requests_name_the_field(fields: dict, message: str) -> None:
 def test_bad_scheduler_is_named() -> None:
     with pytest.raises(ValueError, match="scheduler"):
         run_sweep(SMALL, scheduler="localhost:8786", progress=False)
+
+
+def test_a_sweep_around_a_scenario_centres_its_sea_and_runs_any_mechanism(tmp_path) -> None:
+    """`spec_around` (the viewer's Operability folder) spans Hs × Tp with the scenario's own
+    sea in the middle and keeps its planner and knobs; a small platform's sweep runs; the
+    heatmap rings a sea given to it."""
+    from twin.sim.scenario import Scenario
+    from twin.sim.sweep import spec_around
+
+    scenario = Scenario(mechanism="upr4", sea_state=3, kp=90.0, joint_limits="hold")
+    spec = spec_around(scenario, seeds=1, duration=2.0)
+    hs, tp = scenario.sea()
+    assert spec.mechanism == "upr4" and spec.planner == ["pid"]
+    assert (spec.hs[2], spec.tp[1]) == (hs, tp)
+    assert (len(spec.hs), len(spec.tp)) == (5, 3)
+    assert spec.scenario["kp"] == 90.0 and spec.scenario["joint_limits"] == "hold"
+    result = run_sweep(spec, scheduler="in-process", progress=False)
+    assert len(result.table) == 15 and set(result.runs["planner"]) == {"pid"}
+    ringed = heatmap_png(result, tmp_path / "ringed.png", mark=(hs, tp)).read_bytes()
+    plain = heatmap_png(result, tmp_path / "plain.png").read_bytes()
+    assert ringed[:4] == b"\x89PNG" and ringed != plain
+    with pytest.raises(ValueError, match="planner"):
+        SweepSpec(mechanism="upr4", planner=["mtmp"])

@@ -103,8 +103,8 @@ def test_openapi_lists_exactly_the_api_paths(client: TestClient) -> None:
     assert set(paths) == {
         "/api/health", "/api/mechanisms", "/api/planners", "/api/sea-states", "/api/runs",
         "/api/runs/{run_id}", "/api/runs/{run_id}/series", "/api/live", "/api/live/reset",
-        "/api/live/pause", "/api/live/play", "/api/live/step", "/api/sweeps",
-        "/api/sweeps/{sweep_id}", "/api/sweeps/{sweep_id}/heatmap.png",
+        "/api/live/pause", "/api/live/play", "/api/live/step", "/api/live/replay",
+        "/api/sweeps", "/api/sweeps/{sweep_id}", "/api/sweeps/{sweep_id}/heatmap.png",
     }  # fmt: skip
     assert client.get("/docs").status_code == 200
 
@@ -124,7 +124,8 @@ def test_health(client: TestClient, executor: Executor) -> None:
 def test_landing_page_links_viewer_docs_and_live(client: TestClient) -> None:
     response = client.get("/")
     assert response.status_code == 200 and response.headers["content-type"].startswith("text/html")
-    for needle in ('href="/docs"', "/api/live", "/api/runs", "viewer_port"):
+    for needle in ('href="/docs"', 'href="/redoc"', "/api/live", "/api/runs", "viewer_port",
+                   "watch in 3D", "/api/live/replay"):
         assert needle in response.text
 
 
@@ -443,6 +444,98 @@ def test_a_mechanism_change_with_its_planner_restarts_the_session(
     client.post("/api/live/step", params={"n": 5})
     state = client.patch("/api/live", json={"mechanism": "upr4", "planner": "pid"}).json()
     assert (state["mechanism"], state["planner"], state["t"]) == ("upr4", "pid", 0.0)
+
+
+# -- issue 16: planners side by side, stored runs replayed ---------------------------------------
+
+
+def test_compare_planner_runs_beside_on_the_same_motion(live: LiveSession, tmp_path: Path) -> None:
+    """PATCH compare_planner adds a second lane (restart at t = 0): GET answers its planner
+    and metrics; both lanes see the same base motion; later patches reach both lanes except
+    the second's planner; a planner of another mechanism is a 422 naming the field and
+    changes nothing; null stops it."""
+    client = live_client(live, tmp_path)
+    client.post("/api/live/step", params={"n": 5})
+    state = client.patch("/api/live", json={"compare_planner": "pi"}).json()
+    assert state["t"] == 0.0 and state["compare"]["planner"] == "pi"
+    client.post("/api/live/step", params={"n": 20})
+    state = client.get("/api/live").json()
+    assert state["compare"]["metrics"]["tip_position_error_rms"] > 0
+    assert "held" in state["compare"]["faults"] and state["replay"] is None
+    np.testing.assert_array_equal(live.latest(0)["base_pose"], live.latest(1)["base_pose"])
+    assert np.any(live.latest(0)["xi"] != live.latest(1)["xi"])  # two planners, two motions
+
+    state = client.patch("/api/live", json={"beta": 0.5, "planner": "wpi"}).json()
+    assert state["t"] == pytest.approx(1.0)  # not a restart
+    assert [(s.planner, s.beta) for s in live._sim.scenarios] == [("wpi", 0.5), ("pi", 0.5)]
+
+    before = live.snapshot()
+    for bad in ("pid", "nope", ""):
+        refused = client.patch("/api/live", json={"compare_planner": bad, "beta": 0.2})
+        assert refused.status_code == 422, refused.text
+        assert refused.json()["detail"][0]["loc"] == ["body", "compare_planner"]
+    assert live.snapshot()["beta"] == before["beta"] and live.compare_planner == "pi"
+
+    state = client.patch("/api/live", json={"compare_planner": None}).json()
+    assert state["compare"] is None and live._sim.n_lanes == 1
+    # a mechanism without that planner drops the comparison
+    client.patch("/api/live", json={"compare_planner": "mtmp"})
+    state = client.patch("/api/live", json={"mechanism": "upr4", "planner": None}).json()
+    assert state["compare"] is None and state["mechanism"] == "upr4"
+
+
+def test_compare_and_replay_need_the_token(live: LiveSession, tmp_path: Path) -> None:
+    client = live_client(live, tmp_path, token=TOKEN)
+    replay = client.post("/api/live/replay", json={"run_id": "0" * 32})
+    compare = client.patch("/api/live", json={"compare_planner": "pi"})
+    assert (replay.status_code, compare.status_code) == (401, 401)
+    evil = {"Origin": "http://evil.example", "Authorization": f"Bearer {TOKEN}"}
+    assert client.patch("/api/live", json={"compare_planner": "pi"},
+                        headers=evil).status_code == 403  # fmt: skip
+    assert live.compare_planner is None and live.replaying is None
+
+
+def test_replay_plays_seeks_and_returns_to_live(live: LiveSession, tmp_path: Path) -> None:
+    """POST /api/live/replay shows a stored run's samples (nothing simulated): GET answers
+    `replay` and the run's scenario and metrics; the same id again seeks; pause, step and
+    play act on it; an unknown run is a 404, a run not done a 409, a time past its end a
+    422; reset returns to the live simulation where it was."""
+    client = live_client(live, tmp_path)
+    store = client.app.state.services.store
+    scenario = Scenario(mechanism="upr4", duration=4.0, sea_state=3)
+    result = simulate(scenario)
+    run = store.create(scenario)
+    store.finish(run.id, result)
+    queued = store.create(Scenario(duration=1.0))
+    client.post("/api/live/step", params={"n": 3})
+    live_t = live.snapshot()["t"]
+
+    state = client.post("/api/live/replay", json={"run_id": run.id, "t": 1.0,
+                                                  "playing": False}).json()  # fmt: skip
+    assert state["replay"] == {"run_id": run.id, "t": 1.0, "duration": 4.0}
+    assert (state["mechanism"], state["t"], state["playing"]) == ("upr4", 1.0, False)
+    assert state["metrics"] == json.loads(json.dumps(result.metrics))
+    k = int(np.flatnonzero(result.series["t"] == 1.0)[0])
+    np.testing.assert_array_equal(live.latest()["state"], result.series["state"][k])
+
+    state = client.post("/api/live/replay", json={"run_id": run.id, "t": 2.5,
+                                                  "playing": False}).json()  # fmt: skip
+    assert state["replay"]["t"] == 2.5 and live.latest()["t"] == pytest.approx(2.5)
+    assert client.post("/api/live/step", params={"n": 2}).json()["replay"]["t"] == 2.6
+    assert client.post("/api/live/play").json()["playing"] is True
+    live.advance(10.0)  # past its end: it stops there, paused
+    state = client.get("/api/live").json()
+    assert (state["replay"]["t"], state["playing"]) == (4.0, False)
+
+    assert client.post("/api/live/replay", json={"run_id": "0" * 32}).status_code == 404
+    assert client.post("/api/live/replay", json={"run_id": queued.id}).status_code == 409
+    past = client.post("/api/live/replay", json={"run_id": run.id, "t": 9.0})
+    assert past.status_code == 422 and past.json()["detail"][0]["loc"] == ["body", "t"]
+    assert client.get("/api/live").json()["replay"]["t"] == 4.0  # unchanged
+
+    state = client.post("/api/live/reset").json()
+    assert state["replay"] is None and state["mechanism"] == "hybrid" and state["t"] == 0.0
+    assert live_t > 0
 
 
 # -- security -----------------------------------------------------------------------------------

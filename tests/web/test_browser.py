@@ -2,6 +2,10 @@
 
 Never a downloaded browser: the test uses /usr/bin/chromium (`.ci/run` installs Debian's
 `chromium` package when it is missing) and is skipped where it is absent.
+
+Software WebGL keeps a rendering page busy on a small machine: each Playwright action on
+it takes a second or more, so the tests act through the session where REST would, and use
+the page for what only a browser shows (its scene tree, its camera, its panel, its console).
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from urllib.parse import urlsplit
 
 import numpy as np
 import pytest
@@ -22,10 +27,14 @@ from playwright.sync_api import sync_playwright
 from tests.figures import record
 from tests.web.support import TOKEN, access, free_port, wait_for
 from tests.web.viser_client import PROTOCOL
+from twin.sim import Scenario, simulate
+from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web.access import Access
 from twin.web.api import create_app
-from twin.web.scene import Viewer, start_viewer
+from twin.web.frame import read_frame
+from twin.web.jobs import SweepRunner
+from twin.web.scene import FRAMING, Viewer, start_viewer
 from twin.web.store import RunStore
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -165,3 +174,154 @@ def test_a_browser_unlocks_the_viewer_with_the_token(tmp_path: Path) -> None:
         session.stop()
     record("attack_cross_origin_websocket_browser", page_origin=f"http://127.0.0.1:{site_port}",
            websocket=cross, locked_click="changed nothing")  # fmt: skip
+
+
+#: the browser's scene tree (viser's client exposes it for end-to-end tests): node names
+SCENE_NODES = "() => Object.keys(window.__viserSceneTree.getState())"
+#: an image of the panel that has loaded (the heatmap: viser hands images over as blobs)
+HEATMAP_LOADED = """() => [...document.images].some(
+    (img) => img.src.startsWith("blob:") && img.complete && img.naturalWidth > 200)"""
+
+
+def _nodes(page: object) -> list[str]:
+    return page.evaluate(SCENE_NODES)  # type: ignore[attr-defined]
+
+
+def test_browser_ghost_replay_heatmap_and_a_clean_console_through_switches(
+    tmp_path: Path,
+) -> None:
+    """Issue 16 in a real browser, with the console watched throughout:
+
+    - switching through all three mechanisms rebuilds the browser's scene and points its
+      camera at each (the camera the browser reports is the framing view);
+    - a second planner appears as the ghost nodes in the browser's scene, and in its readout;
+    - a stored run replays, and the panel's time box seeks it;
+    - the Operability folder's button runs a sweep and its heatmap image loads in the panel;
+    - and the console logged no error ("Tried to update non-existent component" included).
+    """
+    store = RunStore(tmp_path / "runs.sqlite")
+    scenario = Scenario(duration=6.0, sea_state=3)
+    run = store.create(scenario)
+    store.finish(run.id, simulate(scenario))
+    executor = Executor.start(IN_PROCESS)
+    sweeps = SweepRunner(store)
+    sweeps.start(executor)
+    session = LiveSession({"sea_state": 3})
+    session.start()
+    viewer = start_viewer(session, port=free_port(), store=store, sweeps=sweeps,
+                          api_url="http://127.0.0.1:8000")  # fmt: skip
+    errors: list[str] = []
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+            try:
+                page = browser.new_page(viewport={"width": 1000, "height": 640})
+                page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+                page.on("pageerror", lambda e: errors.append(str(e)))
+                page.goto(f"http://127.0.0.1:{viewer.port}", timeout=30_000)
+                page.get_by_text("Compare with", exact=True).wait_for(timeout=30_000)
+                (client,) = viewer.server.get_clients().values()
+
+                # every mechanism: the browser's scene has its nodes, its camera frames it
+                for mechanism, node in (("upu3up", "/target/container"),
+                                        ("upr4", "/base/top/pad"), ("hybrid", "/target/tower")):
+                    session.patch({"mechanism": mechanism, "planner": None})
+                    page.wait_for_function(f"() => ({SCENE_NODES})().includes('{node}')",
+                                           timeout=30_000)  # fmt: skip
+                    fs = read_frame(session)
+                    assert fs is not None and fs.scenario.mechanism == mechanism
+                    framing, look_at = viewer.scene.camera_pose(FRAMING, viewer.scene.last or fs)
+                    near = 0.05 * np.linalg.norm(framing - look_at)
+                    assert wait_for(
+                        lambda f=framing, tol=near: np.linalg.norm(client.camera.position - f)
+                        < tol,
+                        timeout=15.0,
+                    ), (mechanism, client.camera.position, framing)
+
+                # a second planner: the ghost in the browser's scene and in the readout
+                session.patch({"compare_planner": "pi"})
+                page.wait_for_function(
+                    f"() => ({SCENE_NODES})().some((n) => n.startsWith('/base/ghost/'))",
+                    timeout=30_000,
+                )
+                page.get_by_text("ghost pi:", exact=False).first.wait_for(timeout=15_000)
+
+                # a stored run replayed (as POST /api/live/replay), then sought from the panel
+                session.replay(store.result(run.id), run.id, t=1.0, playing=False)
+                (panel,) = viewer.gui.panels.values()
+                assert wait_for(lambda: panel.settings["replay_t"].max == 6.0, timeout=10.0)
+                page.get_by_text(f"Replaying run {run.id[:8]}", exact=False).wait_for(
+                    timeout=15_000
+                )
+                row = page.locator(
+                    "div", has=page.get_by_text("Replay time [s]", exact=True)
+                ).filter(has=page.locator("input"))
+                box = row.last.locator("input").last
+                box.fill("3.5", force=True)
+                box.press("Enter")
+                assert wait_for(lambda: (session.replaying or {}).get("t") == 3.5, timeout=15.0)
+                page.get_by_text("t = 3.50 s", exact=False).first.wait_for(timeout=15_000)
+
+                # back to live, then a sweep from the panel: its heatmap loads in the browser
+                session.reset()
+                page.get_by_role("button", name="Run sweep").click(force=True)
+                assert wait_for(lambda: viewer.gui.sweep_id is not None, timeout=15.0)
+                page.wait_for_function(HEATMAP_LOADED, timeout=90_000)
+                assert viewer.gui.heatmap is not None
+                page.get_by_text("the ring marks the current sea", exact=False).wait_for(
+                    timeout=15_000
+                )
+                page.wait_for_timeout(1000)  # late messages of the last changes
+            finally:
+                browser.close()
+    finally:
+        viewer.stop()
+        session.stop()
+        sweeps.shutdown()
+        executor.close()
+        store.close()
+    assert errors == [], errors[:5]
+
+
+def test_api_docs_render_with_the_network_blocked(tmp_path: Path) -> None:
+    """/docs (Swagger UI) and /redoc render their operations with every request to any host
+    but the server aborted: their scripts and styles come from the server itself."""
+    with RunStore(tmp_path / "runs.sqlite") as store:
+        port = free_port()
+        app = create_app(LiveSession(), store, access=Access.for_server("127.0.0.1", (port,)))
+        import uvicorn
+
+        server = uvicorn.Server(
+            uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning")
+        )
+        thread = threading.Thread(target=server.run, daemon=True)
+        thread.start()
+        assert wait_for(lambda: server.started, timeout=20.0)
+        blocked: list[str] = []
+
+        def only_local(route: object) -> None:
+            url = route.request.url  # type: ignore[attr-defined]
+            if urlsplit(url).hostname in ("127.0.0.1", "localhost") or url.startswith("data:"):
+                route.continue_()  # type: ignore[attr-defined]
+            else:
+                blocked.append(url)
+                route.abort()  # type: ignore[attr-defined]
+
+        try:
+            with sync_playwright() as p:
+                browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)
+                try:
+                    page = browser.new_page()
+                    page.route("**/*", only_local)
+                    page.goto(f"http://127.0.0.1:{port}/docs", timeout=30_000)
+                    page.get_by_text("/api/live/replay", exact=True).first.wait_for(
+                        timeout=30_000
+                    )
+                    page.goto(f"http://127.0.0.1:{port}/redoc", timeout=30_000)
+                    page.locator("h2", has_text="Replay Live").first.wait_for(timeout=30_000)
+                finally:
+                    browser.close()
+        finally:
+            server.should_exit = True
+            thread.join(timeout=10)
+    assert blocked == []

@@ -180,14 +180,14 @@ NULLABLE = {
     name
     for name, prop in Scenario.model_json_schema()["properties"].items()
     if any(b.get("type") == "null" for b in prop.get("anyOf", []))
-} & set(FIELDS)
+} & set(FIELDS) | {"compare_planner"}
 #: mechanism → planners that plan for it
 PLANNERS_OF = {
     m: [p for p, spec in PLANNERS.items() if m in spec.mechanisms]
     for m in FIELDS["mechanism"]["enum"]
 }
 #: fields whose valid values are drawn apart (`valid_patch`)
-COUPLED = {"mechanism", "planner", "initial_state"}
+COUPLED = {"mechanism", "planner", "initial_state", "compare_planner"}
 #: JSON bodies no parser may turn into a number of a field: (raw body, the field)
 RAW_INVALID = [
     ('{"beta": NaN}', "beta"),
@@ -233,7 +233,7 @@ def invalid_value(rng: random.Random, name: str) -> Any:
         wrong_types.append(None)
     if name == "initial_state":
         return rng.choice([[1.0] * 3, [1e6] * 9, [[0.0]] * 9, "working", 7.5, [1.0] * 12])
-    if name == "planner":
+    if name in ("planner", "compare_planner"):
         return rng.choice(["bogus", "MTMP ", "pid; DROP TABLE runs", 12, ["mtmp"], "x" * 300])
     if "enum" in schema:
         return rng.choice(["bogus", "HYBRID", "state9", "../sov", 3, *wrong_types])
@@ -261,11 +261,15 @@ def valid_patch(rng: random.Random) -> dict[str, Any]:
     """1-3 random fields within their ranges; a mechanism comes with a planner of its own."""
     patch: dict[str, Any] = {}
     for name in rng.sample(sorted(FIELDS), rng.randint(1, 3)):
-        if name in COUPLED:
+        if name == "compare_planner":
+            patch.setdefault(name, None)  # a second planner comes with a mechanism, below
+        elif name in COUPLED:
             if rng.random() < 0.3:  # a mechanism switch restarts the session: not too often
                 mechanism = rng.choice(sorted(PLANNERS_OF))
                 patch["mechanism"] = mechanism
                 patch["planner"] = rng.choice(PLANNERS_OF[mechanism])
+                if rng.random() < 0.3:  # and a second planner beside it
+                    patch["compare_planner"] = rng.choice(PLANNERS_OF[mechanism])
         else:
             patch[name] = valid_value(rng, name)
     return patch or {"speed": rng.uniform(0.25, 8.0)}

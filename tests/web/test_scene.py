@@ -377,3 +377,112 @@ def test_joint_limits_dropdown_switches_hold_and_record(
     client.update(client.wait_widget("Joint limits"), value="record")
     assert wait_for(lambda: session.scenario.joint_limits == "record")
     assert session._sim.prm[0, P_HOLD] == 0.0 and session.version == 0
+
+
+def test_readout_keeps_held_steps_limit_handling_and_violations_apart(
+    session: LiveSession,
+) -> None:
+    """Steps shortened at a limit are not faults nor violations; a state held on its limit is
+    within it (a tolerance of its range), one beyond it prints with the digits that show by how
+    much; no quantity prints with an exponent."""
+    from twin.web.gui import fault_line, limit_line, si
+
+    faults = {"counts": {"base_motion": 0, "planner": 0, "kinematics": 0, "joint_limit": 107,
+                         "singular": 3}, "held": 0, "events": [], "loop_errors": 0}  # fmt: skip
+    assert fault_line(faults) == "**Faults:** none (no step held)"
+    assert "stopped at a limit 107" in limit_line(faults, "hold")
+    assert "damped near a singularity 3" in limit_line(faults, "hold")
+    assert [si(2.5, "m"), si(0.0025, "m"), si(2.5e-6, "m"), si(1234.0, "m")] == [
+        "2.50 m", "2.50 mm", "2.50 µm", "1.23 km"]  # fmt: skip
+
+    session.patch({"mechanism": "upu3up", "planner": None})
+    fs = read_frame(session)
+    assert fs is not None
+    high = fs.mechanism.state_limits[1][0]  # z [mm]
+    on_limit = dataclasses.replace(fs, record={**fs.record, "state": np.r_[high, fs.state[1:]]})
+    assert limit_violations(on_limit) == []
+    beyond = dataclasses.replace(fs, record={**fs.record,
+                                             "state": np.r_[high + 0.5, fs.state[1:]]})  # fmt: skip
+    (line,) = limit_violations(beyond)
+    assert line.startswith("z: ") and "mm >" in line and "e+" not in line
+    assert f"{high + 0.5:.3f}" in line
+
+
+def test_a_locked_browser_cannot_compare_replay_or_sweep(session: LiveSession, tmp_path) -> None:
+    """With a token and a run store, a locked browser's new controls (Compare with, the
+    replay's run, time and buttons, the sweep's settings and button) are read-only, and what
+    it sends anyway changes nothing: no second lane, no replay, no sweep stored."""
+    from twin.sim import Scenario, simulate
+    from twin.web.jobs import SweepRunner
+    from twin.web.store import RunStore
+
+    with RunStore(tmp_path / "runs.sqlite") as store:
+        scenario = Scenario(duration=1.0)
+        run = store.create(scenario)
+        store.finish(run.id, simulate(scenario))
+        viewer = start_viewer(session, port=free_port(), access=Access(token=TOKEN),
+                              store=store, sweeps=SweepRunner(store))  # fmt: skip
+        try:
+            attacker, locked = connect(viewer)
+            assert wait_for(lambda: len(locked.settings["replay_run"].options) == 2, 10.0)
+            handles = [locked.inputs["compare_planner"], *locked.settings.values(),
+                       *(locked.buttons[b] for b in ("Watch in 3D", "Back to live", "Run sweep"))]
+            assert all(h.disabled for h in handles)
+            attacker.update(attacker.wait_widget("Compare with"), value="pi")
+            attacker.update(attacker.wait_widget("Stored run"),
+                            value=locked.settings["replay_run"].options[1])  # fmt: skip
+            attacker.update(attacker.wait_widget("Watch in 3D"), value=True)
+            attacker.update(attacker.wait_widget("Replay time [s]"), value=0.5)
+            attacker.update(attacker.wait_widget("Run sweep"), value=True)
+            assert wait_for(lambda: "locked" in (viewer.gui.last_error or ""), 5.0)
+            time.sleep(0.5)
+            assert session.compare_planner is None and session.replaying is None
+            assert store.pending("sweeps") == 0 and viewer.gui.sweep_id is None
+            assert wait_for(lambda: locked.inputs["compare_planner"].value == "none")
+            attacker.close()
+        finally:
+            viewer.stop()
+
+
+def test_the_panel_compares_planners_and_replays_a_stored_run(
+    session: LiveSession, tmp_path
+) -> None:
+    """Compare with adds the ghost (a second URDF on the same base) and dashed plot lines;
+    none removes it. A stored run chosen and watched replays; Back to live returns."""
+    from twin.sim import Scenario, simulate
+    from twin.web.store import RunStore
+
+    with RunStore(tmp_path / "runs.sqlite") as store:
+        scenario = Scenario(duration=2.0, planner="wpi")
+        run = store.create(scenario)
+        store.finish(run.id, simulate(scenario))
+        viewer = start_viewer(session, port=free_port(), store=store)
+        try:
+            client, panel = connect(viewer)
+            client.update(client.wait_widget("Compare with"), value="pi")
+            assert wait_for(lambda: session.compare_planner == "pi")
+            assert wait_for(lambda: viewer.scene.ghost is not None, 5.0)
+            assert viewer.server.scene.get_handle_by_name("/ghost_label") is not None
+            assert wait_for(lambda: any("· pi" in str(s.get("label"))
+                                        for p in viewer.gui.plots for s in p.series), 5.0)
+            session.step(3)
+            assert wait_for(caught_up(viewer, session))
+            ghost_cfg = joint_configuration(session.mechanism, session.latest(1)["xi"])
+            assert viewer.scene.last.ghost.cfg == pytest.approx(
+                {k: float(v) for k, v in ghost_cfg.items()})  # fmt: skip
+            client.update(client.wait_widget("Compare with"), value="none")
+            assert wait_for(lambda: viewer.scene.ghost is None, 5.0)
+
+            assert wait_for(lambda: len(panel.settings["replay_run"].options) == 2, 10.0)
+            choice = panel.settings["replay_run"].options[1]
+            client.update(client.wait_widget("Stored run"), value=choice)
+            assert wait_for(lambda: panel.settings["replay_run"].value == choice)
+            client.update(client.wait_widget("Watch in 3D"), value=True)
+            assert wait_for(lambda: (session.replaying or {}).get("run_id") == run.id)
+            assert wait_for(lambda: session.scenario.planner == "wpi")
+            assert wait_for(lambda: panel.settings["replay_t"].max == 2.0, 5.0)
+            client.update(client.wait_widget("Back to live"), value=True)
+            assert wait_for(lambda: session.replaying is None)
+            client.close()
+        finally:
+            viewer.stop()

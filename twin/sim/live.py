@@ -10,6 +10,16 @@ never holds up readers either.
 A numerical fault holds, damps or clamps inside the step (`twin.sim.faults`) and shows in
 `snapshot()["faults"]`; anything else a step raises is caught by the loop, logged, counted
 (`loop_errors`) and the loop goes on: a live twin does not stop on a bad step.
+
+Planners side by side: `patch({"compare_planner": "pi"})` restarts the session with a second
+lane of the same `Simulation`, the same scenario under another planner; both lanes see the
+same sea, so the same vessel motion. Every later patch applies to both lanes, except that the
+second keeps its own planner; `compare_planner: None` drops it (another restart at t = 0).
+
+Replay: `replay(result, run_id)` shows a stored run instead of the simulation: readers get
+the run's scenario and its recorded samples at the replay time, which the loop advances at
+`speed` while `playing` (nothing is simulated; the live simulation waits). `seek` moves it,
+`reset()` or any scenario patch returns to the live simulation.
 """
 
 from __future__ import annotations
@@ -17,14 +27,17 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, StrictBool
 
 from twin.errors import TwinError
+from twin.planners import PLANNERS, get_planner
 from twin.sea.components import WaveComponents
 from twin.sim.engine import RESTART_FIELDS, Simulation
+from twin.sim.result import SimulationResult
 from twin.sim.scenario import Scenario
 
 log = logging.getLogger(__name__)
@@ -58,6 +71,72 @@ class LiveControls(BaseModel):
 
 #: Scenario fields a live session takes (`duration` means nothing live).
 LIVE_FIELDS = tuple(name for name in Scenario.model_fields if name != "duration")
+#: the patch key of the comparison lane's planner (not a scenario field)
+COMPARE = "compare_planner"
+
+
+@dataclass
+class Replay:
+    """A stored run played back: its series, the replay time, and what draws it.
+
+    Attributes:
+        run_id: the stored run's id.
+        scenario: its scenario.
+        series: its samples, (T, ...) per key.
+        metrics: its metrics over the whole run.
+        mechanism: a mechanism object of its kind (only read).
+        sea: its sea (to draw the surface).
+        held: (4, 4) ᴵT*, the inertial pose it held.
+        t: [s] the replay time.
+    """
+
+    run_id: str
+    scenario: Scenario
+    series: dict[str, np.ndarray]
+    metrics: dict[str, Any]
+    mechanism: Any
+    sea: WaveComponents
+    held: np.ndarray
+    t: float = 0.0
+
+    @classmethod
+    def of(cls, result: SimulationResult, run_id: str) -> Replay:
+        """The replay of a stored result. Its mechanism, sea and held pose come from a
+        `Simulation` of the scenario that is built, never stepped: the same objects the run
+        had at t = 0."""
+        sim = Simulation(result.scenario, history_limit=1)
+        series = {k: np.asarray(v) for k, v in result.series.items()}
+        if series["t"].size == 0:
+            raise TwinError(f"run {run_id}: no samples to replay")
+        return cls(run_id, result.scenario, series, dict(result.metrics), sim.mechanism,
+                   sim.base_motion.components, np.array(sim.held[0]))  # fmt: skip
+
+    @property
+    def duration(self) -> float:
+        """[s] time of the last sample."""
+        return float(self.series["t"][-1])
+
+    @property
+    def dt(self) -> float:
+        return float(self.scenario.dt)
+
+    def seek(self, t: float) -> None:
+        """Move to time t [s] (0 ≤ t ≤ duration; a TwinError naming `t` otherwise)."""
+        if not (np.isfinite(t) and 0.0 <= t <= self.duration + 1e-9):
+            raise TwinError(
+                f"t: {t:g} s is outside run {self.run_id}; allowed 0 ≤ t ≤ {self.duration:g}"
+            )
+        self.t = min(float(t), self.duration)
+
+    def record(self) -> dict[str, np.ndarray]:
+        """The sample at or just before the replay time (copies)."""
+        k = int(np.searchsorted(self.series["t"], self.t + 1e-9, side="right")) - 1
+        k = min(max(k, 0), self.series["t"].size - 1)
+        return {key: np.array(values[k]) for key, values in self.series.items()}
+
+    def state(self) -> dict[str, Any]:
+        """What `LiveSession.snapshot()["replay"]` shows."""
+        return {"run_id": self.run_id, "t": self.t, "duration": self.duration}
 
 
 class LiveSession:
@@ -78,6 +157,9 @@ class LiveSession:
         self._lock = threading.RLock()
         self.controls = LiveControls()
         self.tick = tick
+        self._compare: str | None = None  # the comparison lane's planner, if any
+        self._replay: Replay | None = None
+        self._live_playing = True  # `playing` of the live simulation while a replay plays
         self._sim = Simulation(base, history_limit=HISTORY)
         self._debt = 0.0  # [s] simulated time owed to the wall clock
         self._thread: threading.Thread | None = None
@@ -88,35 +170,82 @@ class LiveSession:
     # -- readers -----------------------------------------------------------------------------
     @property
     def scenario(self) -> Scenario:
+        """The scenario shown: the live one, or the replayed run's."""
         with self._lock:
-            return self._sim.scenario
+            return self._replay.scenario if self._replay is not None else self._sim.scenario
 
     @property
     def mechanism(self) -> Any:
         with self._lock:
-            return self._sim.mechanism
+            return self._replay.mechanism if self._replay is not None else self._sim.mechanism
 
     @property
     def sea(self) -> WaveComponents:
-        """The sea being simulated (a new object after a sea patch), e.g. to draw its surface."""
+        """The sea shown (a new object after a sea patch), e.g. to draw its surface."""
         with self._lock:
+            if self._replay is not None:
+                return self._replay.sea
             return self._sim.base_motion.components
 
     @property
     def held_transform(self) -> np.ndarray:
         """ᴵT* (4, 4): the inertial pose the mechanism holds, fixed at each (re)start."""
         with self._lock:
+            if self._replay is not None:
+                return np.array(self._replay.held)
             return np.array(self._sim.held[0])
 
-    def latest(self) -> dict[str, np.ndarray]:
-        """The newest sample's record (arrays are copies)."""
+    @property
+    def compare_planner(self) -> str | None:
+        """The comparison lane's planner (None: no comparison, or a replay is shown)."""
         with self._lock:
-            return self._sim.latest()
+            return None if self._replay is not None else self._compare
 
-    def series(self) -> dict[str, np.ndarray]:
-        """The ring buffer, oldest first, per key (copies of its slices)."""
+    @property
+    def replaying(self) -> dict[str, Any] | None:
+        """The replay shown ({run_id, t, duration}), or None when live."""
         with self._lock:
-            return self._sim.series()
+            return None if self._replay is None else self._replay.state()
+
+    def latest(self, lane: int = 0) -> dict[str, np.ndarray]:
+        """The newest sample's record (arrays are copies): lane 1 is the comparison lane. A
+        replay's sample at the replay time while one is shown."""
+        with self._lock:
+            if self._replay is not None:
+                return self._replay.record()
+            return self._sim.latest(lane)
+
+    def view(self) -> dict[str, Any]:
+        """One consistent reading for a viewer's frame, taken under one hold of the lock:
+        `version`, `scenario`, `mechanism`, `record` (the newest sample, or the replay's),
+        `compare` (its planner or None) with `compare_record`, `sea`, `held` (4, 4),
+        `playing`, `speed` and `replay` (`replaying`)."""
+        with self._lock:
+            r = self._replay
+            common = {"version": self.version, "playing": self.controls.playing,
+                      "speed": self.controls.speed}  # fmt: skip
+            if r is not None:
+                return {**common, "scenario": r.scenario, "mechanism": r.mechanism,
+                        "record": r.record(), "compare": None, "compare_record": None,
+                        "sea": r.sea, "held": np.array(r.held), "replay": r.state()}  # fmt: skip
+            sim = self._sim
+            return {
+                **common,
+                "scenario": sim.scenario,
+                "mechanism": sim.mechanism,
+                "record": sim.latest(0),
+                "compare": self._compare,
+                "compare_record": sim.latest(1) if self._compare is not None else None,
+                "sea": sim.base_motion.components,
+                "held": np.array(sim.held[0]),
+                "replay": None,
+            }
+
+    def series(self, lane: int = 0) -> dict[str, np.ndarray]:
+        """The ring buffer of a lane of the live simulation, oldest first, per key (copies of
+        its slices)."""
+        with self._lock:
+            return self._sim.series(lane)
 
     def snapshot(self) -> dict[str, Any]:
         """Flat scenario fields, sim time, speed, playing and the metrics over the buffer.
@@ -125,24 +254,59 @@ class LiveSession:
         are computed after it is released, so a reader never holds up the loop.
         """
         with self._lock:
-            sim = self._sim
+            if self._replay is not None:
+                return self._replay_snapshot()
+            sim, compare = self._sim, self._compare
             series = sim.series()
             head = {
                 **sim.scenario.model_dump(exclude={"duration"}),
                 "t": sim.t,
                 **self.controls.model_dump(),
                 "faults": {**sim.faults[0].summary(), "loop_errors": self.loop_errors},
+                "replay": None,
             }
-        return {**head, "metrics": sim.metrics(series)}
+            if compare is not None:
+                other = sim.series(1)
+                faults = {**sim.faults[1].summary(), "loop_errors": self.loop_errors}
+        out = {**head, "metrics": sim.metrics(series), "compare": None}
+        if compare is not None:
+            out["compare"] = {"planner": compare, "metrics": sim.metrics(other, 1),
+                              "faults": faults}  # fmt: skip
+        return out
+
+    def _replay_snapshot(self) -> dict[str, Any]:
+        """`snapshot()` of a replay (under the lock): the run's scenario and stored metrics."""
+        r = self._replay
+        assert r is not None
+        metrics = r.metrics
+        faults = {
+            "counts": dict(metrics.get("fault_counts", {})),
+            "held": int(metrics.get("faults", 0)),
+            "events": [],
+            "loop_errors": self.loop_errors,
+        }
+        return {
+            **r.scenario.model_dump(exclude={"duration"}),
+            "t": r.t,
+            **self.controls.model_dump(),
+            "faults": faults,
+            "metrics": metrics,
+            "compare": None,
+            "replay": r.state(),
+        }
 
     # -- writers -----------------------------------------------------------------------------
     def patch(self, changes: dict[str, Any]) -> set[str]:
-        """Change scenario fields and/or `speed`, `playing`; all validated before any applies.
+        """Change scenario fields, `compare_planner` and/or `speed`, `playing`; all validated
+        before any applies.
 
         The new scenario is validated once: by `Simulation.update` (which changes nothing
-        unless all of it is good) or, for a field that needs a restart (`RESTART_FIELDS`), as
-        the `Scenario` the new `Simulation` starts from. The controls are validated once, as a
-        `LiveControls`, before either.
+        unless all of it is good) or, for a field that needs a restart (`RESTART_FIELDS`, or
+        a new `compare_planner`), as the `Scenario` the new `Simulation` starts from. The
+        controls are validated once, as a `LiveControls`, before either. A comparison lane
+        takes every change but keeps its own planner; after a mechanism switch it is kept if
+        its planner plans for the new mechanism, else dropped. While a replay is shown, the
+        controls act on it, and any other change returns to the live simulation.
 
         Returns:
             The names of the fields whose value changed, controls included.
@@ -152,31 +316,96 @@ class LiveSession:
         """
         changes = dict(changes)
         controls = {k: changes.pop(k) for k in list(changes) if k in LiveControls.model_fields}
+        given = COMPARE in changes
+        compare = changes.pop(COMPARE, None)
         unknown = sorted(set(changes) - set(LIVE_FIELDS))
         if unknown:
             raise TwinError(
-                f"{unknown[0]}: not a live field; allowed: {sorted(LIVE_FIELDS)} and "
-                f"{sorted(LiveControls.model_fields)}"
+                f"{unknown[0]}: not a live field; allowed: {sorted(LIVE_FIELDS)}, "
+                f"{COMPARE} and {sorted(LiveControls.model_fields)}"
             )
         with self._lock:
             new_controls = LiveControls(**{**self.controls.model_dump(), **controls})
-            current = self._sim.scenario
-            if any(k in RESTART_FIELDS and v != getattr(current, k) for k, v in changes.items()):
-                new = Scenario(**{**current.model_dump(), **changes})
-                changed = {k for k in changes if getattr(new, k) != getattr(current, k)}
-                self._sim = Simulation(new, history_limit=HISTORY)
+            changed = self._apply(changes, compare if given else self._compare, given)
+            if self._replay is not None and (changes or given):  # back to the live simulation
+                self._replay = None
                 self.version += 1
-            else:
-                changed = self._sim.update(changes) if changes else set()
+                if "playing" not in controls:
+                    new_controls.playing = self._live_playing
             self.controls = new_controls
         return changed | set(controls)
 
+    def _apply(self, changes: dict[str, Any], compare: str | None, given: bool) -> set[str]:
+        """Apply scenario changes and the comparison planner (under the lock); raise before
+        anything changes."""
+        current = self._sim.scenario
+        restart = any(k in RESTART_FIELDS and v != getattr(current, k) for k, v in changes.items())
+        if not restart and compare == self._compare:
+            lanes = None if compare is None else [{}, {"planner": compare}]
+            return self._sim.update(changes, lanes) if changes else set()
+        new = Scenario(**{**current.model_dump(), **changes})
+        if compare is not None and not given and new.mechanism not in _mechanisms(compare):
+            compare = None  # the new mechanism has no such planner: the comparison ends
+        sim = self._build(new, compare)
+        changed = {k for k in changes if getattr(new, k) != getattr(current, k)}
+        if compare != self._compare:
+            changed.add(COMPARE)
+        self._sim, self._compare, self._debt = sim, compare, 0.0
+        self.version += 1
+        return changed
+
+    @staticmethod
+    def _build(scenario: Scenario, compare: str | None) -> Simulation:
+        """The live Simulation of a scenario, with a comparison lane under `compare`."""
+        if compare is None:
+            return Simulation(scenario, history_limit=HISTORY)
+        try:
+            get_planner(compare, scenario.mechanism)
+        except ValueError as exc:
+            raise TwinError(f"{COMPARE}: {str(exc).removeprefix('planner: ')}") from None
+        other = Scenario(**{**scenario.model_dump(), "planner": compare})
+        return Simulation([scenario, other], history_limit=HISTORY)
+
     def reset(self) -> None:
-        """Start the current scenario again from t = 0."""
+        """Start the current scenario (and its comparison lane) again from t = 0; a replay
+        shown returns to the live simulation."""
         with self._lock:
-            self._sim = Simulation(self._sim.scenario, history_limit=HISTORY)
+            self._sim = self._build(self._sim.scenario, self._compare)
             self._debt = 0.0
+            if self._replay is not None:
+                self._replay = None
+                self.controls.playing = self._live_playing
             self.version += 1
+
+    def replay(
+        self, result: SimulationResult, run_id: str, t: float = 0.0, playing: bool = True
+    ) -> None:
+        """Show a stored run from time t [s] instead of the live simulation (which waits).
+
+        Raises:
+            ValueError: t outside the run (nothing changes).
+        """
+        replay = Replay.of(result, run_id)  # outside the lock: it builds the run's geometry
+        replay.seek(t)
+        with self._lock:
+            if self._replay is None:
+                self._live_playing = self.controls.playing
+            self._replay = replay
+            self.controls.playing = bool(playing)
+            self.version += 1
+
+    def seek(self, t: float, playing: bool | None = None) -> None:
+        """Move the replay shown to time t [s]; `playing` true or false plays or pauses it.
+
+        Raises:
+            ValueError: no replay is shown, or t is outside the run (nothing changes).
+        """
+        with self._lock:
+            if self._replay is None:
+                raise TwinError("t: no replay is shown; start one with a run id first")
+            self._replay.seek(t)
+            if playing is not None:
+                self.controls.playing = bool(playing)
 
     def pause(self) -> None:
         self.patch({"playing": False})
@@ -189,6 +418,11 @@ class LiveSession:
         which is let go between chunks; stops early once `max_seconds` (default `STEP_WALL`)
         of wall time have passed. Returns the steps taken (≥ 1 for n ≥ 1)."""
         deadline = time.monotonic() + (STEP_WALL if max_seconds is None else max_seconds)
+        with self._lock:
+            if self._replay is not None:  # a replay steps through its samples
+                r = self._replay
+                r.t = min(r.t + n * r.dt, r.duration)
+                return n
         taken = 0
         while taken < n:
             chunk = min(STEP_CHUNK, n - taken)
@@ -219,6 +453,12 @@ class LiveSession:
         with self._lock:
             if not self.controls.playing:
                 self._debt = 0.0
+                return 0
+            if self._replay is not None:  # the replay's clock moves; nothing is simulated
+                r = self._replay
+                r.t = min(r.t + wall_dt * self.controls.speed, r.duration)
+                if r.t >= r.duration:
+                    self.controls.playing = False  # paused at its end
                 return 0
             self._debt += wall_dt * self.controls.speed
             dt = self._sim.dt
@@ -264,3 +504,9 @@ class LiveSession:
                 log.exception("live step failed (%d so far); the loop goes on", self.loop_errors)
             last = now
             self._stop.wait(max(MIN_PAUSE, self.tick - (time.perf_counter() - now)))
+
+
+def _mechanisms(planner: str) -> tuple[str, ...]:
+    """The mechanisms a registered planner plans for (none for an unknown name)."""
+    spec = PLANNERS.get(planner)
+    return () if spec is None else tuple(spec.mechanisms)

@@ -28,7 +28,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -39,7 +39,7 @@ from twin.errors import TwinError
 from twin.planners import get_planner
 from twin.sim.batch import simulate_many
 from twin.sim.executor import SWEEP_PRIORITY, Executor
-from twin.sim.scenario import Scenario
+from twin.sim.scenario import TP_RANGE, Scenario
 
 #: most grid cells (Hs × Tp × heading × planner × β × k_e × k_c) one sweep may ask for
 MAX_CELLS = 5_000
@@ -68,18 +68,21 @@ class SweepStopped(RuntimeError):
 class SweepSpec(BaseModel):
     """A sweep request. Every axis is a non-empty list of distinct values; units as `Scenario`.
 
-    Runs use the hybrid system; `scenario` sets any other `Scenario` field for every run (e.g.
-    `{"spreading": 10, "n_components": 100}`).
+    Runs use `mechanism` (the hybrid system by default); `scenario` sets any other `Scenario`
+    field for every run (e.g. `{"spreading": 10, "n_components": 100}`).
     """
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
+    mechanism: Literal["hybrid", "upu3up", "upr4"] = Field(
+        "hybrid", description="the mechanism of every run; `planner` values must plan for it"
+    )
     hs: list[float] = Field([0.5, 1.0, 1.5, 2.0, 2.5, 3.0], description="[m] significant heights")
     tp: list[float] = Field([6.0, 8.0, 10.0], description="[s] peak periods")
     heading: list[float] = Field(
         [150.0], description="[deg] wave direction relative to the bow (180 head seas)"
     )
-    planner: list[str] = Field(["mtmp"], description="hybrid-system planners (PLANNERS)")
+    planner: list[str] = Field(["mtmp"], description="planners of the mechanism (PLANNERS)")
     beta: list[float] = Field([0.7], description="[-] parallel/serial weight β")
     k_e: list[float] = Field([25.0], description="[1/s] closed-loop gain k_e")
     k_c: list[float] = Field([9.0], description="[-] telescope weight k_c")
@@ -117,7 +120,7 @@ class SweepSpec(BaseModel):
         name = info.field_name
         for value in values:
             if name == "planner":
-                get_planner(value, "hybrid")
+                get_planner(value, info.data.get("mechanism", "hybrid"))
             else:
                 Scenario(**{name: value})
         return values
@@ -160,7 +163,8 @@ class SweepSpec(BaseModel):
 
     def scenarios(self) -> list[dict[str, Any]]:
         """Every run's scenario fields: the cells × seeds, cell-major."""
-        common = {**self.scenario, "mechanism": "hybrid", "duration": self.duration, "dt": self.dt}
+        common = {**self.scenario, "mechanism": self.mechanism, "duration": self.duration,
+                  "dt": self.dt}  # fmt: skip
         return [
             {**common, **cell, "seed": seed} for cell in self.cells() for seed in range(self.seeds)
         ]
@@ -303,15 +307,69 @@ def run_chunk(
     for fields, result in zip(scenarios, results, strict=True):
         m = result.metrics
         row = {axis: fields[axis] for axis in AXES} | {"seed": fields["seed"]}
-        row |= {name: m[name] for name in RUN_METRICS}
+        # a small platform's violations are all of one kind (`limit_violations` has them)
+        row |= {name: m.get(name, m["violations"] if "violations" in name else 0)
+                for name in RUN_METRICS}  # fmt: skip
         row["operable"] = m["violations"] == 0 and m["tip_position_error_max"] <= threshold
         rows.append(row)
     return rows
 
 
-def heatmap_png(result: SweepResult, path: str | Path) -> Path:
+def spec_around(
+    scenario: Scenario, *, seeds: int = 2, duration: float = 60.0, hs_points: int = 5,
+    tp_points: int = 3, tip_error_threshold: float = 0.05,
+) -> SweepSpec:
+    """A sweep of Hs × Tp around a scenario's sea, everything else as the scenario has it.
+
+    Hs spans 0.5 … 1.5 times the scenario's (0 … 1 m on a calm sea), Tp its ± 2 s (within
+    the allowed periods), both with the scenario's own value in the middle; the planner, its
+    knobs (`beta`, `k_e`, `k_c` as one-value axes, the rest in `scenario`), heading, spectrum,
+    vessel and limits mode are the scenario's, `seeds` sea seeds per cell.
+    """
+    hs, tp = scenario.sea()
+    if hs > 0:
+        hs_axis = hs * np.linspace(0.5, 1.5, hs_points)
+    else:
+        hs_axis = np.linspace(0.0, 1.0, hs_points)
+    tp_axis = np.clip(tp + np.linspace(-2.0, 2.0, tp_points), *TP_RANGE)
+    hs_values = _readable(np.clip(hs_axis, 0.0, 20.0), hs)
+    tp_values = _readable(tp_axis, tp)
+    own = {"heading", "planner", "beta", "k_e", "k_c"}
+    skip = {*AXES, "mechanism", "duration", "dt", "seed", "sea_state", "regular_waves",
+            "initial_state"}  # fmt: skip
+    fields = scenario.model_dump()
+    return SweepSpec(
+        mechanism=scenario.mechanism,
+        hs=hs_values,
+        tp=tp_values,
+        **{axis: [fields[axis]] for axis in sorted(own)},
+        seeds=seeds,
+        duration=duration,
+        dt=scenario.dt,
+        tip_error_threshold=tip_error_threshold,
+        scenario={k: v for k, v in fields.items() if k not in skip and v is not None},
+    )
+
+
+def _readable(values: np.ndarray, centre: float) -> list[float]:
+    """Grid values to 3 significant digits, the one nearest `centre` exactly `centre`;
+    repeats dropped."""
+    out = [float(f"{v:.3g}") for v in values]
+    out[int(np.argmin(np.abs(values - centre)))] = float(centre)
+    return list(dict.fromkeys(out))
+
+
+def heatmap_png(
+    result: SweepResult, path: str | Path, mark: tuple[float, float] | None = None
+) -> Path:
     """Operability heatmaps, Hs (rows) × Tp (columns), one panel per planner, heading and
     (β, k_e, k_c); cells annotated in percent; the criterion in the title.
+
+    Args:
+        result: the sweep.
+        path: the PNG written.
+        mark: (Hs [m], Tp [s]) to ring on every panel, e.g. the live sea (left out when it
+            lies outside the grid).
 
     Returns:
         The path written.
@@ -343,10 +401,16 @@ def heatmap_png(result: SweepResult, path: str | Path) -> Path:
         ax.set_yticks(range(len(hs)), [f"{v:g}" for v in hs])
         ax.set_xlabel("Tp [s]")
         ax.set_ylabel("Hs [m]")
-        ax.set_title(
-            f"{planner.upper()}, heading {heading:g}°\nβ {beta:g}, k_e {k_e:g}, k_c {k_c:g}",
-            fontsize=9,
-        )
+        knobs = f"β {beta:g}, k_e {k_e:g}, k_c {k_c:g}"  # the hybrid system's knobs
+        if result.spec.mechanism != "hybrid":
+            knobs = result.spec.mechanism
+        ax.set_title(f"{planner.upper()}, heading {heading:g}°\n{knobs}", fontsize=9)
+        if mark is not None and hs[0] <= mark[0] <= hs[-1] and tp[0] <= mark[1] <= tp[-1]:
+            x = np.interp(mark[1], tp, np.arange(len(tp)))
+            y = np.interp(mark[0], hs, np.arange(len(hs)))
+            ax.plot(x, y, "o", ms=22, mfc="none", mec="black", mew=2.0, label="current sea")
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.18), fontsize=8,
+                      frameon=False, markerscale=0.5)  # fmt: skip
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
     figure.suptitle(

@@ -1,5 +1,9 @@
 """The REST API: registries, scripted runs, sweeps and the live session; OpenAPI at `/docs`.
 
+`/docs` (Swagger UI) and `/redoc` load their scripts and styles from this server, out of the
+installed `fastapi-offline` package, never from a CDN: they render on a machine without
+internet access.
+
 `create_app` wires the routers of `twin.web.routers` (registries, runs, sweeps, live) to the
 services they take as dependencies (`twin.web.deps`): the live session, the run store, the
 runners of runs and sweeps on the one executor, and the access policy.
@@ -19,10 +23,18 @@ from __future__ import annotations
 
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from pathlib import Path
 
+import fastapi_offline
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.openapi.docs import (
+    get_redoc_html,
+    get_swagger_ui_html,
+    get_swagger_ui_oauth2_redirect_html,
+)
+from fastapi.responses import HTMLResponse, JSONResponse
+from fastapi.staticfiles import StaticFiles
 from starlette.concurrency import run_in_threadpool
 
 import twin
@@ -53,6 +65,16 @@ from twin.web.models import (
 )
 from twin.web.routers.registries import STATIC_DIR
 from twin.web.store import RunNotFound, RunStore, StoreUnavailable
+
+#: Swagger UI's and ReDoc's files, as the `fastapi-offline` package ships them
+DOCS_ASSETS = Path(fastapi_offline.__file__).resolve().parent / "static"
+#: where the app serves them
+DOCS_STATIC = "/docs-static"
+#: the docs pages may load nothing from elsewhere (ReDoc would fetch its vendor's logo)
+DOCS_POLICY = (
+    "default-src 'self'; script-src 'self' 'unsafe-inline'; style-src 'self' 'unsafe-inline'; "
+    "img-src 'self' data:; font-src 'self' data:; worker-src 'self' blob:; connect-src 'self'"
+)
 
 __all__ = [
     "LIVE_FIELDS",
@@ -145,7 +167,10 @@ def create_app(
         version=twin.__version__,
         summary="Digital twin of offshore wave-motion compensation: runs and the live session",
         lifespan=lifespan,
+        docs_url=None,  # served below from local files
+        redoc_url=None,
     )
+    _offline_docs(app)
     app.state.services = services
     app.add_middleware(BodyLimit, max_bytes=max_body)
     # the outermost: refused before anything is read
@@ -167,3 +192,43 @@ def create_app(
     for module in (routers.registries, routers.runs, routers.sweeps, routers.live):
         app.include_router(module.router)
     return app
+
+
+def _offline_docs(app: FastAPI) -> None:
+    """`/docs` and `/redoc` with their assets served by the app itself (FastAPI's "self-hosting
+    JavaScript and CSS for docs"), so they render offline; a Content-Security-Policy keeps
+    them from loading anything from elsewhere."""
+    app.mount(DOCS_STATIC, StaticFiles(directory=DOCS_ASSETS), name="docs-static")
+    openapi_url = app.openapi_url or "/openapi.json"
+    redirect = app.swagger_ui_oauth2_redirect_url or "/docs/oauth2-redirect"
+
+    def local(page: HTMLResponse) -> HTMLResponse:
+        page.headers["Content-Security-Policy"] = DOCS_POLICY
+        return page
+
+    @app.get("/docs", include_in_schema=False)
+    def swagger_ui() -> HTMLResponse:
+        return local(get_swagger_ui_html(
+            openapi_url=openapi_url,
+            title=f"{app.title} - Swagger UI",
+            oauth2_redirect_url=redirect,
+            swagger_js_url=f"{DOCS_STATIC}/swagger-ui-bundle.js",
+            swagger_css_url=f"{DOCS_STATIC}/swagger-ui.css",
+            swagger_favicon_url=f"{DOCS_STATIC}/favicon.png",
+            # no badge that asks an online validator about the schema
+            swagger_ui_parameters={"validatorUrl": None},
+        ))
+
+    @app.get(redirect, include_in_schema=False)
+    def swagger_ui_redirect() -> HTMLResponse:
+        return get_swagger_ui_oauth2_redirect_html()
+
+    @app.get("/redoc", include_in_schema=False)
+    def redoc() -> HTMLResponse:
+        return local(get_redoc_html(
+            openapi_url=openapi_url,
+            title=f"{app.title} - ReDoc",
+            redoc_js_url=f"{DOCS_STATIC}/redoc.standalone.js",
+            redoc_favicon_url=f"{DOCS_STATIC}/favicon.png",
+            with_google_fonts=False,
+        ))

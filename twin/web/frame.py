@@ -39,6 +39,10 @@ class FrameState:
         leg_lengths: (n,) [m] hinge to hinge, every leg of the URDF.
         leg_min: (n,) [m] shortest leg lengths.
         leg_max: (n,) [m] longest leg lengths.
+        ghost: the comparison lane read the same way (its scenario has its own planner), or
+            None.
+        replay: the stored run shown instead of the simulation ({run_id, t, duration}), or
+            None.
     """
 
     version: int
@@ -55,6 +59,8 @@ class FrameState:
     leg_lengths: np.ndarray
     leg_min: np.ndarray
     leg_max: np.ndarray
+    ghost: FrameState | None = None
+    replay: dict[str, Any] | None = None
 
     @property
     def t(self) -> float:
@@ -75,33 +81,40 @@ class FrameState:
 
 
 def read_frame(session: LiveSession) -> FrameState | None:
-    """Read the session once for a frame; None if a restart raced the reads (try again)."""
-    version = session.version
-    record = session.latest()
-    scenario = session.scenario
-    mechanism = session.mechanism
-    sea = session.sea
-    held = session.held_transform
-    controls = session.controls
-    if session.version != version:
-        return None
+    """Read the session once for a frame (one consistent reading, `LiveSession.view`)."""
+    view = session.view()
+    scenario, record = view["scenario"], view["record"]
+    ghost = None
+    if view["compare"] is not None:
+        other = scenario.model_copy(update={"planner": view["compare"]})
+        ghost = _frame(view, other, view["compare_record"])
+    return _frame(view, scenario, record, ghost)
+
+
+def _frame(
+    view: dict[str, Any], scenario: Scenario, record: dict[str, np.ndarray],
+    ghost: FrameState | None = None,
+) -> FrameState:  # fmt: skip
+    mechanism = view["mechanism"]
     state = record[STATE_KEY.get(scenario.mechanism, "state")]
     cfg = {name: float(v) for name, v in joint_configuration(mechanism, state).items()}
     layout = mechanism.layout
     strokes = [leg_joint_names(i + 1)[2] for i in range(layout.n_legs)]
     return FrameState(
-        version=version,
+        version=view["version"],
         scenario=scenario,
         mechanism=mechanism,
         record=record,
-        sea=sea,
-        held=held,
-        playing=controls.playing,
-        speed=controls.speed,
+        sea=view["sea"],
+        held=view["held"],
+        playing=view["playing"],
+        speed=view["speed"],
         cfg=cfg,
         transform_base=pose_to_transform(record["base_pose"]),
         transform_platform=pose_to_transform(np.asarray(mechanism.platform_pose(state))),
         leg_lengths=np.array([cfg[name] for name in strokes]),
         leg_min=np.array(layout.length_min),
         leg_max=np.array(layout.length_max),
+        ghost=ghost,
+        replay=view["replay"],
     )

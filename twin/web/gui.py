@@ -1,5 +1,7 @@
-"""The live twin's control panel: mechanism, planner and its knobs, sea, run controls, camera
-views, live plots and a readout of the metrics and limit violations.
+"""The live twin's control panel: mechanism, planner and its knobs (and a second planner to
+compare), sea, run controls, camera views, live plots, a readout of the metrics and limit
+violations, a help panel; with a run store, the replay of stored runs and operability sweeps
+around the current sea.
 
 Ranges, defaults and hints come from one place, the pydantic fields (`PlannerParameters`,
 `Scenario`, `LiveControls`). Callbacks only call the session (`patch`, `play`, `pause`,
@@ -17,6 +19,12 @@ alone, while the scene, plots and its own camera views stay open to it. Wrong to
 rate-limited per client address, as over REST. The render loop calls `TwinGui.update` every
 frame, which moves every browser's widgets to the session's values (so a REST PATCH shows in
 every browser) and feeds the plots and the readout.
+
+Replay and sweeps act as REST does (`twin.web.actions`); the sweep's progress and heatmap are
+shown to every browser. Widgets that get frequent updates (plots, readout, replay time) are
+never removed: viser's browser client applies a removal before the updates that came in the
+same batch, and logs an error for each ("Tried to update non-existent component"); plots of
+another layout are hidden and kept instead.
 """
 
 from __future__ import annotations
@@ -34,9 +42,11 @@ import viser
 import viser.uplot as up
 from pydantic import BaseModel
 
+from twin.mechanisms.hybrid import JOINT_NAMES
 from twin.planners import PlannerParameters
 from twin.planners.registry import PLANNERS
-from twin.sim.live import LiveControls, LiveSession
+from twin.sim.faults import HOLDS, Fault
+from twin.sim.live import COMPARE, LiveControls, LiveSession
 from twin.sim.scenario import Scenario
 from twin.web.access import Access
 from twin.web.frame import VIEWS, FrameState, View
@@ -52,6 +62,17 @@ READOUT_PERIOD = 0.2
 METRICS_PERIOD = 2.0
 #: [m] leg-length tolerance of the limit readout (Table 1's millimetre precision)
 LEG_TOL = 5e-4
+#: [-] tolerance of the state-limit readout, a fraction of each state's range: a state held
+#: on its limit (joint_limits "hold") is within it
+STATE_TOL = 1e-4
+#: [s] how often the list of stored runs to replay is read again
+RUNS_PERIOD = 3.0
+#: [s] how often a sweep's progress is read
+SWEEP_POLL = 0.5
+#: the compare dropdown's "no second planner"
+NO_COMPARE = "none"
+#: the replay dropdown's "no run chosen"
+NO_RUN = "—"
 #: knobs shown for every planner (disabled where the planner does not read them)
 ALWAYS_SHOWN = ("beta", "k_e", "k_c")
 LABELS = {
@@ -227,7 +248,7 @@ def plot_specs(fs: FrameState) -> tuple[PlotSpec, ...]:
         ],
     )
     if fs.scenario.mechanism == "hybrid":
-        joints = PlotSpec(
+        joints: PlotSpec | None = PlotSpec(
             "Gangway joints: q1, q2 [deg] (left), d3 [m] (right)",
             (_line("q1 [deg]", 0, "a"), _line("q2 [deg]", 1, "a"), _line("d3 [m]", 2, "b")),
             two,
@@ -241,7 +262,7 @@ def plot_specs(fs: FrameState) -> tuple[PlotSpec, ...]:
             (up.Axis(scale="y"),),
             lambda f: np.atleast_1d(f.record["manipulability"]),
         )
-        return legs, joints, error, extra
+        return legs, *(_with_ghost(p, fs) for p in (joints, error, extra))
     unit = "mm" if fs.scenario.mechanism == "upu3up" else "m"
     z, a1, a2 = fs.mechanism.state_names
     joints = PlotSpec(
@@ -262,7 +283,28 @@ def plot_specs(fs: FrameState) -> tuple[PlotSpec, ...]:
         (up.Axis(scale="y"),),
         lambda f: np.degrees(np.r_[f.record["alpha_top"], f.record["alpha_bottom"]]),
     )
-    return legs, joints, error, extra
+    return legs, *(_with_ghost(p, fs) for p in (joints, error, extra))
+
+
+def _with_ghost(spec: PlotSpec, fs: FrameState) -> PlotSpec:
+    """The plot with the comparison lane's lines beside its own (dashed, its planner named),
+    or as it is without one."""
+    if fs.ghost is None:
+        return spec
+    name = fs.ghost.scenario.planner
+    ghosts = tuple(
+        up.Series(**{**dict(line), "label": f"{line.get('label')} · {name}", "dash": (5.0, 3.0)})
+        for line in spec.series
+    )
+    own = spec.values
+
+    def values(f: FrameState) -> np.ndarray:
+        mine = own(f)
+        other = own(f.ghost) if f.ghost is not None else np.full(mine.size, np.nan)
+        return np.r_[mine, other]
+
+    title = f"{spec.title} · dashed: {name}"
+    return PlotSpec(title, (*spec.series, *ghosts), spec.scales, spec.axes, values)
 
 
 def _layout(specs: Iterable[PlotSpec]) -> list[tuple[str, ...]]:
@@ -270,40 +312,141 @@ def _layout(specs: Iterable[PlotSpec]) -> list[tuple[str, ...]]:
     return [(p.title, *(str(s.get("label")) for s in p.series)) for p in specs]
 
 
+def plain(value: float, digits: int = 3) -> str:
+    """`value` to `digits` significant digits in plain notation, never an exponent."""
+    value = float(value)
+    if not np.isfinite(value) or value == 0.0:
+        return f"{value:g}"
+    decimals = max(0, digits - 1 - int(np.floor(np.log10(abs(value)))))
+    return f"{value:.{decimals}f}"
+
+
+#: SI prefixes the readout picks from, largest first
+_PREFIXES = ((1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"))
+
+
+def si(value: float, unit: str, digits: int = 3) -> str:
+    """A quantity with the SI prefix that puts it in 1 … 1000 (n below, k above), in plain
+    notation: 2500 mm reads 2.50 m, never 2.5e+03 mm."""
+    size = abs(float(value))
+    if size == 0.0 or not np.isfinite(size):
+        return f"{plain(value, digits)} {unit}"
+    scale, prefix = next(
+        ((k, p) for k, p in _PREFIXES if size >= k * (1 - 5e-4)), _PREFIXES[-1]
+    )
+    return f"{plain(value / scale, digits)} {prefix}{unit}"
+
+
+def state_units(fs: FrameState) -> list[tuple[float, str]]:
+    """(factor, unit) that shows each state value: lengths in their own unit, angles in
+    degrees."""
+    names = fs.mechanism.state_names
+    if fs.scenario.mechanism == "hybrid":
+        angles = {"roll", "pitch", "yaw", "q1", "q2"}
+        return [(np.degrees(1.0), "°") if n in angles else (1.0, " m") for n in JOINT_NAMES]
+    length = " mm" if fs.scenario.mechanism == "upu3up" else " m"
+    return [(1.0, length)] + [(np.degrees(1.0), "°")] * (len(names) - 1)
+
+
 def limit_violations(fs: FrameState) -> list[str]:
-    """Readable limit violations of the frame's legs and state (empty: all within limits)."""
+    """Readable limit violations of the frame's legs and state (empty: all within limits).
+
+    A leg counts beyond its stroke by more than `LEG_TOL`, a state beyond its limit by more
+    than `STATE_TOL` of its range (a state held on its limit is within it); values print with
+    the digits that show the difference."""
     out = []
     for i in np.flatnonzero(fs.leg_lengths < fs.leg_min - LEG_TOL):
-        out.append(f"leg {i + 1}: {fs.leg_lengths[i]:.3f} m < {fs.leg_min[i]:.3f} m")
+        out.append(f"leg {i + 1}: {fs.leg_lengths[i]:.4f} m < {fs.leg_min[i]:.4f} m")
     for i in np.flatnonzero(fs.leg_lengths > fs.leg_max + LEG_TOL):
-        out.append(f"leg {i + 1}: {fs.leg_lengths[i]:.3f} m > {fs.leg_max[i]:.3f} m")
-    low, high = fs.mechanism.state_limits
+        out.append(f"leg {i + 1}: {fs.leg_lengths[i]:.4f} m > {fs.leg_max[i]:.4f} m")
+    low, high = (np.asarray(v, float) for v in fs.mechanism.state_limits)
+    tol = STATE_TOL * (high - low)
     names = fs.mechanism.state_names
-    for i in np.flatnonzero((fs.state < low - 1e-9) | (fs.state > high + 1e-9)):
-        out.append(f"{names[i]}: {fs.state[i]:.4g} outside [{low[i]:.4g}, {high[i]:.4g}]")
+    units = state_units(fs)
+    for i in np.flatnonzero((fs.state < low - tol) | (fs.state > high + tol)):
+        factor, unit = units[i]
+        decimals = max(0, int(np.ceil(-np.log10(tol[i] * factor))) + 1)
+        x, limit = fs.state[i] * factor, (low[i] if fs.state[i] < low[i] else high[i]) * factor
+        sign = "<" if fs.state[i] < low[i] else ">"
+        out.append(f"{names[i]}: {x:.{decimals}f}{unit} {sign} {limit:.{decimals}f}{unit}")
     return out
 
 
+#: fault kinds that hold the mechanism for a step (a fault proper), and what the others mean
+HELD_KINDS = tuple(f.name.lower() for f in Fault if f in HOLDS)
+LIMIT_KINDS = {
+    "joint_limit": "stopped at a limit",
+    "singular": "damped near a singularity",
+    "infeasible": "QP infeasible (closest rates taken)",
+}
+
+
 def fault_line(faults: dict[str, Any]) -> str:
-    """The readout's line of numerical faults (`LiveSession.snapshot()["faults"]`)."""
-    counts = {k: n for k, n in faults.get("counts", {}).items() if n}
+    """The readout's line of numerical faults (`LiveSession.snapshot()["faults"]`): steps a
+    fault held the mechanism for (base motion, planner, kinematics) and loop errors only."""
+    counts = {k: n for k, n in faults.get("counts", {}).items() if n and k in HELD_KINDS}
     if not counts and not faults.get("loop_errors"):
-        return "**Faults:** none"
+        return "**Faults:** none (no step held)"
     parts = [f"{k.replace('_', ' ')} {n}" for k, n in counts.items()]
     if faults.get("loop_errors"):
         parts.append(f"loop errors {faults['loop_errors']}")
     line = "**⚠ Faults:** " + ", ".join(parts) + f" · {faults.get('held', 0)} steps held"
-    if faults.get("events"):
-        last = faults["events"][-1]
+    events = [e for e in faults.get("events", []) if set(e["kinds"]) & set(HELD_KINDS)]
+    if events:
+        last = events[-1]
         line += f" · last at t = {last['end']:.2f} s: {', '.join(last['kinds'])}"
         if last["message"]:
             line += f" ({last['message'][:120]})"
     return line
 
 
-#: layout: the shared folders, in order, and where the shared readout sits in "Run"
-FOLDERS = ("Run", "Mechanism and planner", "Sea", "View")
+def limit_line(faults: dict[str, Any], joint_limits: str) -> str:
+    """Steps the planner shortened at a limit, damped or solved approximately: what the
+    machine did to stay within its limits, not violations."""
+    counts = faults.get("counts", {})
+    parts = [f"{text} {counts[k]}" for k, text in LIMIT_KINDS.items() if counts.get(k)]
+    if not parts:
+        return "**Limit handling:** no step shortened, damped or approximated"
+    how = "held at the limits" if joint_limits == "hold" else "limits recorded"
+    return f"**Limit handling** ({how}; steps, not violations): " + ", ".join(parts)
+
+
+#: the Help panel
+HELP = """**Legs** are coloured by their margin to the stroke ends: green at mid-stroke, through
+yellow and orange, to red at a limit.
+
+**Tip-error trail** (magenta): the gangway tip's (a platform top's) distance from the pose it
+holds, drawn magnified by the power of ten in its label ("tip error ×10000": 1 mm of error
+draws as 10 m); older samples fade.
+
+**Targets**, fixed in the sea while the vessel moves: the hybrid gangway lands on a wind
+turbine's access platform (the grey tower is the turbine, the green square its landing
+zone); the 4-UPR holds its pad under a hovering UAV; the 3UPU_UP holds its top under a
+crane-hung container. The green ghost pad or disc is the held pose.
+
+**Ghost** (translucent blue): a second planner on the same vessel motion and knobs
+("Compare with"); the plots draw it dashed.
+
+**Faults** count steps a numerical fault held the mechanism still (a non-finite sea sample,
+a planner or kinematics failure). **Limit handling** counts steps the planner shortened to stop
+on a limit (joint limits "hold"), damped near a singularity, or solved approximately: the
+machine staying within its limits. **Limit violations** are samples beyond a limit (legs by
+more than 0.5 mm): "now" for the newest sample, "samples" over the plotted history.
+
+**Replay** plays a stored run (no simulation): the time slider seeks, Play/Pause and speed
+act on it, "Back to live" or any change returns to the live twin.
+
+**Operability** runs a grid of sea states around the current one on the server, with the
+current planner and knobs; the heatmap rings the current sea.
+"""
+
+
+#: layout: the shared folders, in order (the last two only with a run store), and where the
+#: shared readout, status lines and heatmap sit in theirs
+FOLDERS = ("Run", "Mechanism and planner", "Sea", "View", "Replay", "Operability")
 READOUT_ORDER = 100.0
+#: buttons that act on the session or the store (disabled while locked); views stay open
+ACTIONS = ("Play", "Pause", "Step", "Reset", "Watch in 3D", "Back to live", "Run sweep")
 LOCKED = "controls are locked: enter the server's token under Access"
 
 
@@ -325,8 +468,10 @@ class ClientPanel:
 
     Attributes:
         client: the browser.
-        inputs: scenario or control field → its widget.
-        buttons: button label → its handle (run controls and camera views).
+        inputs: scenario or control field (and `compare_planner`) → its widget.
+        settings: the replay's run and time, the sweep's seeds and run length → its widget
+            (with a run store).
+        buttons: button label → its handle (run controls, replay, sweep and camera views).
         show_trail: checkbox of the tip-error trail.
         locked: whether its edits are refused.
     """
@@ -336,6 +481,7 @@ class ClientPanel:
         self.client = client
         self.locked = locked
         self.inputs: dict[str, viser.GuiInputHandle] = {}
+        self.settings: dict[str, viser.GuiInputHandle] = {}
         self.buttons: dict[str, viser.GuiButtonHandle] = {}
         self._access: Any = None
         session, cg = gui.session, client.gui
@@ -360,6 +506,13 @@ class ClientPanel:
             self.inputs["planner"] = cg.add_dropdown(
                 "Planner", planners_for(s.mechanism), initial_value=s.planner
             )
+            self.inputs[COMPARE] = cg.add_dropdown(
+                "Compare with",
+                (NO_COMPARE, *planners_for(s.mechanism)),
+                initial_value=gui.current(COMPARE),
+                hint="a second planner on the same vessel motion and knobs, drawn as a "
+                "translucent ghost and dashed in the plots (restarts at t = 0)",
+            )
             self.inputs["joint_limits"] = cg.add_dropdown(
                 "Joint limits",
                 JOINT_LIMITS,
@@ -380,7 +533,13 @@ class ClientPanel:
                 button.on_click(lambda event, view=view: gui.on_camera(view, [client]))
                 self.buttons[VIEW_LABELS[view]] = button
             self.show_trail = cg.add_checkbox("Tip-error trail", initial_value=gui.trail)
+        if gui.store is not None:
+            self._add_replay(folders["Replay"])
+        if gui.store is not None and gui.sweeps is not None:
+            self._add_sweep(folders["Operability"])
         self.show_trail.on_update(self._on_trail)
+        self._kept: dict[str, Any] = {k: h.value for k, h in self.settings.items()}
+        self._replay_t = 0.0
         self._seen: dict[str, Any] = {}
         for name, handle in self.inputs.items():
             self._seen[name] = handle.value
@@ -389,6 +548,91 @@ class ClientPanel:
         self._show_planner_knobs(s.planner)
         if locked:
             self._offer_unlock()
+
+    def _add_replay(self, folder: Any) -> None:
+        """This browser's replay controls: a stored run, Watch, the time slider, Back to live."""
+        cg, gui = self.client.gui, self.gui
+        with folder:
+            self.settings["replay_run"] = cg.add_dropdown(
+                "Stored run", gui.run_options, initial_value=NO_RUN, order=0,
+                hint="a done run of the store (newest first)",
+            )  # fmt: skip
+            self.buttons["Watch in 3D"] = cg.add_button(
+                "Watch in 3D", icon=viser.Icon.PLAYER_PLAY, order=1
+            )
+            self.settings["replay_t"] = cg.add_slider(
+                "Replay time [s]", min=0.0, max=1.0, step=0.05, initial_value=0.0, order=2,
+                hint="seek in the run replayed (Play, Pause and speed under Run act on it)",
+            )  # fmt: skip
+            self.buttons["Back to live"] = cg.add_button(
+                "Back to live", icon=viser.Icon.REFRESH, order=3
+            )
+        self.buttons["Watch in 3D"].on_click(
+            lambda event: gui.act(lambda: gui.watch(self), event.client, self)
+        )
+        self.buttons["Back to live"].on_click(
+            lambda event: gui.act(gui.session.reset, event.client, self)
+        )
+        self.settings["replay_t"].on_update(self._on_seek)
+        self.settings["replay_run"].on_update(self._on_setting("replay_run"))
+
+    def _add_sweep(self, folder: Any) -> None:
+        """This browser's sweep controls: seeds, run length, Run sweep."""
+        cg, gui = self.client.gui, self.gui
+        with folder:
+            self.settings["sweep_seeds"] = cg.add_slider(
+                "Seeds per cell", min=1, max=5, step=1, initial_value=2, order=0,
+                hint="sea seeds per Hs × Tp cell (the same seeds in every cell)",
+            )  # fmt: skip
+            self.settings["sweep_duration"] = cg.add_slider(
+                "Run length [s]", min=10.0, max=200.0, step=10.0, initial_value=60.0, order=1
+            )
+            self.buttons["Run sweep"] = cg.add_button(
+                "Run sweep", icon=viser.Icon.CHART_BAR, order=2,
+                hint="Hs × Tp around the current sea (5 × 3 cells) with the current mechanism, "
+                "planner and knobs, on the server's executor",
+            )  # fmt: skip
+        self.buttons["Run sweep"].on_click(
+            lambda event: gui.act(lambda: gui.run_sweep(self), event.client, self)
+        )
+        for name in ("sweep_seeds", "sweep_duration"):
+            self.settings[name].on_update(self._on_setting(name))
+
+    def _on_setting(self, name: str) -> Callable[[viser.GuiEvent], None]:
+        """A setting only this browser uses: a locked browser's edit is undone."""
+
+        def on_update(event: viser.GuiEvent) -> None:
+            if event.client is None:
+                return
+            handle = self.settings[name]
+            if not self.gui.allowed(event.client):
+                self.gui.refuse(event.client)
+                _assign(handle, "value", self._kept.get(name, handle.value))
+                return
+            self._kept[name] = handle.value
+
+        return on_update
+
+    def _on_seek(self, event: viser.GuiEvent) -> None:
+        if event.client is None:
+            return
+        handle = self.settings["replay_t"]
+        shown = self.gui.session.replaying
+        if not self.gui.allowed(event.client):
+            self.gui.refuse(event.client)
+        elif shown is None:
+            self.client.add_notification(
+                "No replay", "choose a stored run and press Watch in 3D first",
+                auto_close_seconds=5.0, color="yellow",
+            )  # fmt: skip
+        else:
+            try:
+                self.gui.session.seek(float(handle.value))
+                self._replay_t = float(handle.value)
+                return
+            except ValueError as err:
+                self.client.add_notification("Not applied", str(err), color="red")
+        _assign(handle, "value", shown["t"] if shown else 0.0)
 
     # -- access -------------------------------------------------------------------------------
     def _offer_unlock(self) -> None:
@@ -423,8 +667,11 @@ class ClientPanel:
         for name, handle in self.inputs.items():
             unused = name in {k.name for k in PLANNER_KNOBS} and name not in used
             _assign(handle, "disabled", self.locked or unused)
-        for label in ("Play", "Pause", "Step", "Reset"):
-            _assign(self.buttons[label], "disabled", self.locked)
+        for label in ACTIONS:
+            if label in self.buttons:
+                _assign(self.buttons[label], "disabled", self.locked)
+        for handle in self.settings.values():
+            _assign(handle, "disabled", self.locked)
         _assign(self.show_trail, "disabled", self.locked)
 
     # -- GUI → session ------------------------------------------------------------------------
@@ -443,7 +690,8 @@ class ClientPanel:
         def on_update(event: viser.GuiEvent) -> None:
             if event.client is None:
                 return  # the server showing the session's value: nothing to send back
-            changes = {name: self.inputs[name].value}
+            value = self.inputs[name].value
+            changes = {name: None if name == COMPARE and value == NO_COMPARE else value}
             if name == "mechanism" and self.gui.session.scenario.planner not in planners_for(
                 changes[name]
             ):
@@ -473,6 +721,8 @@ class ClientPanel:
         frame, so an edit this browser has just made is not overwritten before it lands)."""
         if values["mechanism"] != self._seen["mechanism"]:
             _assign(self.inputs["planner"], "options", planners_for(values["mechanism"]))
+            _assign(self.inputs[COMPARE], "options",
+                    (NO_COMPARE, *planners_for(values["mechanism"])))  # fmt: skip
         if values["planner"] != self._planner:
             self._planner = values["planner"]
             self._show_planner_knobs(values["planner"])
@@ -482,6 +732,23 @@ class ClientPanel:
                 _assign(self.inputs[name], "value", value)
         if self.show_trail.value != trail:
             _assign(self.show_trail, "value", trail)
+
+    def sync_replay(self, replay: dict[str, Any] | None, runs: tuple[str, ...]) -> None:
+        """The replay widgets follow the session: the time slider spans the run replayed and
+        shows its time; the run list follows the store."""
+        if "replay_t" not in self.settings:
+            return
+        run = self.settings["replay_run"]
+        if tuple(run.options) != runs:
+            _assign(run, "options", runs)
+        slider = self.settings["replay_t"]
+        if replay is None:
+            return
+        if slider.max != replay["duration"]:
+            _assign(slider, "max", max(replay["duration"], 0.05))
+        if abs(replay["t"] - self._replay_t) > 1e-9:
+            self._replay_t = replay["t"]
+            _assign(slider, "value", round(replay["t"] / 0.05) * 0.05)
 
     def _show_planner_knobs(self, planner: str) -> None:
         used = PLANNERS[planner].parameters
@@ -501,12 +768,18 @@ class TwinGui:
         on_camera: sets the given clients' cameras to a preset view.
         access: the server's access policy: with a token, a browser's controls stay
             read-only until it enters it (wrong ones rate-limited per address).
+        store: the run store: with it, the Replay folder (its done runs) and, with `sweeps`,
+            the Operability folder.
+        sweeps: the runner of sweeps (the REST app's).
+        api_url: the REST API's address, for links to stored sweeps.
 
     Attributes:
         panels: client id → its controls.
         folders: the shared folders the panels' widgets sit in.
         readout: the metrics and limits markdown (shared).
-        plots: the live uPlot handles (shared).
+        plots: the live uPlot handles in use (shared; those of other layouts are hidden).
+        run_options: the replay dropdown's choices (`NO_RUN`, then "id · what" per done run).
+        sweep_status: the sweep's progress and link (shared markdown), `heatmap` its image.
         trail: whether the tip-error trail shows (a control: unlocked browsers toggle it).
         last_error: the last value the session refused, or the last refusal (its message).
     """
@@ -518,9 +791,19 @@ class TwinGui:
         fs: FrameState,
         on_camera: Callable[[View, Iterable[viser.ClientHandle]], None],
         access: Access | None = None,
+        store: Any = None,
+        sweeps: Any = None,
+        api_url: str | None = None,
     ) -> None:
         self.server = server
         self.session = session
+        self.store = store
+        self.sweeps = sweeps
+        self.api_url = (api_url or "").rstrip("/")
+        self.run_options: tuple[str, ...] = (NO_RUN,)
+        self.sweep_id: str | None = None
+        self.heatmap: viser.GuiImageHandle | None = None
+        self._stop = threading.Event()
         self.on_camera = on_camera
         self.access = access if access is not None else Access()
         self._failures = self.access.failure_limit()
@@ -531,17 +814,35 @@ class TwinGui:
         self.trail = True
         self.last_error: str | None = None
         self.plots: list[viser.GuiUplotHandle] = []
+        self._plot_sets: dict[tuple, list[viser.GuiUplotHandle]] = {}
         self._specs: tuple[PlotSpec, ...] = ()
         self._samples = np.zeros((0, 0))
         self._count = 0
-        self._next = {"plot": 0.0, "readout": 0.0, "metrics": 0.0}
+        self._next = {"plot": 0.0, "readout": 0.0, "metrics": 0.0, "runs": 0.0}
         self._metrics: dict[str, Any] = {}
         self._faults: dict[str, Any] = {}
+        self._compare: dict[str, Any] | None = None
         gui = server.gui
-        self.folders = {name: gui.add_folder(name, order=i) for i, name in enumerate(FOLDERS)}
+        shown = FOLDERS if store is not None else FOLDERS[:4]
+        if sweeps is None:
+            shown = tuple(f for f in shown if f != "Operability")
+        self.folders = {name: gui.add_folder(name, order=i) for i, name in enumerate(shown)}
         with self.folders["Run"]:
             self.readout = gui.add_markdown("", order=READOUT_ORDER)
-        self._plot_folder = gui.add_folder("Plots", order=len(FOLDERS))
+        if "Replay" in self.folders:
+            with self.folders["Replay"]:
+                self.replay_status = gui.add_markdown("", order=READOUT_ORDER)
+            self._refresh_runs()
+        if "Operability" in self.folders:
+            with self.folders["Operability"]:
+                self.sweep_status = gui.add_markdown(
+                    "Hs × Tp around the current sea (5 × 3 cells), with the current "
+                    "mechanism, planner and knobs, on the server's executor.",
+                    order=READOUT_ORDER,
+                )
+        self._plot_folder = gui.add_folder("Plots", order=len(shown))
+        with gui.add_folder("Help", order=len(shown) + 1, expand_by_default=False):
+            gui.add_markdown(HELP)
         self.restart(fs)
         server.on_client_connect(self._connect)
         server.on_client_disconnect(self._disconnect)
@@ -566,7 +867,8 @@ class TwinGui:
     def _drop(panel: ClientPanel) -> None:
         """Remove a panel built for a browser that had already left (viser's teardown of it
         ran before these widgets existed, so they would stay listed in the shared folders)."""
-        for handle in [*panel.inputs.values(), *panel.buttons.values(), panel.show_trail]:
+        handles = [*panel.inputs.values(), *panel.settings.values(), *panel.buttons.values()]
+        for handle in [*handles, panel.show_trail]:
             try:
                 handle.remove()
             except Exception:
@@ -638,32 +940,160 @@ class TwinGui:
             panel.revert(changes)
 
     def current(self, name: str) -> Any:
-        """The session's value of a field or control."""
+        """The session's value of a field or control (`compare_planner`: `NO_COMPARE` when
+        none)."""
+        if name == COMPARE:
+            return self.session.compare_planner or NO_COMPARE
         if name in LiveControls.model_fields:
             return getattr(self.session.controls, name)
         return getattr(self.session.scenario, name)
+
+    # -- replay and sweeps -----------------------------------------------------------------
+    def watch(self, panel: ClientPanel) -> None:
+        """The run a browser chose, replayed (as `POST /api/live/replay`)."""
+        from twin.web.actions import start_replay
+
+        choice = str(panel.settings["replay_run"].value)
+        if choice == NO_RUN:
+            panel.client.add_notification("No run chosen", "choose a stored run first",
+                                          auto_close_seconds=5.0, color="yellow")  # fmt: skip
+            return
+        try:
+            start_replay(self.session, self.store, choice.split(" ", 1)[0])
+        except ValueError as err:  # RunNotFound is one too
+            self.last_error = str(err)
+            panel.client.add_notification("Not replayed", str(err), color="red")
+
+    def run_sweep(self, panel: ClientPanel) -> None:
+        """A sweep around the current scenario, submitted as `POST /api/sweeps` is; its
+        progress, then its heatmap with the current sea ringed, show in every browser."""
+        from twin.sim.sweep import spec_around
+        from twin.web.actions import submit_sweep
+        from twin.web.deps import MAX_PENDING_SWEEPS
+
+        if self.sweep_id is not None:
+            panel.client.add_notification("A sweep is running", "wait for its heatmap",
+                                          auto_close_seconds=5.0, color="yellow")  # fmt: skip
+            return
+        try:
+            if self.store.pending("sweeps") >= MAX_PENDING_SWEEPS:
+                raise ValueError(f"{MAX_PENDING_SWEEPS} sweeps queued or running; retry later")
+            scenario = self.session.scenario
+            spec = spec_around(
+                scenario,
+                seeds=int(panel.settings["sweep_seeds"].value),
+                duration=float(panel.settings["sweep_duration"].value),
+            )
+            sweep = submit_sweep(self.store, self.sweeps, spec)
+        except ValueError as err:
+            self.last_error = str(err)
+            panel.client.add_notification("Sweep not started", str(err), color="red")
+            return
+        self.sweep_id = sweep.id
+        threading.Thread(
+            target=self._follow_sweep, args=(sweep.id, scenario.sea()), name="twin-gui-sweep",
+            daemon=True,
+        ).start()  # fmt: skip
+
+    def _follow_sweep(self, sweep_id: str, sea: tuple[float, float]) -> None:
+        """Show a sweep's progress until it ends, then its heatmap and links."""
+        try:
+            while not self._stop.wait(SWEEP_POLL):
+                sweep = self.store.get_sweep(sweep_id)
+                if sweep.status in ("queued", "running"):
+                    self.sweep_status.content = (
+                        f"**Sweep {sweep_id[:8]}** {sweep.status}: {sweep.done} of "
+                        f"{sweep.total} runs ({100 * sweep.progress:.0f} %)"
+                    )
+                    continue
+                if sweep.status == "failed":
+                    self.sweep_status.content = f"**Sweep {sweep_id[:8]} failed:** {sweep.error}"
+                else:
+                    self._show_heatmap(sweep, sea)
+                return
+        except Exception as err:  # the store went away: say so, do not kill the viewer
+            log.exception("following sweep %s failed", sweep_id)
+            self.sweep_status.content = f"**Sweep {sweep_id[:8]}:** {err}"
+        finally:
+            self.sweep_id = None
+
+    def _show_heatmap(self, sweep: Any, sea: tuple[float, float]) -> None:
+        import tempfile
+        from pathlib import Path
+
+        import pandas as pd
+        from PIL import Image
+
+        from twin.sim.sweep import SweepResult, SweepSpec, heatmap_png
+
+        result = SweepResult(
+            SweepSpec(**sweep.spec), pd.DataFrame(), pd.DataFrame(sweep.result["cells"]),
+            sweep.result["elapsed"], sweep.result["scheduler"],
+        )  # fmt: skip
+        with tempfile.TemporaryDirectory() as folder:
+            path = heatmap_png(result, Path(folder) / "heatmap.png", mark=sea)
+            image = np.asarray(Image.open(path).convert("RGB"))
+        link = f"{self.api_url}/api/sweeps/{sweep.id}"
+        self.sweep_status.content = (
+            f"**Sweep {sweep.id[:8]}** done: {sweep.total} runs; the ring marks the current "
+            f"sea (Hs {sea[0]:.2g} m, Tp {sea[1]:.2g} s). Stored as [{link}]({link}) "
+            f"([heatmap]({link}/heatmap.png))."
+        )
+        with self.folders["Operability"]:
+            if self.heatmap is None:
+                self.heatmap = self.server.gui.add_image(
+                    image, label="operability [%]", format="png", order=READOUT_ORDER + 1
+                )
+            else:
+                self.heatmap.image = image
+
+    def _refresh_runs(self) -> None:
+        """The replay dropdown's choices: the newest done runs of the store."""
+        try:
+            runs = self.store.list_runs(20)
+        except Exception:  # a store gone away: keep the list as it was
+            log.debug("listing runs failed", exc_info=True)
+            return
+        options = [NO_RUN]
+        for run in runs:
+            if run.status == "done":
+                s = run.scenario
+                sea = f"Hs {s['hs']:g} m" if s.get("hs") is not None else f"WMO {s['sea_state']:g}"
+                options.append(f"{run.id} · {s['mechanism']}/{s['planner']} · {sea} · "
+                               f"{s['duration']:g} s")  # fmt: skip
+        self.run_options = tuple(options)
+
+    def close(self) -> None:
+        """Stop following a sweep (the viewer is stopping)."""
+        self._stop.set()
 
     # -- session → GUI ------------------------------------------------------------------------
     def restart(self, fs: FrameState) -> None:
         """After a reset or restart: clear the plots; rebuild them for a new mechanism."""
         specs = plot_specs(fs)
-        if _layout(specs) != _layout(self._specs):
+        key = tuple(_layout(specs))
+        if key != tuple(_layout(self._specs)):
+            # never removed (see the module's docstring): another layout's plots are hidden
             for handle in self.plots:
-                handle.remove()
-            with self._plot_folder:
-                self.plots = [
-                    self.server.gui.add_uplot(
-                        data=(np.zeros(1), *np.zeros((len(p.series), 1))),
-                        series=(up.Series(label="t [s]"), *p.series),
-                        title=p.title,
-                        scales={"x": up.Scale(time=False, auto=True), **p.scales},
-                        axes=(up.Axis(), *p.axes),
-                        legend=up.Legend(show=True),
-                        aspect=1.6,
-                    )
-                    for p in specs
-                ]
-            self._specs = specs
+                _assign(handle, "visible", False)
+            if key not in self._plot_sets:
+                with self._plot_folder:
+                    self._plot_sets[key] = [
+                        self.server.gui.add_uplot(
+                            data=(np.zeros(1), *np.zeros((len(p.series), 1))),
+                            series=(up.Series(label="t [s]"), *p.series),
+                            title=p.title,
+                            scales={"x": up.Scale(time=False, auto=True), **p.scales},
+                            axes=(up.Axis(), *p.axes),
+                            legend=up.Legend(show=True),
+                            aspect=1.6,
+                        )
+                        for p in specs
+                    ]
+            self.plots = self._plot_sets[key]
+            for handle in self.plots:
+                _assign(handle, "visible", True)
+        self._specs = specs
         self._samples = np.zeros((len(specs), PLOT_SAMPLES, 1 + max(len(p.series) for p in specs)))
         self._count = 0
         self._next["plot"] = self._next["metrics"] = 0.0
@@ -675,15 +1105,22 @@ class TwinGui:
             for name in ("speed", "mechanism", "planner", "joint_limits", "spectrum",
                          *(k.name for k in (*PLANNER_KNOBS, *SEA_KNOBS)))
         }  # fmt: skip
+        values[COMPARE] = fs.ghost.scenario.planner if fs.ghost is not None else NO_COMPARE
+        now = time.monotonic()
+        if self.store is not None and now >= self._next["runs"]:
+            self._next["runs"] = now + RUNS_PERIOD
+            self._refresh_runs()
+        slow = now >= self._next["readout"]  # the replay slider moves at the readout's rate
         with self._lock:
             panels = list(self.panels.values())
         for panel in panels:
             try:
                 panel.sync(values, self.trail)
+                if slow:
+                    panel.sync_replay(fs.replay, self.run_options)
             except Exception:  # one browser's panel must not stop the others' frames
                 log.debug("panel sync failed", exc_info=True)
         self._sample(fs)
-        now = time.monotonic()
         if now >= self._next["plot"]:
             self._next["plot"] = now + PLOT_PERIOD
             rows = self._samples[:, : self._count]
@@ -693,9 +1130,12 @@ class TwinGui:
             self._next["metrics"] = now + METRICS_PERIOD
             snapshot = self.session.snapshot()
             self._metrics, self._faults = snapshot["metrics"], snapshot["faults"]
-        if now >= self._next["readout"]:
+            self._compare = snapshot.get("compare")
+        if slow:
             self._next["readout"] = now + READOUT_PERIOD
             self.readout.content = self._readout(fs)
+            if "Replay" in self.folders:
+                self.replay_status.content = replay_line(fs)
 
     def _sample(self, fs: FrameState) -> None:
         last = self._samples[0, self._count - 1, 0] if self._count else -np.inf
@@ -716,34 +1156,55 @@ class TwinGui:
         margin = np.minimum(fs.leg_lengths - fs.leg_min, fs.leg_max - fs.leg_lengths)  # [m]
         worst = int(np.argmin(margin))
         s = fs.scenario
+        hs, tp = s.sea()
+        sea = s.regular_waves or f"sea state {s.sea_state:g} (Hs {plain(hs)} m, Tp {plain(tp)} s)"
+        where = f"replay of run {fs.replay['run_id'][:8]}" if fs.replay else "live"
         lines = [
-            f"**t = {fs.t:.2f} s** · {'playing' if fs.playing else 'paused'} at "
-            f"{fs.speed:g}× · {s.mechanism} / {s.planner} · sea state {s.sea_state:g}",
+            f"**t = {fs.t:.2f} s** · {where}, {'playing' if fs.playing else 'paused'} at "
+            f"{fs.speed:g}× · {s.mechanism} / {s.planner} · {sea}",
             "",
-            f"- tip error: {1e3 * np.linalg.norm(e[:3]):.3g} mm, "
-            f"{np.degrees(np.linalg.norm(e[3:])):.3g}°",
-            f"- leg margin: {margin[worst]:.3f} m (leg {worst + 1})",
+            f"- tip error now: {si(np.linalg.norm(e[:3]), 'm')}, "
+            f"{si(np.linalg.norm(e[3:]), 'rad')}",
+            f"- leg margin: {si(margin[worst], 'm')} (leg {worst + 1})",
         ]
         if "manipulability" in fs.record:
-            lines.append(f"- manipulability: {float(fs.record['manipulability']):.4g}")
+            lines.append(f"- manipulability: {plain(float(fs.record['manipulability']), 4)}")
         if "phi_e" in fs.record:
             lines.append(
-                f"- gangway φe, θe: {np.degrees(float(fs.record['phi_e'])):.3g}°, "
-                f"{np.degrees(float(fs.record['theta_e'])):.3g}°"
+                f"- gangway φe, θe: {si(float(fs.record['phi_e']), 'rad')}, "
+                f"{si(float(fs.record['theta_e']), 'rad')}"
             )
+        span = "the whole run" if fs.replay else "the history"
         m = self._metrics
         if m:
             lines.append(
-                f"- buffer: tip error rms {1e3 * m['tip_position_error_rms']:.3g} mm, "
-                f"max {1e3 * m['tip_position_error_max']:.3g} mm; "
-                f"{m['violations']} samples over a limit"
+                f"- over {span}: tip error rms {si(m['tip_position_error_rms'], 'm')}, "
+                f"max {si(m['tip_position_error_max'], 'm')}"
+            )
+        c = self._compare
+        if c is not None and fs.ghost is not None:
+            cm = c["metrics"]
+            lines.append(
+                f"- ghost {c['planner']}: tip error now "
+                f"{si(np.linalg.norm(fs.ghost.record['tip_error'][:3]), 'm')}, rms "
+                f"{si(cm['tip_position_error_rms'], 'm')}, max "
+                f"{si(cm['tip_position_error_max'], 'm')}; {cm['violations']} samples beyond "
+                "a limit"
             )
         violations = limit_violations(fs)
-        lines.append("")
-        lines.append(fault_line(self._faults))
-        lines.append(
-            "**Limits:** all within limits"
-            if not violations
-            else "**Limits violated:** " + "; ".join(violations)
-        )
+        now = ("none now" if not violations
+               else "⚠ now " + "; ".join(violations))  # fmt: skip
+        over = f"{m['violations']} samples over {span}" if m else "…"
+        # three paragraphs: held steps, what the limits did, what went beyond them
+        lines += ["", fault_line(self._faults), "", limit_line(self._faults, s.joint_limits),
+                  "", f"**Limit violations:** {now} · {over}"]  # fmt: skip
         return "\n".join(lines)
+
+
+def replay_line(fs: FrameState) -> str:
+    """The Replay folder's status: the run shown and its time, or live."""
+    if fs.replay is None:
+        return "Showing the live simulation. Choose a stored run to watch it."
+    r = fs.replay
+    return (f"**Replaying run {r['run_id'][:8]}** ({fs.scenario.mechanism} / "
+            f"{fs.scenario.planner}): t = {r['t']:.2f} of {r['duration']:.2f} s")  # fmt: skip

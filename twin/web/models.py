@@ -25,8 +25,8 @@ from twin.mechanisms import MECHANISMS
 from twin.planners import PLANNERS, PlannerParameters, get_planner
 from twin.sea.sea_states import WMO_SEA_STATES
 from twin.sim import Scenario
+from twin.sim.live import COMPARE, LiveControls
 from twin.sim.live import LIVE_FIELDS as SESSION_FIELDS
-from twin.sim.live import LiveControls
 from twin.sim.scenario import DEFAULT_PLANNER
 from twin.sim.sweep import SweepSpec
 from twin.vessel.rao import available_raos
@@ -191,10 +191,44 @@ LivePatch = create_model(
     "LivePatch",
     __config__=ConfigDict(extra="forbid", allow_inf_nan=False),
     __doc__="Fields to change in the live session; omitted fields stay as they are.",
-    __validators__={"_known_planner": field_validator("planner")(_known_planner)},
+    __validators__={
+        "_known_planner": field_validator("planner", COMPARE)(_known_planner)
+    },
     **{name: _optional(RunRequest, name) for name in LIVE_FIELDS},
+    **{COMPARE: (
+        str | None,
+        Field(None, description="a second planner run beside the first on the same vessel "
+              "motion, with the same knobs (the viewer draws it as a ghost); null stops it. "
+              "Setting or changing it restarts the session at t = 0"),
+    )},
     **{name: _optional(LiveControls, name) for name in LiveControls.model_fields},
-)
+)  # fmt: skip
+
+
+class LiveCompare(BaseModel):
+    """The comparison lane: the same scenario and vessel motion under another planner."""
+
+    planner: str = Field(description="its planner")
+    metrics: dict[str, Any] = Field(description="metrics over its live history")
+    faults: dict[str, Any] = Field(description="its numerical faults (as the live `faults`)")
+
+
+class ReplayState(BaseModel):
+    """A stored run shown in the viewer instead of the live simulation."""
+
+    run_id: str = Field(description="the run replayed")
+    t: float = Field(description="[s] replay time")
+    duration: float = Field(description="[s] time of its last sample")
+
+
+class ReplayRequest(BaseModel):
+    """Play a stored run in the viewer (again with the same id: seek)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    run_id: str = Field(min_length=1, max_length=64, description="a done run's id")
+    t: float = Field(0.0, ge=0.0, description="[s] where to start (at most the run's end)")
+    playing: bool = Field(True, description="play (true) or stay paused (false)")
 
 LiveState = create_model(
     "LiveState",
@@ -209,7 +243,11 @@ LiveState = create_model(
         name: (info.annotation, Field(description=info.description))
         for name, info in LiveControls.model_fields.items()
     },
-    metrics=(dict[str, Any], Field(description="metrics over the live history")),
+    metrics=(dict[str, Any], Field(description="metrics over the live history (a replay: "
+             "over the stored run)")),
+    compare=(LiveCompare | None, Field(None, description="the comparison lane, if any")),
+    replay=(ReplayState | None, Field(None, description="the stored run replayed, if any; "
+            "scenario fields, `t` and metrics are then the run's")),
     faults=(
         dict[str, Any],
         Field(
@@ -255,7 +293,11 @@ def _ranges(*models: type[BaseModel]) -> dict[str, str]:
 #: allowed values per body field, by the endpoint that receives the body
 RANGES = {
     ("POST", "/api/runs"): _ranges(RunRequest),
-    ("PATCH", "/api/live"): _ranges(RunRequest, LiveControls),
+    ("PATCH", "/api/live"): {
+        **_ranges(RunRequest, LiveControls),
+        COMPARE: "a planner of the mechanism (GET /api/mechanisms) or null",
+    },
+    ("POST", "/api/live/replay"): _ranges(ReplayRequest),
     ("POST", "/api/sweeps"): _ranges(SweepSpec),
 }
 

@@ -3,19 +3,24 @@
 The scene is drawn in the simulation's inertial (equilibrium) frame, z up:
 
 - the sea surface: one mesh whose vertices move every frame (Gerstner points of the simulated
-  sea, `twin.sea.surface`), centred on the work site;
-- the vessel hull (`twin.vessel.HULLS`), posed from the base pose and the mount:
-  ᴵT_B = ᴵT_V · ᵛT_B, so ᴵT_V = ᴵT_B · ᵛT_B⁻¹;
+  sea, `twin.sea.surface`), centred on the work site; beyond the waves its grid widens to
+  the horizon, flat, and the scene's fog (the sky's colour) hides its far edge;
+- the vessel hull (`twin.vessel.HULLS`) as the panels its RAOs were solved on below the
+  waterline (`twin.vessel.hulls.wetted_surface` at `twin.vessel.bem.GRIDS`' panel size),
+  topsides above, posed from the base pose and the mount: ᴵT_B = ᴵT_V · ᵛT_B, so
+  ᴵT_V = ᴵT_B · ᵛT_B⁻¹;
 - the mechanism from its URDF (`assets/urdf`) under a frame that follows the base pose, its
-  joints from `twin.mechanisms.urdf.joint_configuration`;
+  joints from `twin.mechanisms.urdf.joint_configuration`; with a second planner compared
+  (`compare_planner`), its lane again as a translucent ghost on the same base;
 - the legs again as thick lines coloured by their margin to the stroke limits, green → red;
 - the fixed target in the inertial frame: a wind-turbine transition piece with its access
   platform (hybrid gangway), a hovering UAV over the landing pad's held pose (4-UPR), a
   crane-hung container over the cargo platform's held pose (3UPU_UP);
 - a trail of the tip error, magnified by a labelled power of ten.
 
-Nodes are added when a mechanism is built (at start and when the session switches mechanism)
-and otherwise only updated through their handles, so viser's per-client buffers keep just the
+Nodes are added when a mechanism is built (at start and when the session switches mechanism,
+when every browser's camera is pointed at the new mechanism) and otherwise only updated
+through their handles, so viser's per-client buffers keep just the
 newest value of each property and a slow browser only ever receives the latest frame.
 
 The viewer's websocket refuses a cross-origin handshake (403): a page from another site (or
@@ -65,13 +70,25 @@ logger = logging.getLogger(__name__)
 
 #: [Hz] render-loop rate; issue 6 asks for ≥ 30 fps, the margin absorbs slow frames
 FPS = 40.0
-#: vertices per side of the sea mesh (48² × 12 B ≈ 28 kB per frame)
-OCEAN_RESOLUTION = 48
+#: vertices per side of the waves' square of the sea mesh, and rings of ever wider cells
+#: around it out to the horizon ((40 + 2 × 8)² × 12 B ≈ 38 kB per frame)
+OCEAN_RESOLUTION = 40
+OCEAN_RINGS = 8
+#: [-] the flat sea reaches this many wave squares from the work site; the fog starts at
+#: FOG_NEAR and hides everything at FOG_FAR of them (the edge never shows), and the camera
+#: draws from NEAR to 1.2 FOG_FAR of them (beyond it all is fog: nothing shows clipped)
+HORIZON = 40.0
+FOG_NEAR = 1.5
+FOG_FAR = 14.0
+NEAR = 5e-4
 #: most wave components drawn; the smaller ones are invisible at this grid spacing and would
 #: make a frame cost grow with `n_components` (up to 2048)
 OCEAN_COMPONENTS = 96
 #: [-] Gerstner steepness Q of the drawn surface (sharper crests, no effect on heights)
 GERSTNER_Q = 0.5
+#: the view every browser gets when a mechanism is built: the mechanism and its target fill
+#: it, however small the mechanism is next to its vessel
+FRAMING: View = "close-up"
 #: render frames kept in the tip-error trail
 TRAIL_LENGTH = 240
 #: [-] magnified trail reach as a fraction of the mechanism size
@@ -80,7 +97,12 @@ TRAIL_REACH = 0.5
 FREEBOARD = 0.7
 
 SEA = (28, 92, 140)
+SKY = (214, 226, 236)  # the background and the fog: a hazy horizon
 HULL = (54, 62, 82)
+BOTTOM = (150, 48, 40)  # antifouling below the waterline
+DECK = (128, 132, 136)
+#: the comparison lane's ghost: RGB in [0, 1] and opacity
+GHOST = (0.25, 0.8, 1.0, 0.4)
 SUPERSTRUCTURE = (236, 236, 232)
 STEEL = (112, 116, 122)
 YELLOW = (236, 190, 30)
@@ -107,6 +129,23 @@ def ocean_faces(n: int) -> np.ndarray:
     v00 = (i * n + j).ravel()
     v10, v01, v11 = v00 + n, v00 + 1, v00 + n + 1
     return np.concatenate([np.stack([v00, v10, v11], -1), np.stack([v00, v11, v01], -1)])
+
+
+def ocean_axis(core: float, n: int = OCEAN_RESOLUTION, rings: int = OCEAN_RINGS) -> np.ndarray:
+    """Grid coordinates [m] along one axis about the work site: n evenly spaced over the
+    waves' square of side `core`, then `rings` cells on each side growing geometrically out
+    to `HORIZON` × core."""
+    inner = np.linspace(-core / 2, core / 2, n)
+    outer = core / 2 * (2.0 * HORIZON) ** (np.arange(1, rings + 1) / rings)
+    return np.r_[-outer[::-1], inner, outer]
+
+
+def wave_weight(x: np.ndarray, y: np.ndarray, core: float) -> np.ndarray:
+    """(len(x), len(y)) [-] how much of the waves a grid point shows: 1 in the waves' square,
+    0 from the first ring out (a coarse cell cannot carry them), so the sea calms into the
+    flat water that runs to the horizon."""
+    reach = np.maximum(np.abs(x)[:, None], np.abs(y)[None, :]) / (core / 2)
+    return np.clip(2.0 - reach, 0.0, 1.0)
 
 
 def drawn_sea(sea: WaveComponents) -> WaveComponents:
@@ -148,34 +187,77 @@ def _box(extents: Iterable[float], centre: Iterable[float], yaw: float = 0.0) ->
     return mesh.apply_translation(list(centre))
 
 
+def panel_mesh(vertices: np.ndarray, quads: np.ndarray) -> trimesh.Trimesh:
+    """Quads (F, 4) (a triangle repeats a vertex, Nemoh's convention) as a triangle mesh."""
+    triangles = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    p = vertices[triangles]
+    area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    return trimesh.Trimesh(vertices, triangles[area > 1e-12], process=False)
+
+
+def wetted_mesh(hull: Hull) -> trimesh.Trimesh:
+    """The hull below the waterline as its RAOs were computed: the panels of
+    `twin.vessel.hulls.wetted_surface` at the panel size of `twin.vessel.bem.GRIDS` (the mesh
+    `scripts/compute_raos.py` hands Capytaine)."""
+    from twin.vessel.bem import GRIDS
+    from twin.vessel.hulls import wetted_surface
+
+    return panel_mesh(*wetted_surface(hull, GRIDS[hull.name].panel_size))
+
+
+def topsides(hull: Hull, deck: float) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
+    """A monohull above the waterline: walls standing on the waterline of the wetted surface
+    (the Wigley form's, or the box's) up to the deck at height `deck`, and the deck."""
+    from twin.vessel.bem import GRIDS
+    from twin.vessel.hulls import wigley_half_breadth
+
+    L, B = hull.length, hull.beam
+    panel = GRIDS[hull.name].panel_size
+    x = np.linspace(-L / 2, L / 2, 2 * int(np.ceil(L / (2 * panel))) + 1)
+    half = np.full_like(x, B / 2)
+    if hull.shape == "wigley":
+        half = B / 2 * wigley_half_breadth(2 * x / L, np.zeros_like(x))
+    n = x.size
+    # vertices: port waterline, port deck edge, starboard waterline, starboard deck edge
+    rows = [(half, 0.0), (half, deck), (-half, 0.0), (-half, deck)]
+    vertices = np.concatenate([np.stack([x, y, np.full(n, z)], -1) for y, z in rows])
+    i = np.arange(n - 1)
+    quads = [np.stack([i, i + 1, n + i + 1, n + i], -1),  # port wall
+             np.stack([2 * n + i, 3 * n + i, 3 * n + i + 1, 2 * n + i + 1], -1)]  # fmt: skip
+    if hull.shape == "box":  # flat ends
+        quads.append(np.array([[0, n, 3 * n, 2 * n], [n - 1, 3 * n - 1, 4 * n - 1, 2 * n - 1]]))
+    walls = panel_mesh(vertices, np.concatenate(quads))
+    deck_quads = np.stack([n + i, n + i + 1, 3 * n + i + 1, 3 * n + i], -1)
+    return walls, panel_mesh(vertices, deck_quads)
+
+
 def hull_parts(hull: Hull, lever_arm: Iterable[float]) -> dict[str, tuple[trimesh.Trimesh, tuple]]:
     """Meshes of a vessel in its own frame (x bow, y port, z up, origin at the waterline
-    midships), name → (mesh, colour): hull(s), deck structure and the pedestal that carries
-    the mechanism base up to its mount height."""
+    midships), name → (mesh, colour): the hull below the waterline as the panels its RAOs were
+    solved on (`wetted_mesh`), the same form above it, deck structure and the pedestal that
+    carries the mechanism base up to its mount height."""
     L, B, T = hull.length, hull.beam, hull.draft
     x_b, y_b, z_b = lever_arm
+    wetted = wetted_mesh(hull)
     if hull.shape == "twin_cylinder":
         r, s = 0.5 * B, 0.5 * hull.hull_spacing
-        float_ = trimesh.creation.cylinder(radius=r, height=L, sections=24)
+        # the floats' cylinders, a hair inside the wetted panels that lie on them
+        float_ = trimesh.creation.cylinder(radius=0.99 * r, height=0.999 * L, sections=32)
         float_.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
         parts = {
             f"float_{side}": (float_.copy().apply_translation([0, y, r - T]), HULL)
             for side, y in (("port", s), ("starboard", -s))
         }
+        parts["wetted"] = (wetted, BOTTOM)
         for k, x in enumerate((-0.3 * L, 0.3 * L)):
             parts[f"beam_{k}"] = (_box((0.1, 2 * s, 0.08), (x, 0, z_b - 0.1)), STEEL)
         return parts
     deck = FREEBOARD * T
-    if hull.shape == "box":
-        shell = _box((L, B, T + deck), (0, 0, 0.5 * (deck - T)))
-    else:  # a ship-like prism: square stern, pointed bow, narrower keel
-        deck_outline = [(-L / 2, B / 2), (L / 4, B / 2), (L / 2, 0.0)]
-        keel_outline = [(-0.46 * L, 0.35 * B), (0.2 * L, 0.35 * B), (0.45 * L, 0.0)]
-        points = [(x, sy * y, deck) for x, y in deck_outline for sy in (1, -1)]
-        points += [(x, sy * y, -T) for x, y in keel_outline for sy in (1, -1)]
-        shell = trimesh.Trimesh(np.array(points)).convex_hull
+    walls, deck_plate = topsides(hull, deck)
     parts = {
-        "hull": (shell, HULL),
+        "hull": (wetted, BOTTOM),
+        "topsides": (walls, HULL),
+        "deck": (deck_plate, DECK),
         "superstructure": (
             _box((0.22 * L, 0.8 * B, 9.0), (0.21 * L, 0, deck + 4.5)),
             SUPERSTRUCTURE,
@@ -323,6 +405,10 @@ class TwinScene:
         self.joint_values: dict[str, float] = {}  # last configuration sent to the URDF
         self.trail_scale = 1.0
         self._grid: tuple[np.ndarray, np.ndarray] = (np.zeros(1), np.zeros(1))
+        self._weight = np.ones((1, 1, 1))
+        self._flat = np.zeros((1, 1, 3))
+        self.clip = (0.01, 1000.0)  # [m] the cameras' near and far planes
+        self.ghost: LiveUrdf | None = None  # the comparison lane's mechanism
         self._sea_source: WaveComponents | None = None
         self._sea: WaveComponents | None = None
         self._trail = np.zeros((TRAIL_LENGTH, 3))
@@ -343,20 +429,27 @@ class TwinScene:
 
         extent = float(np.clip(3.0 * self.hull.length, 40.0, 240.0))
         centre = 0.5 * fs.held[:2, 3]  # between the vessel and the target
-        axis = np.linspace(-extent / 2, extent / 2, OCEAN_RESOLUTION)
+        axis = ocean_axis(extent)
         self._grid = (centre[0] + axis, centre[1] + axis)
+        self._weight = wave_weight(axis, axis, extent)[..., None]
+        x, y = np.meshgrid(*self._grid, indexing="ij")
+        self._flat = np.stack([x, y, np.zeros_like(x)], -1)
         self.ocean = scene.add_mesh_simple(
             "/ocean",
             vertices=self._ocean_vertices(fs),
-            faces=ocean_faces(OCEAN_RESOLUTION),
+            faces=ocean_faces(axis.size),
             color=SEA,
             side="double",
             cast_shadow=False,
         )
+        self.clip = (NEAR * extent, 1.2 * FOG_FAR * extent)
+        scene.configure_fog(FOG_NEAR * extent, FOG_FAR * extent, color=SKY)
 
         self.vessel = scene.add_frame("/vessel", show_axes=False)
         for part, (mesh, colour) in hull_parts(self.hull, mount.lever_arm).items():
-            scene.add_mesh_simple(f"/vessel/{part}", mesh.vertices, mesh.faces, color=colour)
+            scene.add_mesh_simple(
+                f"/vessel/{part}", mesh.vertices, mesh.faces, color=colour, side="double"
+            )
 
         self.base = scene.add_frame("/base", show_axes=False)
         scene.add_frame("/base/robot", show_axes=False)
@@ -384,12 +477,18 @@ class TwinScene:
             thickness=0.02 * self.size,
         )
         self.trail_label = scene.add_label("/trail_label", "tip error", anchor="bottom-center")
-        self._roots = ["/ocean", "/vessel", "/base", "/target", "/trail", "/trail_label"]
+        self.ghost = None
+        self._roots = ["/ocean", "/vessel", "/base", "/target", "/trail", "/trail_label",
+                       "/ghost_label"]  # fmt: skip
         self.restart(fs)
-        position, look_at = self.camera_pose("overview", fs)
-        self.server.initial_camera.position = tuple(position)
-        self.server.initial_camera.look_at = tuple(look_at)
-        self.server.initial_camera.up = (0.0, 0.0, 1.0)
+        # the camera frames the mechanism: new browsers start there, open ones move there
+        position, look_at = self.camera_pose(FRAMING, fs)
+        camera = self.server.initial_camera
+        camera.position, camera.look_at = tuple(position), tuple(look_at)
+        camera.up = (0.0, 0.0, 1.0)
+        camera.near, camera.far = self.clip
+        self.last = fs
+        self.set_camera(FRAMING, self.server.get_clients().values())
         self.mechanism_name = name  # last: readers see a complete build
 
     def matches(self, fs: FrameState) -> bool:
@@ -426,6 +525,28 @@ class TwinScene:
                 )
         self._trail[:] = self._tip_deviation(fs)
         self._trail_t = fs.t
+        self._sync_ghost(fs)
+
+    def _sync_ghost(self, fs: FrameState) -> None:
+        """Add the comparison lane's ghost (a translucent copy of the mechanism on the same
+        base, labelled with its planner) when it starts; remove it when it stops."""
+        scene = self.server.scene
+        if fs.ghost is None:
+            if self.ghost is not None:
+                for name in ("/base/ghost", "/ghost_label"):
+                    scene.remove_by_name(name)
+                self.ghost = None
+            return
+        if self.ghost is None:
+            scene.add_frame("/base/ghost", show_axes=False)
+            self.ghost = LiveUrdf(
+                self.server,
+                asset_path("urdf", f"{fs.scenario.mechanism}.urdf"),
+                root_node_name="/base/ghost",
+                mesh_color_override=GHOST,
+            )
+            self.ghost_label = scene.add_label("/ghost_label", "", anchor="top-center")
+        self.ghost_label.text = f"ghost: {fs.ghost.scenario.planner.upper()}"
 
     # -- per frame ----------------------------------------------------------------------------
     def update(self, fs: FrameState, show_trail: bool = True) -> None:
@@ -444,6 +565,10 @@ class TwinScene:
         top = layout.platform_hinges @ T_BP[:3, :3].T + T_BP[:3, 3]
         self.legs.points = np.stack([layout.base_hinges, top], 1)
         self.legs.colors = np.repeat(margin_colours(fs.leg_margin)[:, None], 2, 1)
+        if self.ghost is not None and fs.ghost is not None:
+            self.ghost.update_cfg(np.array([fs.ghost.cfg[name] for name in names]))
+            top = T_IB @ fs.ghost.transform_platform
+            self.ghost_label.position = top[:3, 3] - np.array([0.0, 0.0, 0.6 * self.size])
 
         self._update_trail(fs, show_trail)
         self.last = fs  # last: readers see a complete frame
@@ -457,6 +582,7 @@ class TwinScene:
         x, y = self._grid
         points = gerstner_points(self._sea, x + shift, y, fs.t, GERSTNER_Q)
         points[..., 0] -= shift
+        points = self._flat + self._weight * (points - self._flat)  # calm beyond the waves
         return points.reshape(-1, 3).astype(np.float32)
 
     @staticmethod
@@ -516,10 +642,14 @@ class TwinScene:
             return
         position, look_at = self.camera_pose(view, self.last)
         for client in clients:
-            with client.atomic():
-                client.camera.up_direction = (0.0, 0.0, 1.0)
-                client.camera.position = position
-                client.camera.look_at = look_at
+            try:
+                with client.atomic():
+                    client.camera.up_direction = (0.0, 0.0, 1.0)
+                    client.camera.position = position
+                    client.camera.look_at = look_at
+                    client.camera.near, client.camera.far = self.clip
+            except Exception:  # a browser that is leaving, or has not sent its camera yet
+                logger.debug("camera of client %s not set", client.client_id, exc_info=True)
 
 
 class Viewer:
@@ -539,7 +669,14 @@ class Viewer:
     """
 
     def __init__(
-        self, session: LiveSession, server: viser.ViserServer, access: Access | None = None
+        self,
+        session: LiveSession,
+        server: viser.ViserServer,
+        access: Access | None = None,
+        *,
+        store: Any = None,
+        sweeps: Any = None,
+        api_url: str | None = None,
     ) -> None:
         self.session = session
         self.server = server
@@ -548,9 +685,14 @@ class Viewer:
         self._blas = threadpoolctl.ThreadpoolController() if threadpoolctl else None
         fs = self._read()
         self.scene = TwinScene(server)
+        server.scene.set_background_image(np.full((4, 4, 3), SKY, np.uint8), format="png")
         self.scene.build(fs)
-        self.gui = TwinGui(server, session, fs, on_camera=self.scene.set_camera, access=access)
+        self.gui = TwinGui(
+            server, session, fs, on_camera=self.scene.set_camera, access=access, store=store,
+            sweeps=sweeps, api_url=api_url,
+        )  # fmt: skip
         self._version = fs.version
+        self._shown: tuple | None = None  # what the scene's nodes show (`_draw`)
         self._frame(fs)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="twin-viewer", daemon=True)
@@ -565,6 +707,7 @@ class Viewer:
         """Stop the render thread and the viser server (the session keeps running)."""
         self._stop.set()
         self._thread.join(timeout=5)
+        self.gui.close()
         self.server.stop()
 
     def _read(self) -> FrameState:
@@ -601,13 +744,19 @@ class Viewer:
     def _draw(self, fs: FrameState) -> None:
         if fs.version != self._version:
             self._version = fs.version
+            self._shown = None
             if self.scene.matches(fs):
                 self.scene.restart(fs)
             else:  # another mechanism or vessel
                 self.scene.build(fs)
             self.gui.restart(fs)
+        # a paused session (or replay) shows the same sample frame after frame: its nodes are
+        # not sent again, which spares every browser decoding the same sea 40 times a second
+        shown = (fs.version, fs.t, id(fs.sea), self.gui.trail, fs.ghost is None)
         with self.server.atomic():
-            self.scene.update(fs, show_trail=self.gui.trail)
+            if shown != self._shown:
+                self._shown = shown
+                self.scene.update(fs, show_trail=self.gui.trail)
             self.gui.update(fs)
 
 
@@ -658,6 +807,10 @@ def start_viewer(
     host: str = "127.0.0.1",
     port: int = 8080,
     access: Access | None = None,
+    *,
+    store: Any = None,
+    sweeps: Any = None,
+    api_url: str | None = None,
 ) -> Viewer:
     """Serve the live twin in viser: build scene and GUI and start the render thread.
 
@@ -671,6 +824,11 @@ def start_viewer(
         access: the server's access policy: the origins the websocket accepts (its own,
             at the viewer's actual port too) and the token that unlocks a browser's controls.
             Default: loopback origins, no token.
+        store: the run store (`twin.web.store.RunStore`): its done runs can be replayed
+            from the panel's Replay folder.
+        sweeps: the runner of sweeps (`twin.web.jobs.SweepRunner`, the REST app's): with a
+            store, the Operability folder runs sweeps around the current sea.
+        api_url: the REST API's address, for links to stored sweeps.
 
     Returns:
         The running viewer: `.port`, `.stop()`.
@@ -709,7 +867,7 @@ def start_viewer(
             websock.unregister_handler(message)
     server.gui.configure_theme(control_width="large", show_share_button=False)
     try:
-        return Viewer(session, server, access)
+        return Viewer(session, server, access, store=store, sweeps=sweeps, api_url=api_url)
     except Exception:
         server.stop()
         raise

@@ -27,7 +27,7 @@ from twin.sim.executor import RUN_BUDGET, Executor
 from twin.sim.live import LiveSession
 from twin.web.access import Access, is_loopback
 from twin.web.api import create_app
-from twin.web.jobs import JobRunner
+from twin.web.jobs import JobRunner, SweepRunner
 from twin.web.lock import DataDirLock
 from twin.web.store import RunStore
 
@@ -137,11 +137,15 @@ def serve(
         store = RunStore(Path(data_dir) / DATABASE)
         session = LiveSession()
         session.start()
+        sweeps = SweepRunner(store)  # the REST app's, and the viewer's Operability folder's
         if viewer:
             # Imported here: the scene pulls in viser and the meshes, which REST-only needs not.
             from twin.web.scene import start_viewer
 
-            handle = start_viewer(session, host, viser_port, access=access)
+            handle = start_viewer(
+                session, host, viser_port, access=access, store=store, sweeps=sweeps,
+                api_url=url(host, port),
+            )  # fmt: skip
             viser_port = handle.port  # viser moves to the next free port if this one is taken
             access = dataclasses.replace(access, ports=frozenset({port, viser_port}))
         app = create_app(
@@ -150,6 +154,7 @@ def serve(
             access=access,
             executor=executor,
             jobs=JobRunner(store, budget=run_budget),
+            sweeps=sweeps,
             viewer_port=viser_port if viewer else None,
         )
         print(f"twin: landing page and REST API {url(host, port)}  (docs: {url(host, port)}docs)")

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from fastapi import APIRouter, HTTPException, Request, Response
 
-from twin.sim.sweep import AXES, SweepSpec
+from twin.sim.sweep import SweepSpec
+from twin.web.actions import SweepScenarioError, submit_sweep
 from twin.web.deps import GUARDED, AdmissionDep, Store, Sweeps
-from twin.web.models import RANGES, RunRequest, body_errors, unprocessable
+from twin.web.models import RANGES, body_errors, unprocessable
 from twin.web.routers.responses import LIMITED, STORE
 from twin.web.store import Sweep
 
@@ -34,17 +34,14 @@ def create_sweep(
     Sweeps share the runs' rate limit; at most `MAX_PENDING_SWEEPS` wait at a time.
     """
     ranges = RANGES[("POST", "/api/sweeps")]
+    admission.admit(request, "sweeps", store.pending("sweeps"))
     try:
-        RunRequest(**spec.scenario)  # the same rules as a run's body: no vessel paths
-    except ValueError as exc:
-        errors = body_errors(exc)
+        sweep = submit_sweep(store, sweeps, spec)
+    except SweepScenarioError as exc:
+        errors = body_errors(exc.cause)
         for e in errors:
             e["loc"] = ("body", "scenario", *e["loc"][1:])
         return unprocessable(errors, ranges)
-    admission.admit(request, "sweeps", store.pending("sweeps"))
-    total = math.prod(len(getattr(spec, axis)) for axis in AXES) * spec.seeds
-    sweep = store.create_sweep(spec.model_dump(), total)
-    sweeps.submit(sweep.id)
     response.headers["Location"] = f"/api/sweeps/{sweep.id}"
     return sweep
 
