@@ -373,30 +373,21 @@ class PlatformPlanner:
         error = l_d - lengths
         if self.dynamic:
             velocity, saturated = self.actuate(l_d, lengths, dt)
-            return PlannerOutput(
-                velocity,
-                {
-                    "desired_state": desired_state,
-                    "desired_legs": l_d,
-                    "leg_error": error,
-                    "clipped": float(clipped),
-                    "saturated": float(saturated),
-                },
-            )
-        if self.law == "ik":
-            _, l_next, clipped_next = self.desired(advance_target(target, dt))
-            clipped = clipped or clipped_next
-            command = (l_next - lengths) / dt  # reach l_d(t + dt) in one step
         else:
-            previous = error if self._previous_error is None else self._previous_error
-            gain = proportional_gain(self.kp, dt)
-            command = gain * error + self.ki * self.integral + self.kd * (error - previous) / dt
-        velocity, saturated = self.limit(command, lengths, desired_state)
-        if self.law == "pid":
-            # Anti-windup by conditional integration: no integral while the speed limit binds.
-            if not saturated:
-                self.integral = self.integral + error * dt
-            self._previous_error = error
+            if self.law == "ik":
+                _, l_next, clipped_next = self.desired(advance_target(target, dt))
+                clipped = clipped or clipped_next
+                command = (l_next - lengths) / dt  # reach l_d(t + dt) in one step
+            else:
+                previous = error if self._previous_error is None else self._previous_error
+                gain = proportional_gain(self.kp, dt)
+                command = gain * error + self.ki * self.integral + self.kd * (error - previous) / dt
+            velocity, saturated = self.limit(command, lengths, desired_state)
+            if self.law == "pid":
+                # Anti-windup by conditional integration: no integral while the limit binds.
+                if not saturated:
+                    self.integral = self.integral + error * dt
+                self._previous_error = error
         return PlannerOutput(
             velocity,
             {
