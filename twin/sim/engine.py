@@ -56,7 +56,7 @@ from twin.spatial import pose_to_transform
 LIVE_BLOCK = 256
 #: most steps × lanes prepared at once for a batch run (bounds memory: 18 floats of target
 #: and 16 of diagnostics each), and most steps per lane
-BLOCK = 65_536
+BLOCK = 262_144
 MAX_BLOCK = 8192
 
 #: Scenario fields that change the sea: `Simulation.update` re-synthesises it in place.
