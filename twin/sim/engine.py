@@ -195,7 +195,7 @@ class Simulation:
     def _select(self, record: dict[str, np.ndarray], lane: int) -> dict[str, np.ndarray]:
         """The keys a lane's planner has: another family's diagnostics are left out."""
         mine = self.lanes.keys(self.scenarios[lane].planner)
-        every = self.lanes.keys("dwa") | self.lanes.keys("mtmp") | self.lanes.keys("qp")
+        every = self.lanes.diagnostics
         return {k: v for k, v in record.items() if k in mine or k not in every}
 
     def metrics(self, series: dict[str, np.ndarray], lane: int = 0) -> dict[str, Any]:
@@ -271,9 +271,8 @@ class Simulation:
         t = (self.k + 1 + np.arange(m)) * self.dt  # exact multiples, chunk-independent
         records["t"] = np.broadcast_to(t, (N, m))
         if self.k == 0:  # no step has been taken at t = 0: the first step's diagnostics repeat
-            self.history.backfill_first(records, self.lanes.keys("dwa") | self.lanes.keys("mtmp")
-                                        | self.lanes.keys("qp")
-                                        | {"limit_scale", "clipped", "saturated"})  # fmt: skip
+            step_keys = {"limit_scale", "clipped", "saturated"}
+            self.history.backfill_first(records, self.lanes.diagnostics | step_keys)
         self.history.append(records)
         self.x = xs[:, -1].copy()
         for lane in np.flatnonzero(faults.any(axis=1)):

@@ -13,7 +13,7 @@ kernel, which runs it.
 from __future__ import annotations
 
 from functools import cache
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -198,14 +198,22 @@ class HybridLanes:
         diag = np.zeros((len(x), 1, self.n_diagnostics))
         return self.records(poses, x[:, None], diag, 1.0)
 
+    #: each planner family's diagnostics (another family's are left out of a lane's series)
+    DIAGNOSTICS: ClassVar[dict[str, frozenset[str]]] = {
+        "differential": frozenset({"weights", "null_space_share", "damping", "velocity_scale"}),
+        "allocation": frozenset({"position_share"}),
+        "qp": frozenset({"qp_level", "qp_active"}),
+    }
+    #: every family's diagnostics
+    diagnostics = frozenset().union(*DIAGNOSTICS.values())
+
     def keys(self, planner: str) -> set[str]:
         """The diagnostics a planner has: the differential ones', the allocation ones' or the
         qp planner's."""
-        differential = {"weights", "null_space_share", "damping", "velocity_scale"}
-        allocation = {"position_share"}
         if planner == "qp":
-            return {"qp_level", "qp_active"}
-        return allocation if planner in ("dwa", "conv1", "conv2") else differential
+            return set(self.DIAGNOSTICS["qp"])
+        family = "allocation" if planner in ("dwa", "conv1", "conv2") else "differential"
+        return set(self.DIAGNOSTICS[family])
 
     def metrics(
         self, series: dict[str, np.ndarray], lane: int, joint_limits: str = "record"
@@ -308,6 +316,9 @@ class PlatformLanes:
             for i, m in enumerate(self.models)
         ]  # fmt: skip
         return {key: np.concatenate([r[key] for r in lanes]) for key in lanes[0]}
+
+    #: both laws record the same: no family's diagnostics to leave out
+    diagnostics: frozenset[str] = frozenset()
 
     def keys(self, planner: str) -> set[str]:
         del planner  # Unused: both laws record the same.

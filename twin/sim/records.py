@@ -18,21 +18,6 @@ from twin.sim.target import tilt
 from twin.spatial import invert_transform, pose_error, pose_to_transform
 
 
-def gangway_tip(mechanism: HybridBoardingSystem, q: np.ndarray) -> np.ndarray:
-    """ᴾT_E (..., 4, 4) of gangway joints q (..., 3) [rad, rad, m]: seed 000 Table 2 (θ2 = q2 +
-    90°, SPEC erratum 3) multiplied out in closed form (`Gangway.forward` multiplies three DH
-    matrices), equal to it to rounding (tested)."""
-    s1, c1 = np.sin(q[..., 0]), np.cos(q[..., 0])
-    s2, c2 = np.sin(q[..., 1] + np.pi / 2), np.cos(q[..., 1] + np.pi / 2)
-    d3, gangway = q[..., 2], mechanism.gangway
-    G = np.zeros((*q.shape[:-1], 4, 4))
-    G[..., 0, :] = np.stack([c1 * c2, s1, c1 * s2, c1 * (gangway.a1 + d3 * s2)], -1)
-    G[..., 1, :] = np.stack([s1 * c2, -c1, s1 * s2, s1 * (gangway.a1 + d3 * s2)], -1)
-    G[..., 2, :] = np.stack([s2, np.zeros_like(s2), -c2, gangway.d1 - d3 * c2], -1)
-    G[..., 3, 3] = 1.0
-    return G
-
-
 def landing_frame(T_IB: np.ndarray, xi: np.ndarray, mechanism: HybridBoardingSystem) -> tuple[
     np.ndarray, np.ndarray
 ]:
@@ -56,10 +41,9 @@ def gangway_direction(
     T_IB: np.ndarray, xi: np.ndarray, mechanism: HybridBoardingSystem
 ) -> np.ndarray:
     """Inertial vector (..., 3) [m] from the luff pivot (DH frame 2) to the tip: d3 along the
-    tip's z axis (seed 000 Table 2), turned by ᴵR_B ᴮR_P."""
-    G = gangway_tip(mechanism, xi[..., 6:])
-    R_IP = T_IB[..., :3, :3] @ pose_to_transform(xi[..., :6])[..., :3, :3]
-    return (R_IP @ (xi[..., 8:9, None] * G[..., :3, 2:3]))[..., 0]
+    tip's z axis (seed 000 Table 2), turned by ᴵR_B ᴮR_E."""
+    R_IE = T_IB[..., :3, :3] @ mechanism.end_effector(xi)[..., :3, :3]
+    return xi[..., 8:9] * R_IE[..., :, 2]
 
 
 def hybrid_records(

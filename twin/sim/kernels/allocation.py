@@ -269,6 +269,23 @@ def shares_lane(
 
 
 @register_jitable
+def compose_lane(
+    R: np.ndarray, p: np.ndarray, rows: np.ndarray, R_out: np.ndarray, p_out: np.ndarray
+) -> None:
+    """[R_out p_out] = [R p] · T for a rigid transform T given by its top three rows (12,),
+    row-major (as `pack_allocation` stores ᴮT_P(0) and ᴮT_E(0)⁻¹)."""
+    for i in range(3):
+        for j in range(4):
+            s = 0.0
+            for k in range(3):
+                s += R[i, k] * rows[4 * k + j]
+            if j < 3:
+                R_out[i, j] = s
+            else:
+                p_out[i] = s + p[i]
+
+
+@register_jitable
 def allocation_velocity(
     x: np.ndarray,
     target: np.ndarray,
@@ -321,25 +338,9 @@ def allocation_velocity(
         pa[i] = target[TARGET_P + i] + target[TARGET_V + i] * dt
     # compensating motion C = T_a ᴮT_E(0)⁻¹, then T_full = C ᴮT_P(0)
     Rc, pc = np.empty((3, 3)), np.empty(3)
-    for i in range(3):
-        for j in range(4):
-            s = 0.0
-            for k in range(3):
-                s += Ra[i, k] * prm[P_T_E0_INV + 4 * k + j]
-            if j < 3:
-                Rc[i, j] = s
-            else:
-                pc[i] = s + pa[i]
+    compose_lane(Ra, pa, prm[P_T_E0_INV : P_T_E0_INV + 12], Rc, pc)
     RP, pP = np.empty((3, 3)), np.empty(3)
-    for i in range(3):
-        for j in range(4):
-            s = 0.0
-            for k in range(3):
-                s += Rc[i, k] * prm[P_T_P0 + 4 * k + j]
-            if j < 3:
-                RP[i, j] = s
-            else:
-                pP[i] = s + pc[i]
+    compose_lane(Rc, pc, prm[P_T_P0 : P_T_P0 + 12], RP, pP)
     if method == METHOD_CONV2:
         for i in range(3):
             pP[i] = prm[P_T_P0 + 4 * i + 3]
