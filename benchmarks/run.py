@@ -53,7 +53,6 @@ from twin.sim.lanes import HybridLanes, PlatformLanes, numba_available
 from twin.sim.live import LiveSession
 from twin.sim.sweep import SweepSpec, run_sweep
 from twin.sim.target import held_targets
-from twin.spatial import pose_to_transform
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "performance.md"
@@ -90,8 +89,8 @@ def peer_inputs(steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     scenario = PAPER_PRESETS[REFERENCE].model_copy(update={"duration": steps * 0.05})
     sim = Simulation(scenario)
     t = np.arange(steps + 1) * scenario.dt
-    T_IB = pose_to_transform(BaseMotion.of(scenario).poses(t))
-    rows = held_targets(sim.held, T_IB[None], scenario.dt)[0]
+    poses = BaseMotion.of(scenario).poses(t)
+    rows = held_targets(sim.held, poses[None], scenario.dt)[0]
     first = sim._block.targets[0]  # the engine's own first block: the same numbers
     assert np.allclose(rows[: len(first)], first, rtol=0.0, atol=1e-9), "targets differ"
     T = np.tile(np.eye(4), (steps, 1, 1))

@@ -35,7 +35,6 @@ from twin.sim.engine import Simulation
 from twin.sim.kernels.qp import P_QP_SOLVER
 from twin.sim.lanes import tip_target
 from twin.sim.target import held_targets
-from twin.spatial import pose_to_transform
 
 SEAS = {
     "WMO 4": {"sea_state": 4.0},
@@ -58,8 +57,8 @@ def problems() -> tuple[list[QPProblem], list[QPProblem], list[QPProblem]]:
             sim.mechanism, sim.scenario.parameters(), sim.lanes.x0[0]
         )
         t = np.arange(sim.n_steps + 1) * sim.dt
-        T = pose_to_transform(BaseMotion.of(sim.scenario).poses(t))
-        rows = held_targets(sim.held, T[None], sim.dt)[0]
+        poses = BaseMotion.of(sim.scenario).poses(t)
+        rows = held_targets(sim.held, poses[None], sim.dt)[0]
         levels = sim.series()["qp_level"][1:]
         for k in range(sim.n_steps):
             if k % EVERY and levels[k] == 0:

@@ -38,15 +38,24 @@ def nan_sea(monkeypatch: pytest.MonkeyPatch) -> Callable[[float, float], None]:
     poses (and so transforms) for start ≤ t ≤ end [s] (± 1e-9), as a fault injection."""
 
     def inject(start: float, end: float = np.inf) -> None:
-        original = BaseMotion.poses
+        original, uniform = BaseMotion.poses, BaseMotion.uniform_poses
+
+        def inside(t: np.ndarray) -> np.ndarray:
+            t = np.asarray(t, dtype=float)
+            return (t >= start - 1e-9) & (t <= end + 1e-9)
 
         def poses(self: BaseMotion, t: np.ndarray) -> np.ndarray:
             out = original(self, t).copy()
-            t = np.asarray(t, dtype=float)
-            out[(t >= start - 1e-9) & (t <= end + 1e-9)] = np.nan
+            out[inside(t)] = np.nan
+            return out
+
+        def uniform_poses(motions: list, t0: float, dt: float, n: int, *args: object) -> np.ndarray:
+            out = uniform(motions, t0, dt, n, *args).copy()
+            out[:, inside(t0 + np.arange(n) * dt)] = np.nan
             return out
 
         monkeypatch.setattr(BaseMotion, "poses", poses)
+        monkeypatch.setattr(BaseMotion, "uniform_poses", staticmethod(uniform_poses))
 
     return inject
 

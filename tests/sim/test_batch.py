@@ -12,11 +12,10 @@ import pytest
 
 from twin.mechanisms import HybridBoardingSystem
 from twin.sim import simulate
-from twin.sim.base_motion import BaseMotion, uniform_motion
+from twin.sim.base_motion import BaseMotion
 from twin.sim.batch import numba_available, simulate_many
 from twin.sim.scenario import Scenario
 from twin.vessel import MOUNTS, load_raos, vessel_motion
-from twin.vessel.motion import response_amplitudes
 
 ENGINES = ["python", pytest.param("numba", marks=pytest.mark.skipif(
     not numba_available(), reason="numba not installed"))]  # fmt: skip
@@ -92,23 +91,27 @@ def test_rough_sea_with_damping_and_rate_limits(engine: str) -> None:
     assert_same(expected, simulate_many([scenario, {**scenario, "seed": 1}], engine=engine)[0])
 
 
-def test_uniform_motion_equals_vessel_motion() -> None:
-    """The factorised phase sum is vessel_motion at t = k dt."""
-    scenario = Scenario(sea_state=5, heading=100.0, forward_speed=2.0, seed=3)
-    raos = load_raos("sov")
+def test_uniform_poses_equal_vessel_motion_on_the_mount() -> None:
+    """The compiled phasor sum is vessel_motion at t = t0 + k dt put on the mount, from t = 0
+    and from a later start (a chunk of a running simulation), lane by lane in one call, with
+    lanes of different numbers of components; `poses` takes the same path."""
+    scenarios = [Scenario(sea_state=5, heading=100.0, forward_speed=2.0, seed=3),
+                 Scenario(sea_state=3, n_components=37, seed=4)]  # fmt: skip
+    motions = [BaseMotion.of(s) for s in scenarios]
     t = np.arange(1001) * 0.05
-    omega_e, amplitude = response_amplitudes(scenario.components(), raos, 0.0, 2.0)
-    direct = vessel_motion(scenario.components(), raos, t, speed=2.0)
-    np.testing.assert_allclose(
-        uniform_motion(omega_e, amplitude, 0.0, 0.05, t.size), direct, rtol=0, atol=1e-12
-    )
-    # from a later start (a chunk of a running simulation)
-    np.testing.assert_allclose(
-        uniform_motion(omega_e, amplitude, 300 * 0.05, 0.05, 701), direct[300:], atol=1e-12
-    )
-    poses = BaseMotion.of(scenario).poses(t[:11])
-    first = MOUNTS["hybrid"].pose(vessel_motion(scenario.components(), raos, [0.0], speed=2.0))
-    np.testing.assert_allclose(poses[0], first[0], atol=1e-12)
+    direct = np.stack([
+        MOUNTS["hybrid"].pose(vessel_motion(s.components(), load_raos("sov"), t,
+                                            speed=s.forward_speed))
+        for s in scenarios
+    ])  # fmt: skip
+    assert np.abs(direct).max() > 0.1
+    whole = BaseMotion.uniform_poses(motions, 0.0, 0.05, t.size)
+    np.testing.assert_allclose(whole, direct, rtol=0, atol=1e-12)
+    interpreted = BaseMotion.uniform_poses(motions, 0.0, 0.05, 101, compiled=False)
+    np.testing.assert_allclose(interpreted, direct[:, :101], rtol=0, atol=1e-12)
+    later = BaseMotion.uniform_poses(motions, 300 * 0.05, 0.05, 701)
+    np.testing.assert_allclose(later, direct[:, 300:], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(motions[1].poses(t[:11]), direct[1, :11], rtol=0, atol=1e-12)
 
 
 def test_order_and_mixed_groups_are_kept() -> None:

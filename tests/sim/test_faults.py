@@ -54,10 +54,11 @@ def test_a_sea_that_raises_is_held_like_nan(monkeypatch: pytest.MonkeyPatch) -> 
     # a live session's history: base motion is sampled 256 steps (12.8 s) ahead
     sim = Simulation({"sea_state": 3, "duration": 20.0}, history_limit=1000)
 
-    def broken(self: BaseMotion, t: np.ndarray) -> np.ndarray:
+    def broken(*args: object) -> np.ndarray:
         raise FloatingPointError("overflow in the RAO interpolation")
 
     monkeypatch.setattr(BaseMotion, "poses", broken)
+    monkeypatch.setattr(BaseMotion, "uniform_poses", staticmethod(broken))
     run = sim.run()  # the second chunk (t > 12.8 s) cannot be evaluated
     assert all_finite(run.series) and run.metrics["fault_counts"]["base_motion"] > 100
     held = run.series["base_pose"][run.series["t"] > 13.0]

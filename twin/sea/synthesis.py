@@ -78,9 +78,13 @@ def _sample_directions(
     return heading + np.interp(rng.uniform(size=n), cdf / cdf[-1], grid)
 
 
+#: nodes and weights of 8-point Gauss–Legendre quadrature on [−1, 1]
+GAUSS_LEGENDRE_8 = np.polynomial.legendre.leggauss(8)
+
+
 def _bin_energy(edges: np.ndarray, hs: float, tp: float, spectrum: str, gamma: float) -> np.ndarray:
     """∫ S dω [m²] over each bin [edges_i, edges_i+1], by 8-point Gauss–Legendre."""
-    nodes, weights = np.polynomial.legendre.leggauss(8)
+    nodes, weights = GAUSS_LEGENDRE_8
     width = np.diff(edges)[:, None]
     omega = edges[:-1, None] + (nodes + 1.0) / 2.0 * width  # (n, 8)
     density = spectral_density(omega, hs, tp, spectrum, gamma=gamma)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
 
@@ -69,10 +69,38 @@ class BaseMotion:
         """(N, 6) inertial base poses at times t (N,) [s] (`twin.vessel.vessel_motion`)."""
         t = np.asarray(t, dtype=float)
         if t.size > 2 and np.allclose(np.diff(t), t[1] - t[0], rtol=0.0, atol=1e-12):
-            motion = uniform_motion(self.omega_e, self.amplitude, t[0], t[1] - t[0], t.size)
-        else:
-            motion = (np.exp(-1j * np.outer(t, self.omega_e)) @ self.amplitude).real
+            return self.uniform_poses([self], t[0], t[1] - t[0], t.size)[0]
+        motion = (np.exp(-1j * np.outer(t, self.omega_e)) @ self.amplitude).real
         return self.mount.pose(motion)
+
+    @staticmethod
+    def uniform_poses(
+        motions: Sequence[BaseMotion], t0: float, dt: float, n: int, compiled: bool = True
+    ) -> np.ndarray:
+        """(N, n, 6) base poses [m, rad] of N base motions at t = t0 + k dt, k = 0 … n − 1,
+        in one compiled pass over the lanes (`twin.sim.kernels.sea`: each vessel motion put
+        on its mount). A non-finite response gives NaN poses, not an error.
+
+        Args:
+            motions: base motions; t0, dt: [s]; n: samples.
+            compiled: run the numba-compiled function (else the same function interpreted).
+        """
+        from twin.sim.kernels.sea import compiled_base_poses, run_base_poses
+
+        # lanes with fewer components are padded with silent ones (zero response)
+        K = max(m.omega_e.size for m in motions)
+        omega_e = np.zeros((len(motions), K))
+        response = np.zeros((len(motions), 6, K), dtype=complex)
+        for lane, m in enumerate(motions):
+            omega_e[lane, : m.omega_e.size] = m.omega_e
+            response[lane, :, : m.omega_e.size] = m.amplitude.T
+        lever_arm = np.array([m.mount.lever_arm for m in motions], dtype=float)
+        yaw = np.array([m.mount.yaw for m in motions], dtype=float)
+        out = np.empty((len(motions), n, 6))
+        runner = compiled_base_poses(len(motions) > 1) if compiled else run_base_poses
+        runner(omega_e, np.ascontiguousarray(response.real), np.ascontiguousarray(response.imag),
+               lever_arm, yaw, float(t0), float(dt), out)  # fmt: skip
+        return out
 
     def sample(self, t: np.ndarray) -> BaseSamples:
         """Poses and transforms at times t (N,) [s]."""
@@ -85,26 +113,6 @@ class BaseMotion:
 def raos_named(name: str) -> RaoTable:
     """An RAO table by shipped name or path, read once per process (a NetCDF read costs ms)."""
     return load_raos(name)
-
-
-def uniform_motion(
-    omega_e: np.ndarray, amplitude: np.ndarray, t0: float, dt: float, n: int
-) -> np.ndarray:
-    """`vessel_motion` at t = t0 + k dt, k = 0 … n − 1, (n, 6) [m, rad].
-
-    e^{−iω(t0 + k dt)} = e^{−iω t0} e^{−iω b dt} e^{−iω aB dt} with k = aB + b, so only
-    (A + B) × K complex exponentials are evaluated instead of n × K, and the real part of the
-    sum is A real matrix products (B, 2K) @ (2K, 6), stacked rather than one large product (a
-    multi-threaded BLAS call on a busy machine costs ten times the arithmetic).
-    """
-    fine = math.isqrt(max(n - 1, 0)) + 1  # B
-    coarse = -(-n // fine)  # A
-    shifted = np.exp(-1j * omega_e * t0)[:, None] * amplitude  # (K, 6)
-    e_fine = np.exp(-1j * np.outer(np.arange(fine) * dt, omega_e))  # (B, K)
-    e_coarse = np.exp(-1j * np.outer(np.arange(coarse) * (fine * dt), omega_e))  # (A, K)
-    X = e_coarse[:, :, None] * shifted  # (A, K, 6)
-    lhs = np.concatenate([e_fine.real, -e_fine.imag], 1)  # (B, 2K)
-    return (lhs @ np.concatenate([X.real, X.imag], 1)).reshape(-1, 6)[:n]
 
 
 def mount_for(mechanism: str) -> Mount:

@@ -211,8 +211,12 @@ class Simulation:
         return metrics
 
     def result(self, lane: int = 0) -> SimulationResult:
-        """A lane's result: its scenario, its series up to its own duration, its metrics."""
-        series = self.series(lane)
+        """A lane's result: its scenario, its series up to its own duration, its metrics.
+
+        A finished batch run's series are views of its history, which has room for every
+        sample and so never overwrites one; a live session's, or a run's midway, are copies."""
+        views = self._keep_all and self.done
+        series = self._select(self.history.series(lane, copy=not views), lane)
         scenario = self.scenarios[lane]
         if self.history.complete:
             end = round(scenario.duration / scenario.dt) + 1
@@ -363,20 +367,19 @@ class Simulation:
         `_with_targets`."""
         end = self.n_steps if n_steps is None else n_steps
         steps = max(1, min(self._block_size, end - start))
-        t = (start + np.arange(steps + 1)) * self.dt
-        poses, bad = [], []
-        for motion, good in zip(base_motions, last_good, strict=True):
-            try:
-                pose = motion.poses(t)
-            except NUMERICAL:
-                pose = np.full((t.size, 6), np.nan)
-            pose, invalid = hold_invalid(pose, good)
-            poses.append(pose)
-            bad.append(invalid)
-        return _Block(start, np.stack(poses), np.stack(bad), np.empty((len(poses), steps, 0)))
+        try:
+            sampled = BaseMotion.uniform_poses(
+                base_motions, start * self.dt, self.dt, steps + 1, self.compiled
+            )
+        except NUMERICAL:
+            sampled = np.full((len(base_motions), steps + 1, 6), np.nan)
+        poses, bad = np.empty_like(sampled), np.empty(sampled.shape[:2], dtype=bool)
+        for lane, good in enumerate(last_good):
+            poses[lane], bad[lane] = hold_invalid(sampled[lane], good)
+        return _Block(start, poses, bad, np.empty((len(poses), steps, 0)))
 
     def _with_targets(self, block: _Block) -> _Block:
-        block.targets = held_targets(self.lanes.held, pose_to_transform(block.poses), self.dt)
+        block.targets = held_targets(self.lanes.held, block.poses, self.dt, self.compiled)
         return block
 
 

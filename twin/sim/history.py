@@ -79,10 +79,15 @@ class History:
         start = self.count % self.capacity
         return np.r_[start : self.capacity, 0:start]
 
-    def series(self, lane: int) -> dict[str, np.ndarray]:
-        """A lane's samples, oldest first, (T, ...) per key (copies)."""
+    def series(self, lane: int, copy: bool = True) -> dict[str, np.ndarray]:
+        """A lane's samples, oldest first, (T, ...) per key: copies, or with copy=False views
+        while every sample is held (copies once the ring has wrapped). A view stays valid
+        only as long as the ring does not wrap: a history with room for the whole run (a
+        batch run) never overwrites a sample, and `reserve` moves to new arrays."""
         order = self._order()
-        return {key: np.array(values[lane, order]) for key, values in self.data.items()}
+        if copy or not self.complete:
+            return {key: np.array(values[lane, order]) for key, values in self.data.items()}
+        return {key: values[lane, order] for key, values in self.data.items()}
 
     def latest(self, lane: int) -> dict[str, np.ndarray]:
         """A lane's newest sample (copies)."""

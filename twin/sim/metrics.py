@@ -82,14 +82,15 @@ def hybrid_metrics(
     err = series["tip_error"][s]
     pos_err = np.linalg.norm(err[:, :3], axis=1)
     rot_err = np.degrees(np.linalg.norm(err[:, 3:], axis=1))
+    low, high, trend = xi[s].min(axis=0), xi[s].max(axis=0), drift(t, xi)
     joints: dict[str, dict[str, float]] = {}
     for j, name in enumerate(JOINT_NAMES):
         scale = np.degrees(1.0) if name in _ANGLES else 1.0
         joints[name] = {
-            "min": finite(xi[s, j].min() * scale),
-            "max": finite(xi[s, j].max() * scale),
-            "margin": finite(min(xi[s, j].min() - lower[j], upper[j] - xi[s, j].max()) * scale),
-            "drift": finite(drift(t, xi[:, j : j + 1])[0] * scale),
+            "min": finite(low[j] * scale),
+            "max": finite(high[j] * scale),
+            "margin": finite(min(low[j] - lower[j], upper[j] - high[j]) * scale),
+            "drift": finite(trend[j] * scale),
         }
     return {
         "violations": int(np.sum(joint_bad | leg_bad)),

@@ -16,6 +16,7 @@ import numpy as np
 
 from twin.planners.target import TipTarget
 from twin.sim.base_motion import BaseSamples
+from twin.sim.kernels.layout import N_TARGET
 from twin.spatial import invert_transform, so3_log
 
 
@@ -35,20 +36,27 @@ def tilt(R: np.ndarray, axis: int = 2) -> np.ndarray:
     return np.arctan2(np.hypot(R[..., 0, axis], R[..., 1, axis]), R[..., 2, axis])
 
 
-def held_targets(held: np.ndarray, T_IB: np.ndarray, dt: float) -> np.ndarray:
-    """`held_target` for a chunk of samples of N lanes at once, packed as the kernels read it.
+def held_targets(
+    held: np.ndarray, poses: np.ndarray, dt: float, compiled: bool = True
+) -> np.ndarray:
+    """`held_target` for a chunk of samples of N lanes at once, packed as the kernels read it
+    (`twin.sim.kernels.target`, parallel over lanes when there are several).
 
     Args:
         held: (N, 4, 4) ᴵT*, each lane's held inertial pose.
-        T_IB: (N, B + 1, 4, 4) the base at samples k … k + B.
+        poses: (N, B + 1, 6) the base ᴵT_B at samples k … k + B [m, rad].
         dt: [s] sample period.
+        compiled: run the numba-compiled function (else the same function interpreted: the
+            engine without numba).
 
     Returns:
         (N, B, 18): ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ; ᴮω] [m/s, rad/s] at samples k … k + B − 1
         (rows `twin.sim.kernels.layout.TARGET_*`).
     """
-    T = invert_transform(T_IB) @ held[:, None]  # ᴮT_d = ᴵT_B⁻¹ ᴵT*
-    R0, R1 = T[:, :-1, :3, :3], T[:, 1:, :3, :3]
-    v = (T[:, 1:, :3, 3] - T[:, :-1, :3, 3]) / dt
-    w = so3_log(R1 @ np.swapaxes(R0, -1, -2)) / dt
-    return np.concatenate([R0.reshape(*R0.shape[:2], 9), T[:, :-1, :3, 3], v, w], -1)
+    from twin.sim.kernels.target import compiled_targets, run_held_targets
+
+    poses, held = np.ascontiguousarray(poses, dtype=float), np.ascontiguousarray(held, dtype=float)
+    out = np.empty((poses.shape[0], poses.shape[1] - 1, N_TARGET))
+    runner = compiled_targets(len(poses) > 1) if compiled else run_held_targets
+    runner(poses, held, float(dt), out)
+    return out

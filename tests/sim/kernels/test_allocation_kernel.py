@@ -22,7 +22,7 @@ from twin.planners.target import TipTarget
 from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.kernels import allocation as ak
 from twin.sim.kernels import layout as lay
-from twin.sim.kernels.hybrid import hybrid_constants
+from twin.sim.kernels.hybrid import hybrid_constants, rpy_to_matrix_lane
 from twin.sim.scenario import Scenario
 from twin.sim.target import held_target
 from twin.spatial import invert_transform, pose_to_transform, se3_log, so3_exp
@@ -44,7 +44,7 @@ STARTS = {
 ENGINES = ["python", pytest.param("numba", marks=pytest.mark.skipif(
     importlib.util.find_spec("numba") is None, reason="numba not installed"))]  # fmt: skip
 
-#: allocation_velocity(x, target, prm, memory, const, dt, v_out, diag_out) -> int
+#: step(x, target, prm, memory, const, dt, v_out, diag_out) -> int (`allocation_step`)
 Step = Callable[..., int]
 
 CONST = hybrid_constants(MECHANISM, HYBRID_RATE_LIMITS)
@@ -57,22 +57,27 @@ def base() -> BaseSamples:
     return BaseMotion.of(scenario).sample(np.arange(N_STEPS + 1) * DT)
 
 
+def allocation_step(
+    x: np.ndarray, target: np.ndarray, prm: np.ndarray, memory: np.ndarray, const: np.ndarray,
+    dt: float, v_out: np.ndarray, diag_out: np.ndarray,
+) -> int:  # fmt: skip
+    """allocation_velocity as the runner calls it, with x's ᴮR_P and the scratch made here."""
+    R = np.empty((3, 3))
+    rpy_to_matrix_lane(x[3], x[4], x[5], R)
+    work = ak.allocation_work()
+    return ak.allocation_velocity(x, R, target, prm, memory, const, dt, work, v_out, diag_out)
+
+
 @pytest.fixture(scope="module")
 def compiled() -> Step:
-    """allocation_velocity behind a tiny njit wrapper (the runner's call, compiled)."""
+    """`allocation_step` compiled (the runner's call)."""
     import numba
 
-    kernel = ak.allocation_velocity
-
-    @numba.njit(error_model="numpy")
-    def step(x, target, prm, memory, const, dt, v_out, diag_out):
-        return kernel(x, target, prm, memory, const, dt, v_out, diag_out)
-
-    return step
+    return numba.njit(error_model="numpy")(allocation_step)
 
 
 def stepper(engine: str, request: pytest.FixtureRequest) -> Step:
-    return request.getfixturevalue("compiled") if engine == "numba" else ak.allocation_velocity
+    return request.getfixturevalue("compiled") if engine == "numba" else allocation_step
 
 
 @pytest.mark.parametrize("engine", ENGINES)
@@ -161,13 +166,14 @@ def test_primitives_match_twin(rng: np.random.Generator) -> None:
     states = np.concatenate([states, np.array(list(STARTS.values()))])
     vectors, lengths, R, reach, q = np.empty((6, 3)), np.empty(6), np.empty((3, 3)), *(
         np.empty(3) for _ in range(2))  # fmt: skip
+    J = np.empty((6, 6))
     for xi in states:
         T = pose_to_transform(xi[:6])
         legs = MECHANISM.stewart.legs(xi[:6])
         ak.leg_vectors_lane(T[:3, :3], T[:3, 3], CONST, vectors, lengths)
         np.testing.assert_allclose(vectors, legs.vectors, atol=1e-12)
         np.testing.assert_allclose(lengths, legs.lengths, atol=1e-12)
-        manip = ak.manipulability_lane(T[:3, :3], vectors, lengths, CONST)
+        manip = ak.manipulability_lane(T[:3, :3], vectors, lengths, CONST, J)
         assert manip == pytest.approx(MECHANISM.manipulability(xi), rel=1e-12)
         ak.reachable_range_lane(vectors, lengths, CONST, reach)
         np.testing.assert_allclose(reach, reachable_range(MECHANISM, xi[:6]), atol=1e-12)

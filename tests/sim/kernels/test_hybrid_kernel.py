@@ -109,9 +109,10 @@ def _differential_compiled(
     x: np.ndarray, target: np.ndarray, prm: np.ndarray, const: np.ndarray, v: np.ndarray,
     diag: np.ndarray,
 ) -> int:  # fmt: skip
-    """`differential_velocity` compiled, with its scratch."""
-    K, A, L, w = np.empty((6, 9)), np.empty((6, 6)), np.empty((6, 6)), np.empty(9)
-    return hk.differential_velocity(x, target, prm, const, K, A, L, w, v, diag)
+    """`differential_velocity` compiled, with x's ᴮR_P and its scratch."""
+    R = np.empty((3, 3))
+    hk.rpy_to_matrix_lane(x[3], x[4], x[5], R)
+    return hk.differential_velocity(x, R, target, prm, const, hk.differential_work(), v, diag)
 
 
 def run_one(
@@ -210,7 +211,7 @@ def test_chunk_follows_the_rig(name: str, hold: bool, compiled: object) -> None:
     planner = build(name, PlannerParameters(), start)
     planner.reset(start, held_target(held, base, 0, DT))
     targets = np.stack([pack_target(held_target(held, base, k, DT)) for k in range(n)])
-    engine = held_targets(held[None], base.transform[None], DT)[0]  # the engine's, batched
+    engine = held_targets(held[None], base.pose[None], DT)[0]  # the engine's, batched
     np.testing.assert_allclose(engine, targets, rtol=0, atol=1e-12)
     prm = hk.pack_differential(planner, hold)
     runs = {}
@@ -352,16 +353,17 @@ def _primitives(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
            float]:  # fmt: skip
     """Every shared primitive compiled, on one input."""
-    T, w, rpy, R_out = np.empty((4, 4)), np.empty(3), np.empty(3), np.empty((3, 3))
-    x_next, legs, excess = np.empty(9), np.empty(6), np.empty(15)
-    hk.tip_transform(x, const, T)
+    T, G, w, rpy = np.empty((4, 4)), np.empty((4, 4)), np.empty(3), np.empty(3)
+    R_out, x_next, legs, excess = np.empty((3, 3)), np.empty(9), np.empty(6), np.empty(15)
     hk.so3_log_lane(R, w)
     hk.matrix_to_rpy_lane(R, rpy)
-    hk.rpy_to_matrix_lane(x[3], x[4], x[5], R_out)
-    hk.integrate_hybrid(x, v, dt, x_next)
-    hk.leg_lengths_lane(x, const, legs)
-    hk.limit_excess_lane(x, const, excess)
-    return T, w, rpy, R_out, x_next, legs, excess, hk.limit_scale_lane(x, v, dt, const)
+    hk.rpy_to_matrix_lane(x[3], x[4], x[5], R_out)  # x's ᴮR_P, which the others take
+    hk.tip_transform(x, R_out, const, G, T)
+    hk.integrate_hybrid(x, R_out, v, dt, x_next)
+    hk.leg_lengths_lane(x, R_out, const, legs)
+    hk.limit_excess_lane(x, R_out, const, excess)
+    scale = hk.limit_scale_lane(x, R_out, v, dt, const, hk.limit_work())
+    return T, w, rpy, R_out, x_next, legs, excess, scale
 
 
 def _primitives_python(

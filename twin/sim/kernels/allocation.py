@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 import twin.sim.kernels.hybrid as hybrid_kernel
-from twin.sim.kernels.compile import register_jitable
+from twin.sim.kernels.compile import register_borrowing, register_jitable
 from twin.sim.kernels.hybrid import matrix_to_rpy_lane, rpy_to_matrix_lane, so3_log_lane
 from twin.sim.kernels.layout import (
     C_A1,
@@ -89,7 +89,7 @@ assert N_ALLOCATION_PARAMETERS <= N_PARAMETERS and N_ALLOCATION_MEMORY <= N_MEMO
 # ---------------------------------------------------------------------------------------------
 
 
-@register_jitable
+@register_borrowing
 def so3_exp_lane(w0: float, w1: float, w2: float, R_out: np.ndarray) -> None:
     """Rodrigues (`twin.spatial.so3_exp`): rotation vector [rad] → R_out (3, 3)."""
     theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
@@ -106,13 +106,12 @@ def so3_exp_lane(w0: float, w1: float, w2: float, R_out: np.ndarray) -> None:
     R_out[1, 2], R_out[2, 1] = -a * w0 + b * w1 * w2, a * w0 + b * w1 * w2
 
 
-@register_jitable
+@register_borrowing
 def se3_log_lane(R: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """`twin.spatial.se3_log` of the transform [R (3, 3), p (3,) [m]]: body twist [v; ω]
     (6,) [m, rad] into out, with V⁻¹ of Lynch & Park eq (3.92)."""
-    w = np.empty(3)
-    so3_log_lane(R, w)
-    w0, w1, w2 = w[0], w[1], w[2]
+    so3_log_lane(R, out[3:])  # ω first: out's rotation rows
+    w0, w1, w2 = out[3], out[4], out[5]
     theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
     if theta < 1e-6:
         d = 1.0 / 12.0 + theta**2 / 720.0
@@ -124,10 +123,9 @@ def se3_log_lane(R: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     out[0] = (1.0 + d * k00) * p[0] + (0.5 * w2 + d * k01) * p[1] + (-0.5 * w1 + d * k02) * p[2]
     out[1] = (-0.5 * w2 + d * k01) * p[0] + (1.0 + d * k11) * p[1] + (0.5 * w0 + d * k12) * p[2]
     out[2] = (0.5 * w1 + d * k02) * p[0] + (-0.5 * w0 + d * k12) * p[1] + (1.0 + d * k22) * p[2]
-    out[3], out[4], out[5] = w0, w1, w2
 
 
-@register_jitable
+@register_borrowing
 def gangway_inverse_lane(
     px: float, py: float, pz: float, const: np.ndarray, q_out: np.ndarray
 ) -> None:
@@ -141,7 +139,7 @@ def gangway_inverse_lane(
     q_out[2] = math.hypot(rho, height)
 
 
-@register_jitable
+@register_borrowing
 def leg_vectors_lane(
     R: np.ndarray,
     p: np.ndarray,
@@ -165,9 +163,9 @@ def leg_vectors_lane(
         lengths_out[i] = math.sqrt(s)
 
 
-@register_jitable
+@register_borrowing
 def manipulability_lane(
-    R: np.ndarray, vectors: np.ndarray, lengths: np.ndarray, const: np.ndarray
+    R: np.ndarray, vectors: np.ndarray, lengths: np.ndarray, const: np.ndarray, J: np.ndarray
 ) -> float:
     """Yoshikawa's sqrt(det(J Jᵀ)) = |det J| [-] of the Stewart leg Jacobian J (6, 6), rows
     [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ] (`twin.mechanisms.legs.twist_jacobian`; seed 004 §3.1 b,
@@ -175,8 +173,8 @@ def manipulability_lane(
 
     Args:
         R: (3, 3) ᴮR_P; vectors, lengths: the legs (`leg_vectors_lane`) [m].
+        J: (6, 6) scratch (the caller's, allocated once: numba puts arrays on the heap).
     """
-    J = np.empty((6, 6))
     for i in range(6):
         h0 = const[C_PLATFORM_HINGES + 3 * i]
         h1 = const[C_PLATFORM_HINGES + 3 * i + 1]
@@ -209,7 +207,7 @@ def manipulability_lane(
     return abs(det)
 
 
-@register_jitable
+@register_borrowing
 def reachable_range_lane(
     vectors: np.ndarray, lengths: np.ndarray, const: np.ndarray, out: np.ndarray
 ) -> None:
@@ -247,20 +245,27 @@ def reachable_range_lane(
         out[k] = max(upper_min - lower_max, 0.0) if inside else 0.0
 
 
-@register_jitable
+@register_borrowing
 def shares_lane(
-    R: np.ndarray, p: np.ndarray, prm: np.ndarray, const: np.ndarray, out: np.ndarray
+    R: np.ndarray,
+    p: np.ndarray,
+    prm: np.ndarray,
+    const: np.ndarray,
+    vectors: np.ndarray,
+    lengths: np.ndarray,
+    J: np.ndarray,
+    out: np.ndarray,
 ) -> None:
     """DWA's position shares [λ_p w_i]³ (3,) into out, clipped to [0, 1] (seed 004 §3.2,
     docs/planners.md), for the platform pose [ᴮR_P (3, 3), ᴮp_P (3,) [m]]: λ_p the
     manipulability over the working state's, w_i the reachable range over the working
-    state's (`AllocationPlanner.shares`)."""
-    vectors, lengths, reach = np.empty((6, 3)), np.empty(6), np.empty(3)
+    state's (`AllocationPlanner.shares`). vectors (6, 3), lengths (6,) and J (6, 6) are
+    scratch (the legs and `manipulability_lane`'s)."""
     leg_vectors_lane(R, p, const, vectors, lengths)
-    lam = manipulability_lane(R, vectors, lengths, const) / prm[P_MANIP_MID]
-    reachable_range_lane(vectors, lengths, const, reach)
+    lam = manipulability_lane(R, vectors, lengths, const, J) / prm[P_MANIP_MID]
+    reachable_range_lane(vectors, lengths, const, out)  # the ranges, made shares in place
     for k in range(3):
-        out[k] = min(max(lam * (reach[k] / prm[P_RANGE_MID + k]), 0.0), 1.0) ** 3
+        out[k] = min(max(lam * (out[k] / prm[P_RANGE_MID + k]), 0.0), 1.0) ** 3
 
 
 # ---------------------------------------------------------------------------------------------
@@ -268,7 +273,7 @@ def shares_lane(
 # ---------------------------------------------------------------------------------------------
 
 
-@register_jitable
+@register_borrowing
 def compose_lane(
     R: np.ndarray, p: np.ndarray, rows: np.ndarray, R_out: np.ndarray, p_out: np.ndarray
 ) -> None:
@@ -286,13 +291,27 @@ def compose_lane(
 
 
 @register_jitable
+def allocation_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Scratch of `allocation_velocity`, allocated once per lane (numba puts every array on
+    the heap: a malloc per step would cost more than the arithmetic): rotations (5, 3, 3)
+    (exp(ω dt), the predicted target's, the compensating motion's, the platform's, the
+    relative one), points (7, 3) (the predicted target, the compensating motion, the platform
+    position, its rpy, the gangway joints, the next shares, the relative position), then the
+    legs (6, 3), their lengths (6,) and the leg Jacobian (6, 6) of `shares_lane`."""
+    return (np.empty((5, 3, 3)), np.empty((7, 3)), np.empty((6, 3)), np.empty(6),
+            np.empty((6, 6)))  # fmt: skip
+
+
+@register_borrowing
 def allocation_velocity(
     x: np.ndarray,
+    R: np.ndarray,
     target: np.ndarray,
     prm: np.ndarray,
     memory: np.ndarray,
     const: np.ndarray,
     dt: float,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     v_out: np.ndarray,
     diag_out: np.ndarray,
 ) -> int:
@@ -308,12 +327,14 @@ def allocation_velocity(
 
     Args:
         x: (9,) xi [m, rad]: platform pose in B, then q1, q2 [rad], d3 [m].
+        R: (3, 3) ᴮR_P of x (`rpy_to_matrix_lane`).
         target: (18,) `layout.TARGET_*`: ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ_d; ᴮω_d]
             [m/s, rad/s] in B.
         prm: (N_PARAMETERS,) the lane's row (`pack_allocation`).
         memory: (N_MEMORY,) the lane's state: DWA's shares at `M_SHARE`, read and updated.
         const: (N_HYBRID_CONSTANTS,) `layout.C_*` hybrid constants.
         dt: [s] control period.
+        work: `allocation_work()`, overwritten.
         v_out: (9,) written: platform body twist [ᴾṖ; ω_P] in P [m/s, rad/s], then q̇1, q̇2
             [rad/s], ḋ3 [m/s] (`HybridBoardingSystem.integrate`).
         diag_out: (N_HYBRID_DIAGNOSTICS,) written: at `D_POSITION_SHARE` (3) the position
@@ -324,35 +345,34 @@ def allocation_velocity(
         Fault bits: `FAULT_PLANNER` when the velocity is not finite, else 0.
     """
     method = int(prm[P_METHOD])
-    # the target one dt ahead, T_a = [exp(ω dt) R_d, p_d + v dt]
-    E, Rd, Ra = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    rotations, points, vectors, lengths, J = work
+    E, Ra, Rc, RP, Rrel = rotations[0], rotations[1], rotations[2], rotations[3], rotations[4]
+    pa, pc, pP, rpy = points[0], points[1], points[2], points[3]
+    q, following, prel = points[4], points[5], points[6]
+    # the target one dt ahead, T_a = [exp(ω dt) R_d, p_d + v dt] (R_d row-major in target)
     w = TARGET_W
     so3_exp_lane(target[w] * dt, target[w + 1] * dt, target[w + 2] * dt, E)
     for i in range(3):
         for j in range(3):
-            Rd[i, j] = target[TARGET_R + 3 * i + j]
-    pa = np.empty(3)
-    for i in range(3):
-        for j in range(3):
-            Ra[i, j] = E[i, 0] * Rd[0, j] + E[i, 1] * Rd[1, j] + E[i, 2] * Rd[2, j]
+            Ra[i, j] = (
+                E[i, 0] * target[TARGET_R + j]
+                + E[i, 1] * target[TARGET_R + 3 + j]
+                + E[i, 2] * target[TARGET_R + 6 + j]
+            )
         pa[i] = target[TARGET_P + i] + target[TARGET_V + i] * dt
     # compensating motion C = T_a ᴮT_E(0)⁻¹, then T_full = C ᴮT_P(0)
-    Rc, pc = np.empty((3, 3)), np.empty(3)
     compose_lane(Ra, pa, prm[P_T_E0_INV : P_T_E0_INV + 12], Rc, pc)
-    RP, pP = np.empty((3, 3)), np.empty(3)
     compose_lane(Rc, pc, prm[P_T_P0 : P_T_P0 + 12], RP, pP)
     if method == METHOD_CONV2:
         for i in range(3):
             pP[i] = prm[P_T_P0 + 4 * i + 3]
     elif method == METHOD_DWA:
-        rpy = np.empty(3)
         matrix_to_rpy_lane(RP, rpy)
         rpy_to_matrix_lane(rpy[0], rpy[1], prm[P_YAW0], RP)  # the slew takes the yaw
         for i in range(3):
             p0 = prm[P_T_P0 + 4 * i + 3]
             pP[i] = p0 + memory[M_SHARE + i] * (pP[i] - p0)
     # gangway joints: conv1 keeps them, else seed 004 eqs (7)-(8) for the tip in P
-    q = np.empty(3)
     if method == METHOD_CONV1:
         for i in range(3):
             q[i] = prm[P_Q0 + i]
@@ -370,8 +390,7 @@ def allocation_velocity(
             diag_out[D_POSITION_SHARE + i] = memory[M_SHARE + i]  # the shares used
         # next step's shares (t − 1 in seed 004); a step that cannot be planned (a target that
         # is not finite: AllocationPlanner raises there) keeps the last good ones
-        following = np.empty(3)
-        shares_lane(RP, pP, prm, const, following)
+        shares_lane(RP, pP, prm, const, vectors, lengths, J, following)
         if math.isfinite(following[0] + following[1] + following[2]):
             for i in range(3):
                 memory[M_SHARE + i] = following[i]
@@ -380,12 +399,10 @@ def allocation_velocity(
         for i in range(3):
             diag_out[D_POSITION_SHARE + i] = one
     # twist of ᴮT_P(xi)⁻¹ T_P over dt: the body twist that reaches T_P in one step
-    Rx, Rrel, prel = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
-    rpy_to_matrix_lane(x[3], x[4], x[5], Rx)
     for i in range(3):
         for j in range(3):
-            Rrel[i, j] = Rx[0, i] * RP[0, j] + Rx[1, i] * RP[1, j] + Rx[2, i] * RP[2, j]
-        prel[i] = Rx[0, i] * (pP[0] - x[0]) + Rx[1, i] * (pP[1] - x[1]) + Rx[2, i] * (pP[2] - x[2])
+            Rrel[i, j] = R[0, i] * RP[0, j] + R[1, i] * RP[1, j] + R[2, i] * RP[2, j]
+        prel[i] = R[0, i] * (pP[0] - x[0]) + R[1, i] * (pP[1] - x[1]) + R[2, i] * (pP[2] - x[2])
     se3_log_lane(Rrel, prel, v_out)
     finite = True
     for i in range(9):

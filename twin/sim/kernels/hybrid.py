@@ -2,7 +2,10 @@ r"""The hybrid boarding system's compiled kernel: one lane (one scenario) at a t
 
 Every function here handles ONE lane: floats and small numpy arrays, written in a style numba
 compiles (`register_jitable`) and plain Python runs unchanged (the fallback when numba is
-missing; the same arithmetic, so the same numbers to the last ulp or so of `math`).
+missing; the same arithmetic, so the same numbers to the last ulp or so of `math`). Per step
+nothing is allocated: the runner allocates each lane's scratch once (`*_work`) and computes
+ᴮR_P once for the planner, the guard and the step; functions that allocate nothing are
+`register_borrowing` (no reference counting of their array arguments).
 
 - Shared primitives (also used by `twin.sim.kernels.allocation`): ᴮR_P from roll-pitch-yaw,
   the tip ᴮT_E, so(3) log, matrix → rpy, `HybridBoardingSystem.integrate`, leg lengths, limit
@@ -38,7 +41,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from twin.sim.kernels.compile import compile_runner, prange, register_jitable
+from twin.sim.kernels.compile import (
+    compile_runner,
+    prange,
+    register_borrowing,
+    register_jitable,
+)
 from twin.sim.kernels.layout import (
     C_A1,
     C_BASE_HINGES,
@@ -109,7 +117,7 @@ def hybrid_constants(mechanism: HybridBoardingSystem, rate_limit: np.ndarray) ->
 # ---------------------------------------------------------------------------------------------
 
 
-@register_jitable
+@register_borrowing
 def rpy_to_matrix_lane(roll: float, pitch: float, yaw: float, R_out: np.ndarray) -> None:
     """ᴮR_P = Rz(yaw) Ry(pitch) Rx(roll) (seed 000 eq (3), `twin.spatial.rpy_to_matrix`).
 
@@ -130,7 +138,7 @@ def rpy_to_matrix_lane(roll: float, pitch: float, yaw: float, R_out: np.ndarray)
     R_out[2, 2] = ct * cf
 
 
-@register_jitable
+@register_borrowing
 def gangway_tip_lane(q1: float, q2: float, d3: float, const: np.ndarray, G_out: np.ndarray) -> None:
     """ᴾT_E, the gangway tip in the platform frame (Table 2 with θ2 = q2 + 90°, SPEC erratum 3;
     seed 000 eq (10), `Gangway.forward`) in closed form.
@@ -149,19 +157,20 @@ def gangway_tip_lane(q1: float, q2: float, d3: float, const: np.ndarray, G_out: 
     G_out[3, 0], G_out[3, 1], G_out[3, 2], G_out[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@register_jitable
-def tip_transform(x: np.ndarray, const: np.ndarray, T_out: np.ndarray) -> None:
+@register_borrowing
+def tip_transform(
+    x: np.ndarray, R: np.ndarray, const: np.ndarray, G: np.ndarray, T_out: np.ndarray
+) -> None:
     """ᴮT_E = ᴮT_P ᴾT_E, the gangway tip in the Stewart base frame (seed 000 eq (14),
     `HybridBoardingSystem.end_effector`).
 
     Args:
         x: (9,) xi [m, rad].
+        R: (3, 3) ᴮR_P of x (`rpy_to_matrix_lane`; its caller has it already).
         const: hybrid constants.
+        G: (4, 4) written: ᴾT_E (`gangway_tip_lane`).
         T_out: (4, 4) written.
     """
-    R = np.empty((3, 3))
-    rpy_to_matrix_lane(x[3], x[4], x[5], R)
-    G = np.empty((4, 4))
     gangway_tip_lane(x[6], x[7], x[8], const, G)
     for i in range(3):
         for j in range(4):
@@ -170,7 +179,7 @@ def tip_transform(x: np.ndarray, const: np.ndarray, T_out: np.ndarray) -> None:
     T_out[3, 0], T_out[3, 1], T_out[3, 2], T_out[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@register_jitable
+@register_borrowing
 def so3_log_lane(R: np.ndarray, w_out: np.ndarray) -> None:
     """Rotation vector [rad] of the rotation matrix R (3, 3), angle in [0, π]
     (`twin.spatial.so3_log`, including its near-π branch); written to w_out (3,)."""
@@ -199,7 +208,7 @@ def so3_log_lane(R: np.ndarray, w_out: np.ndarray) -> None:
         w_out[0], w_out[1], w_out[2] = sign * a0 * theta, sign * a1 * theta, sign * a2 * theta
 
 
-@register_jitable
+@register_borrowing
 def matrix_to_rpy_lane(R: np.ndarray, out: np.ndarray) -> None:
     """[roll, pitch, yaw] [rad] of R (3, 3) on pitch ∈ (−π/2, π/2) (`twin.spatial.matrix_to_rpy`);
     written to out (3,)."""
@@ -208,8 +217,10 @@ def matrix_to_rpy_lane(R: np.ndarray, out: np.ndarray) -> None:
     out[2] = math.atan2(R[1, 0], R[0, 0])
 
 
-@register_jitable
-def integrate_hybrid(x: np.ndarray, v: np.ndarray, dt: float, x_out: np.ndarray) -> None:
+@register_borrowing
+def integrate_hybrid(
+    x: np.ndarray, R: np.ndarray, v: np.ndarray, dt: float, x_out: np.ndarray
+) -> None:
     """xi after the virtual-joint velocity v held for dt (`HybridBoardingSystem.integrate`).
 
     The platform pose moves on SE(3) by the exponential map of its body twist,
@@ -218,12 +229,11 @@ def integrate_hybrid(x: np.ndarray, v: np.ndarray, dt: float, x_out: np.ndarray)
 
     Args:
         x: (9,) xi [m, rad].
+        R: (3, 3) ᴮR_P of x (`rpy_to_matrix_lane`; the planner's, shared by the bisection).
         v: (9,) [ᴾṖ [m/s]; ω_P [rad/s] (in P); q̇1, q̇2 [rad/s]; ḋ3 [m/s]].
         dt: [s].
         x_out: (9,) written; may be x itself.
     """
-    R = np.empty((3, 3))
-    rpy_to_matrix_lane(x[3], x[4], x[5], R)
     vx, vy, vz = v[0] * dt, v[1] * dt, v[2] * dt
     wx, wy, wz = v[3] * dt, v[4] * dt, v[5] * dt
     theta = math.sqrt(wx * wx + wy * wy + wz * wz)
@@ -235,37 +245,38 @@ def integrate_hybrid(x: np.ndarray, v: np.ndarray, dt: float, x_out: np.ndarray)
         a = math.sin(theta) / theta
         b = (1.0 - math.cos(theta)) / theta**2
         c = (theta - math.sin(theta)) / theta**3
-    # S = skew(ω dt), S² = [k_ij]; exp(S) = I + a S + b S², V = I + b S + c S²
+    # S = skew(ω dt), S² = [k_ij]; exp(S) = I + a S + b S² = [e_ij], V = I + b S + c S²
+    # (scalars, not arrays: numba would put a (3, 3) on the heap at every call)
     k00, k11, k22 = -wz * wz - wy * wy, -wz * wz - wx * wx, -wy * wy - wx * wx
     k01, k02, k12 = wx * wy, wx * wz, wy * wz
-    E = np.empty((3, 3))
-    E[0, 0], E[0, 1], E[0, 2] = 1.0 + b * k00, -a * wz + b * k01, a * wy + b * k02
-    E[1, 0], E[1, 1], E[1, 2] = a * wz + b * k01, 1.0 + b * k11, -a * wx + b * k12
-    E[2, 0], E[2, 1], E[2, 2] = -a * wy + b * k02, a * wx + b * k12, 1.0 + b * k22
+    e00, e01, e02 = 1.0 + b * k00, -a * wz + b * k01, a * wy + b * k02
+    e10, e11, e12 = a * wz + b * k01, 1.0 + b * k11, -a * wx + b * k12
+    e20, e21, e22 = -a * wy + b * k02, a * wx + b * k12, 1.0 + b * k22
     t0 = (1.0 + c * k00) * vx + (-b * wz + c * k01) * vy + (b * wy + c * k02) * vz
     t1 = (b * wz + c * k01) * vx + (1.0 + c * k11) * vy + (-b * wx + c * k12) * vz
     t2 = (-b * wy + c * k02) * vx + (b * wx + c * k12) * vy + (1.0 + c * k22) * vz
-    N = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            N[i, j] = R[i, 0] * E[0, j] + R[i, 1] * E[1, j] + R[i, 2] * E[2, j]
+    # the entries of N = ᴮR_P exp(S) that matrix_to_rpy reads
+    n00 = R[0, 0] * e00 + R[0, 1] * e10 + R[0, 2] * e20
+    n10 = R[1, 0] * e00 + R[1, 1] * e10 + R[1, 2] * e20
+    n20 = R[2, 0] * e00 + R[2, 1] * e10 + R[2, 2] * e20
+    n21 = R[2, 0] * e01 + R[2, 1] * e11 + R[2, 2] * e21
+    n22 = R[2, 0] * e02 + R[2, 1] * e12 + R[2, 2] * e22
     p0 = R[0, 0] * t0 + R[0, 1] * t1 + R[0, 2] * t2 + x[0]
     p1 = R[1, 0] * t0 + R[1, 1] * t1 + R[1, 2] * t2 + x[1]
     p2 = R[2, 0] * t0 + R[2, 1] * t1 + R[2, 2] * t2 + x[2]
     q1, q2, d3 = x[6] + v[6] * dt, x[7] + v[7] * dt, x[8] + v[8] * dt
     x_out[0], x_out[1], x_out[2] = p0, p1, p2
-    x_out[3] = math.atan2(N[2, 1], N[2, 2])  # twin.spatial.matrix_to_rpy
-    x_out[4] = math.atan2(-N[2, 0], math.hypot(N[2, 1], N[2, 2]))
-    x_out[5] = math.atan2(N[1, 0], N[0, 0])
+    x_out[3] = math.atan2(n21, n22)  # twin.spatial.matrix_to_rpy
+    x_out[4] = math.atan2(-n20, math.hypot(n21, n22))
+    x_out[5] = math.atan2(n10, n00)
     x_out[6], x_out[7], x_out[8] = q1, q2, d3
 
 
-@register_jitable
-def leg_lengths_lane(x: np.ndarray, const: np.ndarray, out: np.ndarray) -> None:
+@register_borrowing
+def leg_lengths_lane(x: np.ndarray, R: np.ndarray, const: np.ndarray, out: np.ndarray) -> None:
     """Stewart leg lengths l_i = |ᴮR_P ᴾP_i + ᴮO_P − ᴮB_i| [m] (seed 000 eqs (4)-(5),
-    `HybridBoardingSystem.leg_lengths`) of xi x (9,); written to out (6,)."""
-    R = np.empty((3, 3))
-    rpy_to_matrix_lane(x[3], x[4], x[5], R)
+    `HybridBoardingSystem.leg_lengths`) of xi x (9,) with R (3, 3) its ᴮR_P
+    (`rpy_to_matrix_lane`); written to out (6,)."""
     for i in range(6):
         P0 = const[C_PLATFORM_HINGES + 3 * i]
         P1 = const[C_PLATFORM_HINGES + 3 * i + 1]
@@ -276,71 +287,89 @@ def leg_lengths_lane(x: np.ndarray, const: np.ndarray, out: np.ndarray) -> None:
         out[i] = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
 
 
-@register_jitable
+@register_borrowing
 def positive_part(d: float) -> float:
     """max(d, 0) that keeps a NaN (as `np.maximum`)."""
     return 0.0 if d <= 0.0 else d
 
 
-@register_jitable
-def limit_excess_lane(x: np.ndarray, const: np.ndarray, out: np.ndarray) -> None:
+@register_borrowing
+def limit_excess_lane(x: np.ndarray, R: np.ndarray, const: np.ndarray, out: np.ndarray) -> None:
     """How far each virtual joint (Table 6) and each leg (Table 1) is past its limit, 0 inside
-    (`HybridBoardingSystem.limit_excess`): out (15,) [m, rad], the 9 joints then the 6 legs."""
+    (`HybridBoardingSystem.limit_excess`), of xi x (9,) with R (3, 3) its ᴮR_P
+    (`rpy_to_matrix_lane`): out (15,) [m, rad], the 9 joints then the 6 legs."""
     for i in range(9):
         out[i] = positive_part(const[C_LOWER + i] - x[i]) + positive_part(x[i] - const[C_UPPER + i])
-    legs = np.empty(6)
-    leg_lengths_lane(x, const, legs)
+    legs = out[9:]  # the lengths first, turned into their excess in place
+    leg_lengths_lane(x, R, const, legs)
     low, high = const[C_LEG_MIN], const[C_LEG_MAX]
     for i in range(6):
-        out[9 + i] = positive_part(low - legs[i]) + positive_part(legs[i] - high)
+        legs[i] = positive_part(low - legs[i]) + positive_part(legs[i] - high)
 
 
 @register_jitable
+def limit_work() -> tuple[np.ndarray, np.ndarray]:
+    """Scratch of `limit_scale_lane`, allocated once per lane (numba puts every array on the
+    heap: a malloc per step would cost more than the arithmetic): rows (4, 15) for the excess
+    now, the trial step's excess, xi and velocity; (3, 3) for the trial's ᴮR_P."""
+    return np.empty((4, 15)), np.empty((3, 3))
+
+
+@register_borrowing
 def step_fits(
     x: np.ndarray,
+    R: np.ndarray,
     v: np.ndarray,
     s: float,
     dt: float,
     const: np.ndarray,
-    now: np.ndarray,
-    trial: np.ndarray,
-    scaled: np.ndarray,
-    excess: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray],
 ) -> bool:
-    """Whether the step s·v·dt carries no joint and no leg past `now` (limit_scale's `fits`);
-    trial (9,), scaled (9,) and excess (15,) are scratch."""
+    """Whether the step s·v·dt carries no joint and no leg past the excess now, work's row 0
+    (limit_scale's `fits`); x, R, v, dt, const and work as in `limit_scale_lane`."""
+    rows, R_trial = work
+    now, excess, trial, scaled = rows[0], rows[1], rows[2, :9], rows[3, :9]
     for j in range(9):
         scaled[j] = s * v[j]
-    integrate_hybrid(x, scaled, dt, trial)
-    limit_excess_lane(trial, const, excess)
+    integrate_hybrid(x, R, scaled, dt, trial)
+    rpy_to_matrix_lane(trial[3], trial[4], trial[5], R_trial)
+    limit_excess_lane(trial, R_trial, const, excess)
     for i in range(15):
         if not excess[i] <= now[i]:
             return False
     return True
 
 
-@register_jitable
-def limit_scale_lane(x: np.ndarray, v: np.ndarray, dt: float, const: np.ndarray) -> float:
+@register_borrowing
+def limit_scale_lane(
+    x: np.ndarray,
+    R: np.ndarray,
+    v: np.ndarray,
+    dt: float,
+    const: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray],
+) -> float:
     """The largest s in [0, 1] such that the step s·v·dt carries no joint and no leg further
     past its limit than it already is (a joint at its limit stops there; one beyond it, e.g. a
     start outside the limits, may only come back), to within 2⁻¹² by 12 bisections; the limit
     excess may grow by at most 1e-12 (the former `HybridRig`'s `limit_scale`, exactly).
 
     Args:
-        x: (9,) xi [m, rad]; v: (9,) velocity (`integrate_hybrid`); dt: [s].
+        x: (9,) xi [m, rad]; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
+        v: (9,) velocity (`integrate_hybrid`); dt: [s].
         const: hybrid constants.
+        work: `limit_work()`, overwritten.
     """
-    now = np.empty(15)
-    limit_excess_lane(x, const, now)
+    now = work[0][0]
+    limit_excess_lane(x, R, const, now)
     for i in range(15):
         now[i] = now[i] + LIMIT_SLACK
-    trial, scaled, excess = np.empty(9), np.empty(9), np.empty(15)
-    if step_fits(x, v, 1.0, dt, const, now, trial, scaled, excess):
+    if step_fits(x, R, v, 1.0, dt, const, work):
         return 1.0
     low, high = 0.0, 1.0
     for _ in range(LIMIT_BISECTIONS):
         mid = 0.5 * (low + high)
-        if step_fits(x, v, mid, dt, const, now, trial, scaled, excess):
+        if step_fits(x, R, v, mid, dt, const, work):
             low = mid
         else:
             high = mid
@@ -477,7 +506,7 @@ def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
     return prm
 
 
-@register_jitable
+@register_borrowing
 def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
     """Lower Cholesky factor of A − shift·I (A (6, 6) symmetric) into L (6, 6).
 
@@ -498,13 +527,12 @@ def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
     return True
 
 
-@register_jitable
+@register_borrowing
 def cholesky_pinv_apply(
-    K: np.ndarray, w: np.ndarray, L: np.ndarray, c: np.ndarray, out: np.ndarray
+    K: np.ndarray, w: np.ndarray, L: np.ndarray, c: np.ndarray, y: np.ndarray, out: np.ndarray
 ) -> None:
     """out (9,) = W Kᵀ (K W Kᵀ)⁻¹ c, the undamped J_W⁺ (seed 000 eq (31)) in P applied to c (6,),
-    with L Lᵀ = K W Kᵀ (`cholesky_lane`) and W = diag(w)."""
-    y = np.empty(6)
+    with L Lᵀ = K W Kᵀ (`cholesky_lane`) and W = diag(w); y (6,) is scratch."""
     for i in range(6):  # L z = c
         s = c[i]
         for k in range(i):
@@ -542,40 +570,38 @@ def svd_pinv_apply(
         out[j] = sqrt_w[j] * s
 
 
-@register_jitable
+@register_borrowing
 def tip_task_lane(
     x: np.ndarray,
+    R: np.ndarray,
     target: np.ndarray,
     gain: float,
     const: np.ndarray,
-    R: np.ndarray,
-    G: np.ndarray,
+    frames: np.ndarray,
+    M: np.ndarray,
     K: np.ndarray,
     demand: np.ndarray,
 ) -> None:
-    """The tip task of one lane (`TipPoseTask`): ᴮR_P into R (3, 3), ᴾT_E into G (4, 4), the
-    task Jacobian in P, K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]] (seed 000 eq (24) with
-    D = diag(ᴮR_P, ᴮR_P) factored out; J_s eq (11)) into K (6, 9), and the demand
-    ẋ_d + k_e e in B (eq (34); e = [p_d − p; log(R_d Rᵀ)], SPEC erratum 6) into demand (6,).
+    """The tip task of one lane (`TipPoseTask`): the task Jacobian in P,
+    K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]] (seed 000 eq (24) with D = diag(ᴮR_P, ᴮR_P)
+    factored out; J_s eq (11)) into K (6, 9), and the demand ẋ_d + k_e e in B (eq (34);
+    e = [p_d − p; log(R_d Rᵀ)], SPEC erratum 6) into demand (6,).
 
     Args:
-        x: (9,) xi [m, rad]; target: (18,) the target row (layout `TARGET_*`);
-        gain: k_e [1/s]; const: hybrid constants.
+        x: (9,) xi [m, rad]; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
+        target: (18,) the target row (layout `TARGET_*`); gain: k_e [1/s].
+        const: hybrid constants.
+        frames: (2, 4, 4) written: ᴾT_E and ᴮT_E (`tip_transform`).
+        M: (3, 3) written: R_d R_Eᵀ.
     """
-    rpy_to_matrix_lane(x[3], x[4], x[5], R)
-    gangway_tip_lane(x[6], x[7], x[8], const, G)
-    E = np.empty((3, 4))  # ᴮT_E = ᴮT_P ᴾT_E (eq (14))
-    for i in range(3):
-        for j in range(4):
-            E[i, j] = R[i, 0] * G[0, j] + R[i, 1] * G[1, j] + R[i, 2] * G[2, j]
-        E[i, 3] += x[i]
-    M = np.empty((3, 3))
+    G, E = frames[0], frames[1]
+    tip_transform(x, R, const, G, E)
     for i in range(3):
         for j in range(3):
             M[i, j] = (
                 target[3 * i] * E[j, 0] + target[3 * i + 1] * E[j, 1] + target[3 * i + 2] * E[j, 2]
             )
-    log = np.empty(3)
+    log = demand[3:]  # log(R_d R_Eᵀ) first, made the rotation demand in place
     so3_log_lane(M, log)
     for i in range(3):
         demand[i] = target[12 + i] + gain * (target[9 + i] - E[i, 3])
@@ -585,8 +611,8 @@ def tip_task_lane(
             K[a, j] = 1.0 if a == j else 0.0
     gx, gy, gz = G[0, 3], G[1, 3], G[2, 3]
     K[0, 4], K[0, 5], K[1, 3], K[1, 5], K[2, 3], K[2, 4] = gz, -gy, -gz, gx, gy, -gx
-    s1, c1 = math.sin(x[6]), math.cos(x[6])
-    s2, c2 = math.sin(x[7] + HALF_PI), math.cos(x[7] + HALF_PI)
+    # sin, cos of q1 and θ2 = q2 + 90° as gangway_tip_lane put them in ᴾT_E's rotation
+    s1, c1, s2, c2 = G[0, 1], -G[1, 1], G[2, 0], -G[2, 2]
     d3, a1 = x[8], const[C_A1]
     K[0, 6], K[0, 7], K[0, 8] = -a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2
     K[1, 6], K[1, 7], K[1, 8] = a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2
@@ -594,16 +620,30 @@ def tip_task_lane(
     K[3, 7], K[4, 7], K[5, 6] = s1, -c1, 1.0
 
 
+#: rows of `differential_work`'s vectors (9 wide; the 6-vectors use the first 6): diag(W⁻¹),
+#: the demand (turned into P), the posture column, its back-projection, the solve's scratch
+W_WEIGHTS, W_DEMAND, W_COLUMN, W_BACK, W_SOLVE = 0, 1, 2, 3, 4
+
+
 @register_jitable
+def differential_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                 np.ndarray]:  # fmt: skip
+    """Scratch of `differential_velocity`, allocated once per lane (numba puts every array on
+    the heap: a malloc per step would cost more than the arithmetic; and leading-axis views
+    are free where a reshape is not): K (6, 9), A = K W Kᵀ and its factor L (6, 6), ᴾT_E and
+    ᴮT_E (2, 4, 4), R_d R_Eᵀ (3, 3), the vectors (5, 9) (rows `W_*`)."""
+    return (np.empty((6, 9)), np.empty((6, 6)), np.empty((6, 6)), np.empty((2, 4, 4)),
+            np.empty((3, 3)), np.empty((5, 9)))  # fmt: skip
+
+
+@register_jitable  # not borrowing: its rare SVD branch allocates
 def differential_velocity(
     x: np.ndarray,
+    R: np.ndarray,
     target: np.ndarray,
     prm: np.ndarray,
     const: np.ndarray,
-    K: np.ndarray,
-    A: np.ndarray,
-    L: np.ndarray,
-    w: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     v_out: np.ndarray,
     diag_out: np.ndarray,
 ) -> int:
@@ -614,12 +654,12 @@ def differential_velocity(
     then Algorithm 1 (`SlewPriority`) and the common rate scale (`VelocityLimit`).
 
     Args:
-        x: (9,) xi [m, rad] at sample k.
+        x: (9,) xi [m, rad] at sample k; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
         target: (18,) the held target in B (layout `TARGET_*`): ᴮR_d row-major, ᴮp_d [m],
             twist ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s].
         prm: (N_PARAMETERS,) the lane's row (`pack_differential`).
         const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
-        K: (6, 9), A, L: (6, 6), w: (9,) scratch (overwritten; w ends as diag(W⁻¹)).
+        work: `differential_work()`, overwritten.
         v_out: (9,) written: the velocity [ᴾṖ [m/s]; ω_P [rad/s] in P; q̇1, q̇2 [rad/s];
             ḋ3 [m/s]], exactly `DifferentialPlanner.step(...).velocity` (to rounding).
         diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written (weights, null-space
@@ -628,14 +668,16 @@ def differential_velocity(
     Returns:
         Fault bits: FAULT_SINGULAR when the damping λ > 0.
     """
-    # the tip task: ᴮR_P, ᴾT_E, K and the demand ẋ_d + k_e e in B (eqs (14), (24), (34))
-    R, G, demand = np.empty((3, 3)), np.empty((4, 4)), np.empty(6)
-    tip_task_lane(x, target, prm[P_GAIN], const, R, G, K, demand)
-    # turned into P: b = Dᵀ (ẋ_d + k_e e)
-    b = np.empty(6)
-    for i in range(3):
-        b[i] = R[0, i] * demand[0] + R[1, i] * demand[1] + R[2, i] * demand[2]
-        b[3 + i] = R[0, i] * demand[3] + R[1, i] * demand[4] + R[2, i] * demand[5]
+    K, A, L, frames, M, vectors = work
+    w, b, column = vectors[W_WEIGHTS], vectors[W_DEMAND, :6], vectors[W_COLUMN, :6]
+    back, y = vectors[W_BACK], vectors[W_SOLVE, :6]
+    # the tip task: K and the demand ẋ_d + k_e e in B (eqs (14), (24), (34))
+    tip_task_lane(x, R, target, prm[P_GAIN], const, frames, M, K, b)
+    # turned into P in place: b = Dᵀ (ẋ_d + k_e e)
+    for half in (0, 3):
+        d0, d1, d2 = b[half], b[half + 1], b[half + 2]
+        for i in range(3):
+            b[half + i] = R[0, i] * d0 + R[1, i] * d1 + R[2, i] * d2
 
     # diag(W⁻¹): β split (eqs (27)-(30)) × joint-limit weights (eqs (35)-(37), SPEC erratum 4)
     joint_limits = prm[P_JOINT_LIMITS] > 0.0
@@ -659,20 +701,18 @@ def differential_velocity(
             A[c, a] = s
     epsilon = prm[P_EPSILON]
     posture = int(prm[P_POSTURE_INDEX])
-    column = np.zeros(6)
     wanted = 0.0
     if posture >= 0:  # J J_aᵀ ζ̇_a in P: K's posture column times k_a (q̃ − q_i) (eqs (39)-(40))
         wanted = prm[P_POSTURE_GAIN] * (prm[P_POSTURE_SET] - x[posture])
         for a in range(6):
             column[a] = K[a, posture] * wanted
-    primary, back = np.empty(9), np.zeros(9)
     lam2 = 0.0
     if cholesky_lane(A, epsilon**2 * (1.0 + 1e-6), L) and cholesky_lane(A, 0.0, L):
         # σ_min(J W^½) > ε: λ = 0, J_W⁺ = W Kᵀ (K W Kᵀ)⁻¹ Dᵀ (eq (31))
-        cholesky_pinv_apply(K, w, L, b, primary)
+        cholesky_pinv_apply(K, w, L, b, y, v_out)  # J_W⁺ ẋ; the null-space term below
         if posture >= 0:
-            cholesky_pinv_apply(K, w, L, column, back)
-    else:
+            cholesky_pinv_apply(K, w, L, column, y, back)
+    else:  # rare (near a singularity): the SVD's arrays are allocated here
         # weighted_pinv's SVD form: λ² = (1 − (σ_min/ε)²) λ_max², gains s / (s² + λ²)
         sqrt_w = np.empty(9)
         KW = np.empty((6, 9))
@@ -688,7 +728,7 @@ def differential_velocity(
         for k in range(6):
             kept = sv[k] > sv[0] * 9 * EPS
             gain[k] = 1.0 / (sv[k] + lam2 / sv[k]) if kept else 0.0
-        svd_pinv_apply(U, gain, Vt, sqrt_w, b, primary)
+        svd_pinv_apply(U, gain, Vt, sqrt_w, b, v_out)
         if posture >= 0:
             svd_pinv_apply(U, gain, Vt, sqrt_w, column, back)
 
@@ -700,7 +740,7 @@ def differential_velocity(
         if posture >= 0:
             null = weight * ((wanted if j == posture else 0.0) - back[j])
         null2 += null * null
-        v_out[j] = primary[j] + null
+        v_out[j] += null
 
     if prm[P_SLEW] > 0.0:  # Algorithm 1 (twin.planners.limits.SlewPriority)
         q1, q1_min, q1_max = x[6], prm[P_Q1_MIN], prm[P_Q1_MAX]
@@ -752,13 +792,21 @@ def differential_velocity(
 
 
 @register_jitable
+def allocation_work_missing() -> tuple[np.ndarray]:
+    """Stands in for `twin.sim.kernels.allocation.allocation_work` (`allocation_missing`)."""
+    return (np.empty(0),)
+
+
+@register_borrowing
 def allocation_missing(
     x: np.ndarray,
+    R: np.ndarray,
     target: np.ndarray,
     prm: np.ndarray,
     memory: np.ndarray,
     const: np.ndarray,
     dt: float,
+    work: tuple[np.ndarray],
     v_out: np.ndarray,
     diag_out: np.ndarray,
 ) -> int:
@@ -769,8 +817,8 @@ def allocation_missing(
     return FAULT_PLANNER
 
 
-#: the allocation family's step (`bind_allocation`)
-allocation_velocity = allocation_missing
+#: the allocation family's step and its scratch (`bind_allocation`)
+allocation_velocity, allocation_work = allocation_missing, allocation_work_missing
 
 
 def run_hybrid(
@@ -803,16 +851,20 @@ def run_hybrid(
     """
     n_steps = targets.shape[1]
     for n in prange(xs.shape[0]):
-        K, A, L = np.empty((6, 9)), np.empty((6, 6)), np.empty((6, 6))
-        w, v = np.empty(9), np.empty(9)
+        # scratch allocated once per lane (numba puts every array on the heap)
+        R, v = np.empty((3, 3)), np.empty(9)
+        differential, allocation, limit = differential_work(), allocation_work(), limit_work()
         kind = prm[n, P_KIND]
         hold = prm[n, P_HOLD] > 0.0
         for k in range(n_steps):
             x, x_next, d = xs[n, k], xs[n, k + 1], diag[n, k]
+            rpy_to_matrix_lane(x[3], x[4], x[5], R)  # ᴮR_P: the planner's, the guard's, the step's
             if kind == KIND_DIFFERENTIAL:
-                bits = differential_velocity(x, targets[n, k], prm[n], const, K, A, L, w, v, d)
+                bits = differential_velocity(x, R, targets[n, k], prm[n], const, differential, v,
+                                             d)  # fmt: skip
             elif kind == KIND_ALLOCATION:
-                bits = allocation_velocity(x, targets[n, k], prm[n], memory[n], const, dt, v, d)
+                bits = allocation_velocity(x, R, targets[n, k], prm[n], memory[n], const, dt,
+                                           allocation, v, d)  # fmt: skip
             else:  # not a hybrid planner: held, as a planner fault
                 for j in range(9):
                     v[j] = math.nan
@@ -828,26 +880,28 @@ def run_hybrid(
             else:
                 s = 1.0
                 if hold:
-                    s = limit_scale_lane(x, v, dt, const)
+                    s = limit_scale_lane(x, R, v, dt, const, limit)
                     if s < 1.0:
                         bits |= FAULT_JOINT_LIMIT
                 d[D_LIMIT_SCALE] = s
                 for j in range(9):
                     v[j] = s * v[j]
-                integrate_hybrid(x, v, dt, x_next)
+                integrate_hybrid(x, R, v, dt, x_next)
             faults[n, k] = bits
 
 
 def bind_allocation() -> None:
-    """Point `run_hybrid` at `twin.sim.kernels.allocation.allocation_velocity` when it can be
-    imported (at import of this module, and again before compiling: the allocation module
-    imports this one, so when it is imported first the binding waits for `compiled_hybrid`)."""
-    global allocation_velocity
+    """Point `run_hybrid` at `twin.sim.kernels.allocation.allocation_velocity` and its
+    `allocation_work` when they can be imported (at import of this module, and again before
+    compiling: the allocation module imports this one, so when it is imported first the
+    binding waits for `compiled_hybrid`)."""
+    global allocation_velocity, allocation_work
     try:
         from twin.sim.kernels.allocation import allocation_velocity as found
+        from twin.sim.kernels.allocation import allocation_work as found_work
     except ImportError:
         return
-    allocation_velocity = found
+    allocation_velocity, allocation_work = found, found_work
 
 
 #: modules whose register_jitable functions `run_hybrid` compiles in

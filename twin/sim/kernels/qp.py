@@ -43,6 +43,8 @@ from twin.sim.kernels.hybrid import (
     hybrid_constants,
     integrate_hybrid,
     limit_scale_lane,
+    limit_work,
+    rpy_to_matrix_lane,
     tip_task_lane,
 )
 from twin.sim.kernels.layout import (
@@ -215,9 +217,11 @@ def qp_problem_lane(
     """One lane's QP (`QPPlanner.problem`) at the state x (9,) and the target row (18,),
     written into H (9, 9), f (9,), A (N_QP_ROWS, 9), lower and upper (9 + N_QP_ROWS,)
     (module doc)."""
-    # the tip task: ᴮR_P, ᴾT_E, K and the demand b = ẋ_d + k_e e in B (eqs (14), (24), (34))
-    R, G, K, b = np.empty((3, 3)), np.empty((4, 4)), np.empty((6, 9)), np.empty(6)
-    tip_task_lane(x, target, prm[P_QP_GAIN], const, R, G, K, b)
+    # the tip task: ᴮR_P, K and the demand b = ẋ_d + k_e e in B (eqs (14), (24), (34))
+    R, K, b = np.empty((3, 3)), np.empty((6, 9)), np.empty(6)
+    rpy_to_matrix_lane(x[3], x[4], x[5], R)
+    tip_task_lane(x, R, target, prm[P_QP_GAIN], const, np.empty((2, 4, 4)), np.empty((3, 3)), K,
+                  b)  # fmt: skip
 
     # H, f: orientation (w_o, in P), posture and yaw terms (w_s), μ diag(1 / w_β)
     w_o, w_s, mu = prm[P_QP_ORIENTATION], prm[P_QP_SECONDARY], prm[P_QP_DAMPING]
@@ -368,16 +372,18 @@ def qp_finish_lane(
             x_next[j] = x[j]
         return bits | FAULT_PLANNER
     d[D_QP_ACTIVE] = count_active_lane(v, A, lower, upper)
+    R = np.empty((3, 3))
+    rpy_to_matrix_lane(x[3], x[4], x[5], R)
     s = 1.0
     if hold:
-        s = limit_scale_lane(x, v, dt, const)
+        s = limit_scale_lane(x, R, v, dt, const, limit_work())
         if s < 1.0:
             bits |= FAULT_JOINT_LIMIT
     d[D_LIMIT_SCALE] = s
     scaled = np.empty(9)
     for j in range(9):
         scaled[j] = s * v[j]
-    integrate_hybrid(x, scaled, dt, x_next)
+    integrate_hybrid(x, R, scaled, dt, x_next)
     return bits
 
 

@@ -25,18 +25,30 @@ from functools import cache
 import numpy as np
 
 from twin.sim.kernels.allocation import leg_vectors_lane, manipulability_lane
-from twin.sim.kernels.compile import compile_runner, prange, register_jitable
+from twin.sim.kernels.compile import (
+    compile_runner,
+    prange,
+    register_borrowing,
+    register_jitable,
+)
 from twin.sim.kernels.hybrid import rpy_to_matrix_lane, so3_log_lane, tip_transform
 
 #: Scalar record rows (`run_hybrid_records`' `scalars`).
 S_MANIPULABILITY, S_PHI_E, S_THETA_E, S_ALPHA_TOP, S_ALPHA_BOTTOM = 0, 1, 2, 3, 4
 N_SCALARS = 5
-#: work space of one sample's record: ᴵR_B, ᴮR_P, ᴮT_E, the error rotation, its log, two
-#: directions, the leg vectors
-N_SCRATCH = 70
 
 
 @register_jitable
+def record_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Scratch of `hybrid_record_lane`, allocated once per lane (numba puts every array on the
+    heap, and a reshaped view costs as much; views along a leading axis are free): rotations
+    (3, 3, 3) ᴵR_B, ᴮR_P and the error rotation; transforms (2, 4, 4) ᴾT_E and ᴮT_E; the
+    tip's directions (2, 3); the leg vectors (6, 3); the leg Jacobian (6, 6)."""
+    return (np.empty((3, 3, 3)), np.empty((2, 4, 4)), np.empty((2, 3)), np.empty((6, 3)),
+            np.empty((6, 6)))  # fmt: skip
+
+
+@register_borrowing
 def hybrid_record_lane(
     pose: np.ndarray,
     x: np.ndarray,
@@ -47,7 +59,7 @@ def hybrid_record_lane(
     legs_out: np.ndarray,
     error_out: np.ndarray,
     scalars_out: np.ndarray,
-    scratch: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> None:
     """One sample's record (module docstring).
 
@@ -58,15 +70,15 @@ def hybrid_record_lane(
         landing: (3, 3) inertial → landing frame; g0: (3,) the gangway vector at t = 0 in it.
         const: hybrid constants.
         legs_out: (6,) [m]; error_out: (6,) [m, rad] in B; scalars_out: (N_SCALARS,) written.
-        scratch: (N_SCRATCH,) work space (allocated once per lane by the runner).
+        work: `record_work()`, overwritten.
     """
-    R_IB, R_BP = scratch[0:9].reshape(3, 3), scratch[9:18].reshape(3, 3)
-    T_E, R_err = scratch[18:34].reshape(4, 4), scratch[34:43].reshape(3, 3)
-    w, up, g = scratch[43:46], scratch[46:49], scratch[49:52]
-    vectors = scratch[52:70].reshape(6, 3)
+    rotations, frames, axes, vectors, J = work
+    R_IB, R_BP, R_err = rotations[0], rotations[1], rotations[2]
+    up, g = axes[0], axes[1]
     rpy_to_matrix_lane(pose[3], pose[4], pose[5], R_IB)
     rpy_to_matrix_lane(x[3], x[4], x[5], R_BP)
-    tip_transform(x, const, T_E)
+    T_E = frames[1]
+    tip_transform(x, R_BP, const, frames[0], T_E)
     # ᴮT_d = ᴵT_B⁻¹ ᴵT_E*; error against ᴮT_E, log of ᴮR_d ᴮR_Eᵀ
     for i in range(3):
         d = 0.0
@@ -80,11 +92,10 @@ def hybrid_record_lane(
                 rd = R_IB[0, i] * held[0, k] + R_IB[1, i] * held[1, k] + R_IB[2, i] * held[2, k]
                 s += rd * T_E[j, k]
             R_err[i, j] = s
-    so3_log_lane(R_err, w)
-    error_out[3], error_out[4], error_out[5] = w[0], w[1], w[2]
+    so3_log_lane(R_err, error_out[3:])
     # legs and manipulability
     leg_vectors_lane(R_BP, x[:3], const, vectors, legs_out)
-    scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, const)
+    scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, const, J)
     # inertial directions of the tip's axes: ᴵR_B ᴮR_E e_x (up) and d3 ᴵR_B ᴮR_E e_z (gangway)
     for i in range(3):
         up[i] = R_IB[i, 0] * T_E[0, 0] + R_IB[i, 1] * T_E[1, 0] + R_IB[i, 2] * T_E[2, 0]
@@ -122,10 +133,10 @@ def run_hybrid_records(
         legs: (N, T, 6), errors: (N, T, 6), scalars: (N, T, N_SCALARS), written.
     """
     for n in prange(xs.shape[0]):
-        scratch = np.empty(N_SCRATCH)
+        work = record_work()
         for k in range(xs.shape[1]):
             hybrid_record_lane(poses[n, k], xs[n, k], held[n], landing[n], gangway0[n], const,
-                               legs[n, k], errors[n, k], scalars[n, k], scratch)  # fmt: skip
+                               legs[n, k], errors[n, k], scalars[n, k], work)  # fmt: skip
 
 
 @cache

@@ -1,0 +1,83 @@
+"""The held targets of a chunk, compiled: ᴮT_d = ᴵT_B⁻¹ ᴵT* and its mean twist to the next
+sample, for every lane and sample (`twin.sim.target.held_targets` is the entry point, and
+`twin.sim.target.held_target` the one-sample statement of the same math the tests hold it to).
+
+Per lane the base's rotation is built once per sample from its pose (seed 000 eq (3)); the
+twist of sample k is [(ᴮp_d(k+1) − ᴮp_d(k)) / dt; log(ᴮR_d(k+1) ᴮR_d(k)ᵀ) / dt] in B.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import cache
+
+import numpy as np
+
+from twin.sim.kernels.compile import compile_runner, prange, register_borrowing
+from twin.sim.kernels.hybrid import rpy_to_matrix_lane, so3_log_lane
+from twin.sim.kernels.layout import TARGET_P, TARGET_R, TARGET_V, TARGET_W
+
+
+@register_borrowing
+def desired_lane(pose: np.ndarray, held: np.ndarray, R_IB: np.ndarray, out: np.ndarray) -> None:
+    """ᴮT_d = ᴵT_B⁻¹ ᴵT* at one sample: ᴮR_d row-major (9) then ᴮp_d [m] (3) into out (12,).
+
+    Args:
+        pose: (6,) ᴵT_B as [x, y, z, roll, pitch, yaw] [m, rad].
+        held: (4, 4) ᴵT*.
+        R_IB: (3, 3) scratch (ᴵR_B is written into it).
+    """
+    rpy_to_matrix_lane(pose[3], pose[4], pose[5], R_IB)
+    for i in range(3):
+        for j in range(3):
+            out[3 * i + j] = (
+                R_IB[0, i] * held[0, j] + R_IB[1, i] * held[1, j] + R_IB[2, i] * held[2, j]
+            )
+        out[9 + i] = (
+            R_IB[0, i] * (held[0, 3] - pose[0])
+            + R_IB[1, i] * (held[1, 3] - pose[1])
+            + R_IB[2, i] * (held[2, 3] - pose[2])
+        )
+
+
+def run_held_targets(poses: np.ndarray, held: np.ndarray, dt: float, out: np.ndarray) -> None:
+    """The held targets of N lanes over B samples.
+
+    Args:
+        poses: (N, B + 1, 6) ᴵT_B at samples k … k + B [m, rad].
+        held: (N, 4, 4) ᴵT*.
+        dt: [s] sample period.
+        out: (N, B, 18) written, rows `twin.sim.kernels.layout.TARGET_*`.
+    """
+    for n in prange(poses.shape[0]):
+        R_IB, now, nxt = np.empty((3, 3)), np.empty(12), np.empty(12)
+        R_step, w = np.empty((3, 3)), np.empty(3)
+        desired_lane(poses[n, 0], held[n], R_IB, nxt)
+        for k in range(out.shape[1]):
+            now[:] = nxt
+            desired_lane(poses[n, k + 1], held[n], R_IB, nxt)
+            for i in range(3):  # ᴮR_d(k+1) ᴮR_d(k)ᵀ
+                for j in range(3):
+                    R_step[i, j] = (
+                        nxt[3 * i] * now[3 * j]
+                        + nxt[3 * i + 1] * now[3 * j + 1]
+                        + nxt[3 * i + 2] * now[3 * j + 2]
+                    )
+            so3_log_lane(R_step, w)
+            row = out[n, k]
+            for i in range(9):
+                row[TARGET_R + i] = now[i]
+            for i in range(3):
+                row[TARGET_P + i] = now[9 + i]
+                row[TARGET_V + i] = (nxt[9 + i] - now[9 + i]) / dt
+                row[TARGET_W + i] = w[i] / dt
+
+
+@cache
+def compiled_targets(parallel: bool) -> Callable:
+    """`run_held_targets` compiled (`compile_runner`); the plain function without numba."""
+    return compile_runner(
+        run_held_targets,
+        parallel,
+        ("twin.sim.kernels.target", "twin.sim.kernels.hybrid", "twin.sim.kernels.layout"),
+    )
