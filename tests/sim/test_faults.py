@@ -161,6 +161,12 @@ def test_hold_invalid_carries_the_last_good_pose_across_batches() -> None:
     np.testing.assert_array_equal(out[3], out[2])
     np.testing.assert_array_equal(out[4], out[2])
     np.testing.assert_array_equal(out[1:3], np.arange(6.0, 18.0).reshape(2, 6))
+    # lanes at once: each holds its own last good pose, and a good lane is left alone
+    lanes, bad = hold_invalid(np.stack([pose, np.ones((5, 6))]), np.stack([np.full(6, 7.0),
+                                                                          np.zeros(6)]))
+    np.testing.assert_array_equal(lanes[0], out)
+    np.testing.assert_array_equal(lanes[1], np.ones((5, 6)))
+    assert bad.tolist() == [[True, False, False, True, True], [False] * 5]
 
 
 def test_hold_nonfinite_fills_from_the_sample_before() -> None:

@@ -373,9 +373,7 @@ class Simulation:
             )
         except NUMERICAL:
             sampled = np.full((len(base_motions), steps + 1, 6), np.nan)
-        poses, bad = np.empty_like(sampled), np.empty(sampled.shape[:2], dtype=bool)
-        for lane, good in enumerate(last_good):
-            poses[lane], bad[lane] = hold_invalid(sampled[lane], good)
+        poses, bad = hold_invalid(sampled, last_good)
         return _Block(start, poses, bad, np.empty((len(poses), steps, 0)))
 
     def _with_targets(self, block: _Block) -> _Block:

@@ -46,17 +46,18 @@ def hold_invalid(pose: np.ndarray, last_good: np.ndarray) -> tuple[np.ndarray, n
     """Base poses with every non-finite row replaced by the last finite one before it.
 
     Args:
-        pose: (N, 6) [m, rad] base poses at N times (any row may hold NaN or inf).
-        last_good: (6,) [m, rad] the finite pose to hold if the first rows are bad.
+        pose: (..., T, 6) [m, rad] base poses at T times (of N lanes, say; any row may hold
+            NaN or inf).
+        last_good: (..., 6) [m, rad] the finite pose to hold if the first rows are bad.
 
     Returns:
-        (finite poses (N, 6), (N,) bool: the rows replaced).
+        (finite poses (..., T, 6), (..., T) bool: the rows replaced).
     """
     pose = np.array(pose, dtype=float)
-    bad = ~np.all(np.isfinite(pose), axis=1)
-    held = np.array(last_good, dtype=float)
-    for i in np.flatnonzero(bad):
-        pose[i] = pose[i - 1] if i else held
+    bad = ~np.all(np.isfinite(pose), axis=-1)
+    held = np.asarray(last_good, dtype=float)
+    for *lane, i in zip(*np.nonzero(bad), strict=True):  # C order: each lane's times in turn
+        pose[(*lane, i)] = pose[(*lane, i - 1)] if i else held[tuple(lane)]
     return pose, bad
 
 

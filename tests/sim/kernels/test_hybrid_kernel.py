@@ -109,10 +109,14 @@ def _differential_compiled(
     x: np.ndarray, target: np.ndarray, prm: np.ndarray, const: np.ndarray, v: np.ndarray,
     diag: np.ndarray,
 ) -> int:  # fmt: skip
-    """`differential_velocity` compiled, with x's ᴮR_P and its scratch."""
-    R = np.empty((3, 3))
+    """`differential_velocity` compiled, with x's ᴮR_P and its scratch, finished by
+    `damped_differential_velocity` where it needs the SVD (as `run_hybrid` does)."""
+    R, work = np.empty((3, 3)), hk.differential_work()
     hk.rpy_to_matrix_lane(x[3], x[4], x[5], R)
-    return hk.differential_velocity(x, R, target, prm, const, hk.differential_work(), v, diag)
+    bits = hk.differential_velocity(x, R, target, prm, const, work, v, diag)
+    if bits == hk.NEEDS_SVD:
+        bits = hk.damped_differential_velocity(x, prm, work, v, diag)
+    return bits
 
 
 def run_one(

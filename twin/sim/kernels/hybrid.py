@@ -13,7 +13,9 @@ nothing is allocated: the runner allocates each lane's scratch once (`*_work`) a
   `limit_scale`, restated in numpy as the oracle of tests/sim/kernels/test_hybrid_kernel.py).
 - The differential planners PI, WPI and MTMP (`DifferentialPlanner.step`, seed 000 eqs
   (26)-(40), Algorithm 1, the rate limit): `pack_differential` writes a planner's knobs into a
-  `prm` row, `differential_velocity` is one step.
+  `prm` row, `differential_velocity` is one step, up to the damping test where that fails:
+  `damped_differential_velocity`, the SVD branch below, then finishes it (the SVD allocates, so
+  that branch and its `svd_pinv_apply` are not borrowing; the common step is).
 - `run_hybrid`: N lanes × B steps, dispatching on prm[P_KIND] and applying the guard of the
   former `HybridRig.advance` (hold on a non-finite velocity, shorten a step at a limit in
   `hold` mode).
@@ -636,7 +638,19 @@ def differential_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
             np.empty((3, 3)), np.empty((5, 9)))  # fmt: skip
 
 
-@register_jitable  # not borrowing: its rare SVD branch allocates
+@register_borrowing
+def posture_rate(x: np.ndarray, prm: np.ndarray, posture: int) -> float:
+    """ζ̇_a = k_a (q̃ − q_i) [rad/s or m/s], the posture task's joint rate (eqs (39)-(40)), of
+    joint `posture` (prm[P_POSTURE_INDEX] ≥ 0) of xi x (9,)."""
+    return prm[P_POSTURE_GAIN] * (prm[P_POSTURE_SET] - x[posture])
+
+
+#: `differential_velocity`'s return where the damping test fails (module doc): the step goes on
+#: in `damped_differential_velocity`, which allocates the SVD's arrays and so cannot borrow
+NEEDS_SVD = -1
+
+
+@register_borrowing
 def differential_velocity(
     x: np.ndarray,
     R: np.ndarray,
@@ -651,7 +665,8 @@ def differential_velocity(
 
         ξ̇ = J_W⁺ (ẋ_d + k_e e) + λ (I − J_W⁺ J) J_aᵀ k_a (q̃ − q_i),
 
-    then Algorithm 1 (`SlewPriority`) and the common rate scale (`VelocityLimit`).
+    then Algorithm 1 (`SlewPriority`) and the common rate scale (`VelocityLimit`), all in
+    `differential_finish`; where the damping test fails, only up to the test (NEEDS_SVD).
 
     Args:
         x: (9,) xi [m, rad] at sample k; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
@@ -659,14 +674,17 @@ def differential_velocity(
             twist ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s].
         prm: (N_PARAMETERS,) the lane's row (`pack_differential`).
         const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
-        work: `differential_work()`, overwritten.
+        work: `differential_work()`, overwritten: K, K W Kᵀ, diag(W⁻¹), the demand and the
+            posture column in P, which `damped_differential_velocity` goes on from.
         v_out: (9,) written: the velocity [ᴾṖ [m/s]; ω_P [rad/s] in P; q̇1, q̇2 [rad/s];
             ḋ3 [m/s]], exactly `DifferentialPlanner.step(...).velocity` (to rounding).
         diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written (weights, null-space
             share, damping λ, rate scale); the other families' rows are left alone.
 
     Returns:
-        Fault bits: FAULT_SINGULAR when the damping λ > 0.
+        Fault bits (0: λ = 0 on this path), or NEEDS_SVD where the damping test fails (near a
+        singularity): v_out and diag_out are then not written, and the caller finishes the
+        step with `damped_differential_velocity(x, prm, work, v_out, diag_out)`.
     """
     K, A, L, frames, M, vectors = work
     w, b, column = vectors[W_WEIGHTS], vectors[W_DEMAND, :6], vectors[W_COLUMN, :6]
@@ -699,40 +717,92 @@ def differential_velocity(
                 s += K[a, j] * w[j] * K[c, j]
             A[a, c] = s
             A[c, a] = s
-    epsilon = prm[P_EPSILON]
     posture = int(prm[P_POSTURE_INDEX])
-    wanted = 0.0
     if posture >= 0:  # J J_aᵀ ζ̇_a in P: K's posture column times k_a (q̃ − q_i) (eqs (39)-(40))
-        wanted = prm[P_POSTURE_GAIN] * (prm[P_POSTURE_SET] - x[posture])
+        wanted = posture_rate(x, prm, posture)
         for a in range(6):
             column[a] = K[a, posture] * wanted
-    lam2 = 0.0
-    if cholesky_lane(A, epsilon**2 * (1.0 + 1e-6), L) and cholesky_lane(A, 0.0, L):
-        # σ_min(J W^½) > ε: λ = 0, J_W⁺ = W Kᵀ (K W Kᵀ)⁻¹ Dᵀ (eq (31))
-        cholesky_pinv_apply(K, w, L, b, y, v_out)  # J_W⁺ ẋ; the null-space term below
-        if posture >= 0:
-            cholesky_pinv_apply(K, w, L, column, y, back)
-    else:  # rare (near a singularity): the SVD's arrays are allocated here
-        # weighted_pinv's SVD form: λ² = (1 − (σ_min/ε)²) λ_max², gains s / (s² + λ²)
-        sqrt_w = np.empty(9)
-        KW = np.empty((6, 9))
-        for j in range(9):
-            sqrt_w[j] = math.sqrt(w[j])
-        for a in range(6):
-            for j in range(9):
-                KW[a, j] = K[a, j] * sqrt_w[j]
-        U, sv, Vt = np.linalg.svd(KW, full_matrices=False)
-        ratio = min(max(sv[5] / epsilon, 0.0), 1.0)
-        lam2 = (1.0 - ratio**2) * prm[P_DAMPING] ** 2
-        gain = np.empty(6)
-        for k in range(6):
-            kept = sv[k] > sv[0] * 9 * EPS
-            gain[k] = 1.0 / (sv[k] + lam2 / sv[k]) if kept else 0.0
-        svd_pinv_apply(U, gain, Vt, sqrt_w, b, v_out)
-        if posture >= 0:
-            svd_pinv_apply(U, gain, Vt, sqrt_w, column, back)
+    if not (cholesky_lane(A, prm[P_EPSILON] ** 2 * (1.0 + 1e-6), L) and cholesky_lane(A, 0.0, L)):
+        return NEEDS_SVD
+    # σ_min(J W^½) > ε: λ = 0, J_W⁺ = W Kᵀ (K W Kᵀ)⁻¹ Dᵀ (eq (31))
+    cholesky_pinv_apply(K, w, L, b, y, v_out)  # J_W⁺ ẋ; the null-space term in the finish
+    if posture >= 0:
+        cholesky_pinv_apply(K, w, L, column, y, back)
+    return differential_finish(x, prm, work, 0.0, v_out, diag_out)
 
+
+@register_jitable  # not borrowing: the SVD allocates
+def damped_differential_velocity(
+    x: np.ndarray,
+    prm: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    v_out: np.ndarray,
+    diag_out: np.ndarray,
+) -> int:
+    """The rest of a `differential_velocity` that returned NEEDS_SVD (rare: near a singularity,
+    or a rank-deficient J_W when β = 0): `weighted_pinv`'s SVD form of the solve, with
+    λ² = (1 − (σ_min/ε)²) λ_max² and gains s / (s² + λ²), then `differential_finish`.
+
+    Args:
+        x: (9,) xi [m, rad]; prm: (N_PARAMETERS,) the lane's row, as given to
+            `differential_velocity`.
+        work: the `differential_work()` that `differential_velocity` filled.
+        v_out, diag_out: as in `differential_velocity`, written.
+
+    Returns:
+        Fault bits: FAULT_SINGULAR when the damping λ > 0.
+    """
+    K, vectors = work[0], work[5]
+    w, b, column = vectors[W_WEIGHTS], vectors[W_DEMAND, :6], vectors[W_COLUMN, :6]
+    back = vectors[W_BACK]
+    sqrt_w = np.empty(9)
+    KW = np.empty((6, 9))
+    for j in range(9):
+        sqrt_w[j] = math.sqrt(w[j])
+    for a in range(6):
+        for j in range(9):
+            KW[a, j] = K[a, j] * sqrt_w[j]
+    U, sv, Vt = np.linalg.svd(KW, full_matrices=False)
+    ratio = min(max(sv[5] / prm[P_EPSILON], 0.0), 1.0)
+    lam2 = (1.0 - ratio**2) * prm[P_DAMPING] ** 2
+    gain = np.empty(6)
+    for k in range(6):
+        kept = sv[k] > sv[0] * 9 * EPS
+        gain[k] = 1.0 / (sv[k] + lam2 / sv[k]) if kept else 0.0
+    svd_pinv_apply(U, gain, Vt, sqrt_w, b, v_out)
+    if int(prm[P_POSTURE_INDEX]) >= 0:
+        svd_pinv_apply(U, gain, Vt, sqrt_w, column, back)
+    return differential_finish(x, prm, work, lam2, v_out, diag_out)
+
+
+@register_borrowing
+def differential_finish(
+    x: np.ndarray,
+    prm: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    lam2: float,
+    v_out: np.ndarray,
+    diag_out: np.ndarray,
+) -> int:
+    """The end of a differential step once J_W⁺ is applied (either solve): the null-space term
+    of eq (34), Algorithm 1, the rate scale and the diagnostics.
+
+    Args:
+        x: (9,) xi [m, rad]; prm: (N_PARAMETERS,) the lane's row.
+        work: `differential_work()` holding diag(W⁻¹) and J_W⁺ J J_aᵀ ζ̇_a (rows W_WEIGHTS,
+            W_BACK; the latter read only with a posture task).
+        lam2: λ² of the solve [-].
+        v_out: (9,) J_W⁺ ẋ on entry; the velocity on return (`differential_velocity`).
+        diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written.
+
+    Returns:
+        Fault bits: FAULT_SINGULAR when the damping λ > 0.
+    """
+    vectors = work[5]
+    w, back = vectors[W_WEIGHTS], vectors[W_BACK]
     # v = J_W⁺ ẋ + λ (I − J_W⁺ J) J_aᵀ ζ̇_a (eq (34); J_a⁺ = J_aᵀ for a selector row)
+    posture = int(prm[P_POSTURE_INDEX])
+    wanted = posture_rate(x, prm, posture) if posture >= 0 else 0.0
     weight = prm[P_SECONDARY]
     null2 = 0.0
     for j in range(9):
@@ -834,7 +904,8 @@ def run_hybrid(
     """Step N lanes of the hybrid system through a chunk of B samples.
 
     Per lane and step: the planner of prm[n, P_KIND] gives the velocity v (differential:
-    `differential_velocity`; allocation: `twin.sim.kernels.allocation.allocation_velocity`);
+    `differential_velocity`, finished by `damped_differential_velocity` where it returns
+    NEEDS_SVD; allocation: `twin.sim.kernels.allocation.allocation_velocity`);
     a non-finite v holds the mechanism (FAULT_PLANNER, D_LIMIT_SCALE = 0); otherwise a lane
     with prm[n, P_HOLD] > 0 shortens the step to s = `limit_scale_lane` (FAULT_JOINT_LIMIT when
     s < 1), D_LIMIT_SCALE = s, and xi integrates s·v for dt (`integrate_hybrid`).
@@ -854,16 +925,19 @@ def run_hybrid(
         # scratch allocated once per lane (numba puts every array on the heap)
         R, v = np.empty((3, 3)), np.empty(9)
         differential, allocation, limit = differential_work(), allocation_work(), limit_work()
-        kind = prm[n, P_KIND]
-        hold = prm[n, P_HOLD] > 0.0
+        # the lane's rows taken once: a view made per step costs two atomic reference counts
+        row, lane_memory = prm[n], memory[n]
+        kind = row[P_KIND]
+        hold = row[P_HOLD] > 0.0
         for k in range(n_steps):
             x, x_next, d = xs[n, k], xs[n, k + 1], diag[n, k]
             rpy_to_matrix_lane(x[3], x[4], x[5], R)  # ᴮR_P: the planner's, the guard's, the step's
             if kind == KIND_DIFFERENTIAL:
-                bits = differential_velocity(x, R, targets[n, k], prm[n], const, differential, v,
-                                             d)  # fmt: skip
+                bits = differential_velocity(x, R, targets[n, k], row, const, differential, v, d)
+                if bits == NEEDS_SVD:  # rare (near a singularity): the SVD branch allocates
+                    bits = damped_differential_velocity(x, row, differential, v, d)
             elif kind == KIND_ALLOCATION:
-                bits = allocation_velocity(x, R, targets[n, k], prm[n], memory[n], const, dt,
+                bits = allocation_velocity(x, R, targets[n, k], row, lane_memory, const, dt,
                                            allocation, v, d)  # fmt: skip
             else:  # not a hybrid planner: held, as a planner fault
                 for j in range(9):

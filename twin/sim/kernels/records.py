@@ -40,7 +40,7 @@ N_SCALARS = 5
 
 @register_jitable
 def record_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Scratch of `hybrid_record_lane`, allocated once per lane (numba puts every array on the
+    """Scratch of `hybrid_record_sample`, allocated once per lane (numba puts every array on the
     heap, and a reshaped view costs as much; views along a leading axis are free): rotations
     (3, 3, 3) ᴵR_B, ᴮR_P and the error rotation; transforms (2, 4, 4) ᴾT_E and ᴮT_E; the
     tip's directions (2, 3); the leg vectors (6, 3); the leg Jacobian (6, 6)."""
@@ -49,7 +49,7 @@ def record_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.nd
 
 
 @register_borrowing
-def hybrid_record_lane(
+def hybrid_record_sample(
     pose: np.ndarray,
     x: np.ndarray,
     held: np.ndarray,
@@ -114,6 +114,33 @@ def hybrid_record_lane(
     scalars_out[S_ALPHA_BOTTOM] = math.atan2(math.hypot(R_IB[0, 2], R_IB[1, 2]), R_IB[2, 2])
 
 
+@register_borrowing
+def hybrid_record_lane(
+    poses: np.ndarray,
+    xs: np.ndarray,
+    held: np.ndarray,
+    landing: np.ndarray,
+    g0: np.ndarray,
+    const: np.ndarray,
+    legs_out: np.ndarray,
+    errors_out: np.ndarray,
+    scalars_out: np.ndarray,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+) -> None:
+    """One lane's records, sample by sample (`hybrid_record_sample`): the loop is here, not in
+    the runner, because a borrowing function takes its per-sample views without reference
+    counting (two atomic operations per view and sample in the runner).
+
+    Args:
+        poses: (T, 6) ᴵT_B per sample; xs: (T, 9) xi per sample [m, rad].
+        held, landing, g0, const, work: as in `hybrid_record_sample`.
+        legs_out: (T, 6) [m]; errors_out: (T, 6) [m, rad]; scalars_out: (T, N_SCALARS) written.
+    """
+    for k in range(xs.shape[0]):
+        hybrid_record_sample(poses[k], xs[k], held, landing, g0, const, legs_out[k],
+                             errors_out[k], scalars_out[k], work)  # fmt: skip
+
+
 def run_hybrid_records(
     poses: np.ndarray,
     xs: np.ndarray,
@@ -133,10 +160,8 @@ def run_hybrid_records(
         legs: (N, T, 6), errors: (N, T, 6), scalars: (N, T, N_SCALARS), written.
     """
     for n in prange(xs.shape[0]):
-        work = record_work()
-        for k in range(xs.shape[1]):
-            hybrid_record_lane(poses[n, k], xs[n, k], held[n], landing[n], gangway0[n], const,
-                               legs[n, k], errors[n, k], scalars[n, k], work)  # fmt: skip
+        hybrid_record_lane(poses[n], xs[n], held[n], landing[n], gangway0[n], const, legs[n],
+                           errors[n], scalars[n], record_work())  # fmt: skip
 
 
 @cache
