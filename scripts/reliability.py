@@ -72,6 +72,16 @@ ATTACKS = {
         "origins, never with Host (403)",
         "test_api.py",
     ),
+    "attack_viewer_host_spoofing": (
+        "DNS rebinding or a spoofed Host on the 3D viewer's port: a websocket handshake or a "
+        "page request whose Host names another site (`evil.example`, `evil.example:PORT`, "
+        "whatever its Origin), or carries no Host",
+        "400 naming the Host, before viser serves anything (the REST API's Host allow-list: "
+        "loopback names, the bind address, `--allow-host`): the page is not served, no "
+        "websocket opens, no panel is built, a warning is logged; its own names "
+        "(`127.0.0.1:PORT`, `localhost:PORT`, an `--allow-host` name) are served",
+        "test_scene.py (raw websocket client, http.client)",
+    ),
     "attack_refused_patch": (
         "`PATCH /api/live` with an empty or unknown name (`{\"planner\": \"\"}`), a bad "
         "name beside a good field, `playing` as a string or number",
@@ -217,7 +227,8 @@ def security(records: list[dict[str, Any]]) -> str:
 SECURITY = """\
 - **Bind**: `twin serve` binds 127.0.0.1 unless `--host` says otherwise; the Docker image
   binds 0.0.0.0. One server per data directory (an OS file lock).
-- **Host**: every REST request's Host must be a loopback name, the bind address or an
+- **Host**: every request's Host, REST and the 3D viewer's port alike (its page, its assets
+  and its websocket handshake), must be a loopback name, the bind address or an
   `--allow-host` name (400 otherwise): a page reached through a DNS name of its own (DNS
   rebinding) is refused before anything is read.
 - **Origin**, as scheme + host + port: a browser POST or PATCH, and the viewer's websocket

@@ -117,8 +117,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     serve.add_argument(
         "--allow-host", action="append", default=[], metavar="NAME", type=host,
-        help="another Host name the REST API answers to (repeatable); loopback names and the "
-        "--host address always are",
+        help="another Host name the server answers to, REST and 3D viewer (repeatable); "
+        "loopback names and the --host address always are",
     )  # fmt: skip
     serve.add_argument(
         "--allow-origin", action="append", default=[], metavar="ORIGIN", type=origin,

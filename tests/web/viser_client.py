@@ -8,6 +8,7 @@ widget id and property, share-URL requests, ...
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 from typing import Any
@@ -34,16 +35,28 @@ class ViserClient:
     Args:
         port: the viewer's port.
         origin: the Origin header to send (None: none, as a script).
+        host: the Host header to send, e.g. a DNS-rebinding page's `evil.example:PORT`
+            (None: `127.0.0.1:PORT`); the connection still goes to 127.0.0.1.
 
     Raises:
         websockets.exceptions.InvalidStatus: the server refused the handshake.
     """
 
-    def __init__(self, port: int, origin: str | None = None, timeout: float = 10.0) -> None:
-        headers = {"Origin": origin} if origin is not None else None
+    def __init__(
+        self, port: int, origin: str | list[str] | None = None, timeout: float = 10.0,
+        host: str | None = None,
+    ) -> None:  # fmt: skip
+        # a list sends one Origin header per entry (a malformed request, for the tests)
+        origins = [origin] if isinstance(origin, str) else origin or []
+        headers = [("Origin", value) for value in origins] or None
+        # websockets names the URI's host as Host: a socket of our own keeps it on loopback
+        sock = None
+        if host is not None:
+            sock = socket.create_connection(("127.0.0.1", port), timeout)
+            sock.settimeout(None)  # as websockets leaves its own: the handshake has its timeout
         self.ws = connect(
-            f"ws://127.0.0.1:{port}/", subprotocols=[PROTOCOL], additional_headers=headers,
-            open_timeout=timeout, max_size=None,
+            f"ws://{host or f'127.0.0.1:{port}'}/", sock=sock, subprotocols=[PROTOCOL],
+            additional_headers=headers, open_timeout=timeout, max_size=None,
         )  # fmt: skip
         self.received: list[dict[str, Any]] = []
         self._lock = threading.Lock()

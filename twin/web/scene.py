@@ -23,11 +23,14 @@ when every browser's camera is pointed at the new mechanism) and otherwise only 
 through their handles, so viser's per-client buffers keep just the
 newest value of each property and a slow browser only ever receives the latest frame.
 
-The viewer's websocket refuses a cross-origin handshake (403): a page from another site (or
-served under a DNS name of its own, DNS rebinding) cannot open it, so it can neither read the
-scene nor send a control. Allowed origins are the server's own (http on an allowed host at
-the viewer's or the REST port) and those given with `--allow-origin` (`twin.web.access`).
-viser offers no hook for the handshake, so `start_viewer` adds the check to the one
+The viewer's port passes the REST API's Host check: any request to it (the page, its assets,
+the websocket handshake) whose Host is missing or not a name the server answers to (loopback
+names, the bind address, `--allow-host`) is refused (400), so a page reached through a DNS
+name of its own (DNS rebinding) gets nothing. Its websocket also refuses a cross-origin
+handshake (403): a page from another site cannot open it, so it can neither read the scene
+nor send a control. Allowed origins are the server's own (http on an allowed host at the
+viewer's or the REST port) and those given with `--allow-origin` (`twin.web.access`).
+viser offers no hook for the handshake, so `start_viewer` adds the checks to the one
 `websockets` server viser starts (`_checked_handshake`), and fails to start if it could not.
 It also drops viser's handlers of share-URL requests: any browser could otherwise ask the
 server to open a public tunnel to itself.
@@ -821,9 +824,10 @@ def start_viewer(
         session: the live session to show and control.
         host: interface to bind (viser's own default would be 0.0.0.0: all of them).
         port: port to listen on; viser takes the next free one if it is in use.
-        access: the server's access policy: the origins the websocket accepts (its own,
-            at the viewer's actual port too) and the token that unlocks a browser's controls.
-            Default: loopback origins, no token.
+        access: the server's access policy: the Host names every request must carry, the
+            origins the websocket accepts (its own, at the viewer's actual port too) and the
+            token that unlocks a browser's controls. Default: loopback names and origins, no
+            token.
         store: the run store (`twin.web.store.RunStore`): its done runs can be replayed
             from the panel's Replay folder.
         sweeps: the runner of sweeps (`twin.web.jobs.SweepRunner`, the REST app's): with a
@@ -841,11 +845,24 @@ def start_viewer(
     bound: list[int] = []
 
     def check(connection: Any, request: Any) -> Any:
+        # Host first, on every request (the page, its assets, the websocket): as REST does.
+        hosts = request.headers.get_all("Host")  # one, or it is no Host (RFC 9112 § 3.2)
+        named = hosts[0] if len(hosts) == 1 else ", ".join(hosts) or None
+        if len(hosts) != 1 or not access.allows_host(named):
+            logger.warning("viewer: request for Host %r refused", named)
+            return connection.respond(
+                http.HTTPStatus.BAD_REQUEST,
+                f"Host {named!r} is not a name this server answers to; start it with "
+                "--allow-host NAME to allow one\n",
+            )
         if request.headers.get("Upgrade", "").lower() != "websocket":
-            return None  # the page and its assets: the same for anyone
-        origin = request.headers.get("Origin")
-        if origin is None or access.allows_origin(origin, port=bound[0] if bound else port):
+            return None  # the page and its assets: the same for anyone it answers to
+        origins = request.headers.get_all("Origin")
+        if not origins:
             return None  # no Origin: not a browser page (a script); the token still applies
+        origin = ", ".join(origins)  # two Origins are no origin: refused below
+        if len(origins) == 1 and access.allows_origin(origin, port=bound[0] if bound else port):
+            return None
         logger.warning("viewer: cross-origin websocket from %s refused", origin)
         return connection.respond(
             http.HTTPStatus.FORBIDDEN, f"cross-origin websocket from {origin} refused\n"
@@ -857,7 +874,7 @@ def start_viewer(
     if not installed:
         server.stop()
         raise TwinError(
-            f"viser {viser.__version__}: could not add the websocket origin check; the viewer "
+            f"viser {viser.__version__}: could not add the Host and origin checks; the viewer "
             "is not started (serve REST only with --no-viewer, or use a supported viser)"
         )
     websock = server._websock_server  # viser's own server object (no public accessor)

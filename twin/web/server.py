@@ -101,7 +101,8 @@ def serve(
         scheduler: None starts a Dask LocalCluster (one worker per core, or `workers`);
             "tcp://HOST:PORT" uses an existing scheduler; "in-process" one worker thread.
         workers: workers of the LocalCluster.
-        allow_hosts: more Host names the REST API answers to (e.g. the machine's DNS name).
+        allow_hosts: more Host names the server answers to, on the REST and the viewer port
+            (e.g. the machine's DNS name).
         allow_origins: more browser origins trusted as the server's own
             (scheme://host:port, e.g. a TLS proxy's).
         run_budget: [s] wall-clock budget of one run.
