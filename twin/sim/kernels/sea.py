@@ -81,16 +81,23 @@ def run_base_poses(
                 for j in range(K):
                     phase = omega_e[lane, j] * (t0 + k * dt)
                     zr[j], zi[j] = math.cos(phase), -math.sin(phase)
-            for d in range(6):
-                total = 0.0
-                for j in range(K):
-                    total += zr[j] * response_re[lane, d, j] - zi[j] * response_im[lane, d, j]
-                out[lane, k, d] = total
-            mount_lane(out[lane, k], lever_arm[lane], mount_yaw[lane], R, out[lane, k])
+            # one pass over the components: the six sums (scalars, which LLVM vectorises over
+            # j) and each phasor's advance to the next sample
+            s0 = s1 = s2 = s3 = s4 = s5 = 0.0
+            H_re, H_im = response_re[lane], response_im[lane]
             for j in range(K):
-                re = zr[j] * step_re[j] - zi[j] * step_im[j]
-                zi[j] = zr[j] * step_im[j] + zi[j] * step_re[j]
-                zr[j] = re
+                re, im = zr[j], zi[j]
+                s0 += re * H_re[0, j] - im * H_im[0, j]
+                s1 += re * H_re[1, j] - im * H_im[1, j]
+                s2 += re * H_re[2, j] - im * H_im[2, j]
+                s3 += re * H_re[3, j] - im * H_im[3, j]
+                s4 += re * H_re[4, j] - im * H_im[4, j]
+                s5 += re * H_re[5, j] - im * H_im[5, j]
+                zr[j] = re * step_re[j] - im * step_im[j]
+                zi[j] = re * step_im[j] + im * step_re[j]
+            pose = out[lane, k]
+            pose[0], pose[1], pose[2], pose[3], pose[4], pose[5] = s0, s1, s2, s3, s4, s5
+            mount_lane(pose, lever_arm[lane], mount_yaw[lane], R, pose)
 
 
 @cache
