@@ -94,7 +94,8 @@ def test_rough_sea_with_damping_and_rate_limits(engine: str) -> None:
 def test_uniform_poses_equal_vessel_motion_on_the_mount() -> None:
     """The compiled phasor sum is vessel_motion at t = t0 + k dt put on the mount, from t = 0
     and from a later start (a chunk of a running simulation), lane by lane in one call, with
-    lanes of different numbers of components; `poses` takes the same path."""
+    lanes of different numbers of components; a lane alone gets the same bits as among
+    others; `poses` takes the same path."""
     scenarios = [Scenario(sea_state=5, heading=100.0, forward_speed=2.0, seed=3),
                  Scenario(sea_state=3, n_components=37, seed=4)]  # fmt: skip
     motions = [BaseMotion.of(s) for s in scenarios]
@@ -107,6 +108,8 @@ def test_uniform_poses_equal_vessel_motion_on_the_mount() -> None:
     assert np.abs(direct).max() > 0.1
     whole = BaseMotion.uniform_poses(motions, 0.0, 0.05, t.size)
     np.testing.assert_allclose(whole, direct, rtol=0, atol=1e-12)
+    alone = BaseMotion.uniform_poses(motions[1:], 0.0, 0.05, t.size)  # the serial build
+    np.testing.assert_array_equal(alone[0], whole[1])  # to the bit: no sum is reordered
     interpreted = BaseMotion.uniform_poses(motions, 0.0, 0.05, 101, compiled=False)
     np.testing.assert_allclose(interpreted, direct[:, :101], rtol=0, atol=1e-12)
     later = BaseMotion.uniform_poses(motions, 300 * 0.05, 0.05, 701)

@@ -46,14 +46,9 @@ def source_stamp(modules: Sequence[str]) -> str:
     return digest.hexdigest()[:12]
 
 
-def compile_runner(
-    runner: Callable, parallel: bool, modules: Sequence[str], fastmath: frozenset[str] = frozenset()
-) -> Callable:
+def compile_runner(runner: Callable, parallel: bool, modules: Sequence[str]) -> Callable:
     """`runner` compiled by numba (parallel over lanes or serial), cached on disk; the plain
-    `runner` when numba cannot be imported (the interpreted engine: the same numbers).
-    `fastmath`: LLVM's fast-math flags, e.g. {"reassoc", "contract"} to let it reorder and
-    fuse a long sum so that it vectorises (the same sum to rounding, never a different
-    formula; NaN and inf keep their meaning without "nnan"/"ninf")."""
+    `runner` when numba cannot be imported (the interpreted engine: the same numbers)."""
     try:
         import numba
     except ImportError:  # pragma: no cover - exercised where numba is not installed
@@ -63,6 +58,4 @@ def compile_runner(
     function = types.FunctionType(runner.__code__, runner.__globals__, name)
     function.__qualname__ = name
     function.__doc__ = runner.__doc__
-    return numba.njit(parallel=parallel, cache=True, error_model="numpy", fastmath=set(fastmath))(
-        function
-    )
+    return numba.njit(parallel=parallel, cache=True, error_model="numpy")(function)
