@@ -173,3 +173,74 @@ def test_a_sweep_around_a_scenario_centres_its_sea_and_runs_any_mechanism(tmp_pa
     assert ringed[:4] == b"\x89PNG" and ringed != plain
     with pytest.raises(ValueError, match="planner"):
         SweepSpec(mechanism="upr4", planner=["mtmp"])
+
+
+@pytest.mark.parametrize(
+    ("fields", "points", "span", "expected_hs", "expected_tp"),
+    [
+        # 7 × 5 cells over ± 30 % and ± 1 s around Hs 2 m, Tp 8 s
+        ({"hs": 2.0, "tp": 8.0}, (7, 5), (0.3, 1.0),
+         [1.4, 1.6, 1.8, 2.0, 2.2, 2.4, 2.6], [7.0, 7.5, 8.0, 8.5, 9.0]),
+        # Tp near its lowest allowed value: clipped to 1 s, the values clipped onto it once
+        ({"hs": 1.0, "tp": 2.0}, (3, 7), (0.5, 5.0),
+         [0.5, 1.0, 1.5], [1.0, 2.0, 3.67, 5.33, 7.0]),
+        # a calm sea: Hs from 0 over the width of the grid around a 1 m sea
+        ({"hs": 0.0, "tp": 6.0}, (5, 3), (0.9, 2.0),
+         [0.0, 0.45, 0.9, 1.35, 1.8], [4.0, 6.0, 8.0]),
+        # even counts: the lower of the two middle values becomes the current one
+        ({"hs": 1.0, "tp": 8.0}, (4, 2), (0.6, 3.0), [0.4, 1.0, 1.2, 1.6], [8.0, 11.0]),
+    ],
+)  # fmt: skip
+def test_spec_around_takes_its_grid_from_points_and_spans(
+    fields: dict, points: tuple, span: tuple, expected_hs: list, expected_tp: list
+) -> None:
+    """`spec_around`'s counts and spans (the viewer's Operability sliders) set the axes; the
+    scenario's own Hs and Tp are cells exactly, Tp stays within the allowed periods."""
+    from twin.sim.scenario import TP_RANGE, Scenario
+    from twin.sim.sweep import spec_around
+
+    scenario = Scenario(**fields)
+    hs, tp = scenario.sea()
+    spec = spec_around(scenario, hs_points=points[0], tp_points=points[1], hs_span=span[0],
+                       tp_span=span[1], seeds=3, duration=20.0)  # fmt: skip
+    assert spec.hs == pytest.approx(expected_hs) and spec.tp == pytest.approx(expected_tp)
+    assert hs in spec.hs and tp in spec.tp  # exactly, not just near
+    assert TP_RANGE[0] <= min(spec.tp) and max(spec.tp) <= TP_RANGE[1]
+    assert (spec.seeds, spec.duration) == (3, 20.0)
+
+
+def test_spec_around_defaults_are_the_old_grid() -> None:
+    """No counts or spans given: 5 Hs over 0.5 … 1.5 × Hs, 3 Tp over ± 2 s, as before."""
+    from twin.sim.scenario import Scenario
+    from twin.sim.sweep import spec_around
+
+    spec = spec_around(Scenario(hs=2.0, tp=8.0))
+    assert spec.hs == [1.0, 1.5, 2.0, 2.5, 3.0] and spec.tp == [6.0, 8.0, 10.0]
+    calm = spec_around(Scenario(hs=0.0, tp=8.0))
+    assert calm.hs == [0.0, 0.25, 0.5, 0.75, 1.0]
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        ({"hs_points": 1}, "hs_points: got 1, allowed a whole number 2 … 11"),
+        ({"tp_points": 12}, "tp_points: got 12, allowed a whole number 2 … 11"),
+        ({"hs_points": 4.0}, "hs_points: got 4.0, allowed a whole number"),
+        ({"tp_points": True}, "tp_points: got True"),
+        ({"hs_span": 0.0}, "hs_span: got 0.0, allowed 0 < hs_span < 1"),
+        ({"hs_span": 1.0}, "hs_span: got 1.0, allowed 0 < hs_span < 1"),
+        ({"hs_span": -0.2}, "hs_span: got -0.2"),
+        ({"hs_span": float("nan")}, "hs_span: got nan"),
+        ({"tp_span": 0.0}, "tp_span: got 0.0, allowed 0 < tp_span ≤ 10 s"),
+        ({"tp_span": 10.5}, "tp_span: got 10.5, allowed 0 < tp_span ≤ 10 s"),
+        ({"tp_span": float("inf")}, "tp_span: got inf"),
+        ({"tp_span": "2"}, "tp_span: got '2'"),
+    ],
+)
+def test_spec_around_names_a_bad_grid_argument(arguments: dict, message: str) -> None:
+    from twin.errors import TwinError
+    from twin.sim.scenario import Scenario
+    from twin.sim.sweep import spec_around
+
+    with pytest.raises(TwinError, match=message.replace("(", r"\(")):
+        spec_around(Scenario(hs=1.0, tp=8.0), **arguments)

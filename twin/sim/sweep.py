@@ -49,6 +49,9 @@ MAX_RUNS = 20_000
 MAX_TOTAL_STEPS = 80_000_000
 #: the grid axes, in table order
 AXES = ("hs", "tp", "heading", "planner", "beta", "k_e", "k_c")
+#: most values of each axis `spec_around` makes (Hs and Tp), and Tp's largest half-width [s]
+AROUND_MAX_POINTS = 11
+AROUND_MAX_TP_SPAN = 10.0
 #: what a run's row in `SweepResult.runs` keeps from its metrics
 RUN_METRICS = (
     "violations",
@@ -316,22 +319,52 @@ def run_chunk(
 
 
 def spec_around(
-    scenario: Scenario, *, seeds: int = 2, duration: float = 60.0, hs_points: int = 5,
-    tp_points: int = 3, tip_error_threshold: float = 0.05,
+    scenario: Scenario,
+    *,
+    seeds: int = 2,
+    duration: float = 60.0,
+    hs_points: int = 5,
+    tp_points: int = 3,
+    hs_span: float = 0.5,
+    tp_span: float = 2.0,
+    tip_error_threshold: float = 0.05,
 ) -> SweepSpec:
     """A sweep of Hs × Tp around a scenario's sea, everything else as the scenario has it.
 
-    Hs spans 0.5 … 1.5 times the scenario's (0 … 1 m on a calm sea), Tp its ± 2 s (within
-    the allowed periods), both with the scenario's own value in the middle; the planner, its
-    knobs (`beta`, `k_e`, `k_c` as one-value axes, the rest in `scenario`), heading, spectrum,
-    vessel and limits mode are the scenario's, `seeds` sea seeds per cell.
+    Hs takes `hs_points` values evenly over (1 − hs_span) … (1 + hs_span) times the
+    scenario's (0 … 2·hs_span m on a calm sea, Hs = 0; at most 20 m), Tp `tp_points` values
+    evenly over its ± `tp_span` seconds, clipped to the allowed periods (`TP_RANGE`, 1 … 30 s;
+    values clipped onto the same limit count once, so that axis is shorter). Values are
+    rounded to 3 significant digits and the one nearest the scenario's own value is that value
+    exactly, so the scenario's sea is always a cell (the middle one with an odd count; with an
+    even count the lower of the two middle ones, so that grid is not symmetric). The planner,
+    its knobs (`beta`, `k_e`, `k_c` as one-value axes, the rest in `scenario`), heading,
+    spectrum, vessel and limits mode are the scenario's.
+
+    Args:
+        scenario: the sea, mechanism, planner and knobs swept around.
+        seeds: [-] sea seeds per cell, 0 … seeds − 1.
+        duration: [s] simulated time per run.
+        hs_points: [-] Hs values, a whole number 2 … `AROUND_MAX_POINTS` (11).
+        tp_points: [-] Tp values, a whole number 2 … `AROUND_MAX_POINTS` (11).
+        hs_span: [-] Hs's relative half-width, 0 < hs_span < 1 (0.5: 0.5 … 1.5 × Hs).
+        tp_span: [s] Tp's half-width, 0 < tp_span ≤ `AROUND_MAX_TP_SPAN` (10 s).
+        tip_error_threshold: [m] largest tip position error of an operable run.
+
+    Raises:
+        ValueError: a bad count or span (a `TwinError`), naming the argument and its
+            allowed range; or a bad `SweepSpec` field (`seeds`, `duration`, …), naming it.
     """
+    _check_around(hs_points=hs_points, tp_points=tp_points, hs_span=hs_span, tp_span=tp_span)
+    hs_points, tp_points, hs_span, tp_span = (
+        int(hs_points), int(tp_points), float(hs_span), float(tp_span)
+    )  # fmt: skip
     hs, tp = scenario.sea()
     if hs > 0:
-        hs_axis = hs * np.linspace(0.5, 1.5, hs_points)
-    else:
-        hs_axis = np.linspace(0.0, 1.0, hs_points)
-    tp_axis = np.clip(tp + np.linspace(-2.0, 2.0, tp_points), *TP_RANGE)
+        hs_axis = hs * np.linspace(1.0 - hs_span, 1.0 + hs_span, hs_points)
+    else:  # a calm sea: the width of the grid around a 1 m sea, from 0 up
+        hs_axis = np.linspace(0.0, 2.0 * hs_span, hs_points)
+    tp_axis = np.clip(tp + np.linspace(-tp_span, tp_span, tp_points), *TP_RANGE)
     hs_values = _readable(np.clip(hs_axis, 0.0, 20.0), hs)
     tp_values = _readable(tp_axis, tp)
     own = {"heading", "planner", "beta", "k_e", "k_c"}
@@ -351,11 +384,37 @@ def spec_around(
     )
 
 
+def _check_around(*, hs_points: Any, tp_points: Any, hs_span: Any, tp_span: Any) -> None:
+    """`spec_around`'s grid arguments within their ranges; the error names the argument."""
+    for name, points in (("hs_points", hs_points), ("tp_points", tp_points)):
+        whole = isinstance(points, int | np.integer) and not isinstance(points, bool)
+        if not whole or not 2 <= points <= AROUND_MAX_POINTS:
+            raise TwinError(
+                f"{name}: got {points!r}, allowed a whole number 2 … {AROUND_MAX_POINTS}"
+            )
+    if not _finite(hs_span) or not 0.0 < hs_span < 1.0:
+        raise TwinError(
+            f"hs_span: got {hs_span!r}, allowed 0 < hs_span < 1 (Hs spans (1 − hs_span) … "
+            "(1 + hs_span) times the current Hs)"
+        )
+    if not _finite(tp_span) or not 0.0 < tp_span <= AROUND_MAX_TP_SPAN:
+        raise TwinError(
+            f"tp_span: got {tp_span!r}, allowed 0 < tp_span ≤ {AROUND_MAX_TP_SPAN:g} s (Tp "
+            "spans the current Tp ± tp_span)"
+        )
+
+
+def _finite(value: Any) -> bool:
+    """A real number (not a bool), finite."""
+    real = isinstance(value, int | float | np.integer | np.floating)
+    return real and not isinstance(value, bool) and math.isfinite(value)
+
+
 def _readable(values: np.ndarray, centre: float) -> list[float]:
-    """Grid values to 3 significant digits, the one nearest `centre` exactly `centre`;
-    repeats dropped."""
+    """Grid values to 3 significant digits, the one nearest `centre` exactly `centre` (of two
+    as near, the lower one; float noise does not decide); repeats dropped."""
     out = [float(f"{v:.3g}") for v in values]
-    out[int(np.argmin(np.abs(values - centre)))] = float(centre)
+    out[int(np.argmin(np.round(np.abs(values - centre), 9)))] = float(centre)
     return list(dict.fromkeys(out))
 
 

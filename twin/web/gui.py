@@ -437,7 +437,11 @@ more than 0.5 mm): "now" for the newest sample, "samples" over the plotted histo
 act on it, "Back to live" or any change returns to the live twin.
 
 **Operability** runs a grid of sea states around the current one on the server, with the
-current planner and knobs; the heatmap rings the current sea.
+current planner and knobs: "Hs cells" values of Hs from (100 − span) % to (100 + span) % of
+the current Hs ("Hs span"; 0 … 2 × span / 100 m on a calm sea) times "Tp cells" values of Tp
+within the current Tp ± "Tp span" seconds (kept within 1 … 30 s), evenly spaced with the
+current sea one of the cells; each cell runs "Seeds per cell" sea records of "Run length"
+seconds, so a sweep is cells × seeds runs. The heatmap rings the current sea.
 """
 
 
@@ -448,6 +452,9 @@ READOUT_ORDER = 100.0
 #: buttons that act on the session or the store (disabled while locked); views stay open
 ACTIONS = ("Play", "Pause", "Step", "Reset", "Watch in 3D", "Back to live", "Run sweep")
 LOCKED = "controls are locked: enter the server's token under Access"
+#: a browser's sweep settings (`ClientPanel.settings`), read by `TwinGui.run_sweep`
+SWEEP_SETTINGS = ("sweep_hs_points", "sweep_hs_span", "sweep_tp_points", "sweep_tp_span",
+                  "sweep_seeds", "sweep_duration")  # fmt: skip
 
 
 def _assign(handle: Any, name: str, value: Any) -> None:
@@ -469,8 +476,8 @@ class ClientPanel:
     Attributes:
         client: the browser.
         inputs: scenario or control field (and `compare_planner`) → its widget.
-        settings: the replay's run and time, the sweep's seeds and run length → its widget
-            (with a run store).
+        settings: the replay's run and time, the sweep's grid (cells and spans), seeds and run
+            length → its widget (with a run store).
         buttons: button label → its handle (run controls, replay, sweep and camera views).
         show_trail: checkbox of the tip-error trail.
         locked: whether its edits are refused.
@@ -577,25 +584,44 @@ class ClientPanel:
         self.settings["replay_run"].on_update(self._on_setting("replay_run"))
 
     def _add_sweep(self, folder: Any) -> None:
-        """This browser's sweep controls: seeds, run length, Run sweep."""
+        """This browser's sweep controls: the Hs × Tp grid, seeds, run length, Run sweep."""
         cg, gui = self.client.gui, self.gui
         with folder:
+            self.settings["sweep_hs_points"] = cg.add_slider(
+                "Hs cells", min=3, max=9, step=1, initial_value=5, order=0,
+                hint="Hs values of the grid, evenly over the Hs span; the current Hs is one",
+            )  # fmt: skip
+            self.settings["sweep_hs_span"] = cg.add_slider(
+                "Hs span [±%]", min=10.0, max=90.0, step=5.0, initial_value=50.0, order=1,
+                hint="the grid's Hs from (100 − span) % to (100 + span) % of the current Hs "
+                "(on a calm sea, Hs = 0: 0 … 2 × span / 100 m)",
+            )  # fmt: skip
+            self.settings["sweep_tp_points"] = cg.add_slider(
+                "Tp cells", min=3, max=7, step=1, initial_value=3, order=2,
+                hint="Tp values of the grid, evenly over the Tp span; the current Tp is one",
+            )  # fmt: skip
+            self.settings["sweep_tp_span"] = cg.add_slider(
+                "Tp span [± s]", min=0.5, max=5.0, step=0.5, initial_value=2.0, order=3,
+                hint="the grid's Tp from the current Tp − span to + span (kept within 1 … 30 s)",
+            )  # fmt: skip
             self.settings["sweep_seeds"] = cg.add_slider(
-                "Seeds per cell", min=1, max=5, step=1, initial_value=2, order=0,
+                "Seeds per cell", min=1, max=5, step=1, initial_value=2, order=4,
                 hint="sea seeds per Hs × Tp cell (the same seeds in every cell)",
             )  # fmt: skip
             self.settings["sweep_duration"] = cg.add_slider(
-                "Run length [s]", min=10.0, max=200.0, step=10.0, initial_value=60.0, order=1
-            )
+                "Run length [s]", min=10.0, max=200.0, step=10.0, initial_value=60.0, order=5,
+                hint="simulated time of each run",
+            )  # fmt: skip
             self.buttons["Run sweep"] = cg.add_button(
-                "Run sweep", icon=viser.Icon.CHART_BAR, order=2,
-                hint="Hs × Tp around the current sea (5 × 3 cells) with the current mechanism, "
-                "planner and knobs, on the server's executor",
+                "Run sweep", icon=viser.Icon.CHART_BAR, order=6,
+                hint="Hs cells × Tp cells around the current sea (the spans above), each with "
+                "the seeds per cell, with the current mechanism, planner and knobs, on the "
+                "server's executor",
             )  # fmt: skip
         self.buttons["Run sweep"].on_click(
             lambda event: gui.act(lambda: gui.run_sweep(self), event.client, self)
         )
-        for name in ("sweep_seeds", "sweep_duration"):
+        for name in SWEEP_SETTINGS:
             self.settings[name].on_update(self._on_setting(name))
 
     def _on_setting(self, name: str) -> Callable[[viser.GuiEvent], None]:
@@ -836,8 +862,8 @@ class TwinGui:
         if "Operability" in self.folders:
             with self.folders["Operability"]:
                 self.sweep_status = gui.add_markdown(
-                    "Hs × Tp around the current sea (5 × 3 cells), with the current "
-                    "mechanism, planner and knobs, on the server's executor.",
+                    "Hs × Tp around the current sea (the cells and spans set above), with the "
+                    "current mechanism, planner and knobs, on the server's executor.",
                     order=READOUT_ORDER,
                 )
         self._plot_folder = gui.add_folder("Plots", order=len(shown))
@@ -979,17 +1005,28 @@ class TwinGui:
             if self.store.pending("sweeps") >= MAX_PENDING_SWEEPS:
                 raise ValueError(f"{MAX_PENDING_SWEEPS} sweeps queued or running; retry later")
             scenario = self.session.scenario
+            setting = {name: panel.settings[name].value for name in SWEEP_SETTINGS}
             spec = spec_around(
                 scenario,
-                seeds=int(panel.settings["sweep_seeds"].value),
-                duration=float(panel.settings["sweep_duration"].value),
+                seeds=int(setting["sweep_seeds"]),
+                duration=float(setting["sweep_duration"]),
+                hs_points=int(setting["sweep_hs_points"]),
+                tp_points=int(setting["sweep_tp_points"]),
+                hs_span=float(setting["sweep_hs_span"]) / 100.0,
+                tp_span=float(setting["sweep_tp_span"]),
             )
             sweep = submit_sweep(self.store, self.sweeps, spec)
-        except ValueError as err:
+        except (TypeError, ValueError) as err:  # TypeError: a setting that is not a number
             self.last_error = str(err)
             panel.client.add_notification("Sweep not started", str(err), color="red")
             return
         self.sweep_id = sweep.id
+        panel.client.add_notification(
+            "Sweep started",
+            f"Hs {len(spec.hs)} × Tp {len(spec.tp)} cells × {spec.seeds} seeds = {sweep.total} "
+            f"runs of {spec.duration:g} s",
+            auto_close_seconds=8.0,
+        )  # fmt: skip
         threading.Thread(
             target=self._follow_sweep, args=(sweep.id, scenario.sea()), name="twin-gui-sweep",
             daemon=True,
