@@ -622,8 +622,22 @@ def test_the_panel_compares_planners_and_replays_a_stored_run(
             ghost_cfg = joint_configuration(session.mechanism, session.latest(1)["xi"])
             assert viewer.scene.last.ghost.cfg == pytest.approx(
                 {k: float(v) for k, v in ghost_cfg.items()})  # fmt: skip
+            # the ghost draws its own tip-error trail, at the main trail's magnification
+            scene = viewer.scene
+            assert viewer.server.scene.get_handle_by_name("/ghost_trail") is not None
+            before = np.array(scene.ghost_trail.points)
+            session.step(20)
+            assert wait_for(caught_up(viewer, session))
+            after = np.array(scene.ghost_trail.points)
+            assert np.abs(after - before).max() > 0.0
+            newest = scene.last.held[:3, 3] + scene.trail_scale * scene._tip_deviation(
+                scene.last.ghost)
+            np.testing.assert_allclose(after[-1, 1], newest, atol=1e-9)
+            assert np.abs(after[-1, 1] - np.array(scene.trail.points)[-1, 1]).max() > 0.0
             client.update(client.wait_widget("Compare with"), value="none")
             assert wait_for(lambda: viewer.scene.ghost is None, 5.0)
+            assert viewer.server.scene.get_handle_by_name("/ghost_trail") is None
+            assert viewer.scene.ghost_trail is None
 
             assert wait_for(lambda: len(panel.settings["replay_run"].options) == 2, 10.0)
             choice = panel.settings["replay_run"].options[1]

@@ -425,7 +425,8 @@ zone); the 4-UPR holds its pad under a hovering UAV; the 3UPU_UP holds its top u
 crane-hung container. The green ghost pad or disc is the held pose.
 
 **Ghost** (translucent blue): a second planner on the same vessel motion and knobs
-("Compare with"); the plots draw it dashed.
+("Compare with"); the plots draw it dashed, and its tip-error trail is the light-blue one, at
+the magenta trail's magnification.
 
 **Faults** count steps a numerical fault held the mechanism still (a non-finite sea sample,
 a planner or kinematics failure). **Limit handling** counts steps the planner shortened to stop

@@ -112,6 +112,8 @@ YELLOW = (236, 190, 30)
 WHITE = (240, 242, 245)
 GREEN = (40, 170, 80)
 TRAIL = (214, 40, 160)
+#: the ghost's tip-error trail: its blue, opaque
+GHOST_TRAIL = tuple(int(255 * c) for c in GHOST[:3])
 #: leg colour at margins 0 (at a limit), 0.25, 0.5 and 1 (mid-stroke)
 _MARGIN_STOPS = np.array([0.0, 0.25, 0.5, 1.0])
 _MARGIN_COLOURS = np.array([[220, 30, 30], [245, 150, 20], [190, 210, 40], [40, 190, 70]])
@@ -416,6 +418,8 @@ class TwinScene:
         self._sea: WaveComponents | None = None
         self._trail = np.zeros((TRAIL_LENGTH, 3))
         self._trail_t = -np.inf
+        self.ghost_trail: Any = None  # the comparison lane's trail, while it is shown
+        self._ghost_trail = np.zeros((TRAIL_LENGTH, 3))
         self._roots: list[str] = []
 
     # -- building -----------------------------------------------------------------------------
@@ -470,19 +474,11 @@ class TwinScene:
             colors=np.zeros((n, 2, 3), np.uint8),
             thickness=0.06 * float(np.mean(fs.leg_lengths)),
         )
-        fade = np.linspace(0.25, 1.0, TRAIL_LENGTH - 1)[:, None, None]
-        self.trail = scene.add_line_segments(
-            "/trail",
-            points=np.zeros((TRAIL_LENGTH - 1, 2, 3)),
-            colors=np.broadcast_to(
-                (255 - fade * (255 - np.array(TRAIL))).astype(np.uint8), (TRAIL_LENGTH - 1, 2, 3)
-            ),  # older samples fade to white
-            thickness=0.02 * self.size,
-        )
+        self.trail = self._add_trail("/trail", TRAIL)
         self.trail_label = scene.add_label("/trail_label", "tip error", anchor="bottom-center")
-        self.ghost = None
+        self.ghost = self.ghost_trail = None
         self._roots = ["/ocean", "/vessel", "/base", "/target", "/trail", "/trail_label",
-                       "/ghost_label"]  # fmt: skip
+                       "/ghost_label", "/ghost_trail"]  # fmt: skip
         self.restart(fs)
         # the camera frames the mechanism: new browsers start there, open ones move there
         position, look_at = self.camera_pose(FRAMING, fs)
@@ -529,16 +525,31 @@ class TwinScene:
         self._trail[:] = self._tip_deviation(fs)
         self._trail_t = fs.t
         self._sync_ghost(fs)
+        if fs.ghost is not None:
+            self._ghost_trail[:] = self._tip_deviation(fs.ghost)
+
+    def _add_trail(self, name: str, colour: tuple[int, int, int]) -> Any:
+        """A tip-error trail's line segments, older samples fading to white."""
+        fade = np.linspace(0.25, 1.0, TRAIL_LENGTH - 1)[:, None, None]
+        return self.server.scene.add_line_segments(
+            name,
+            points=np.zeros((TRAIL_LENGTH - 1, 2, 3)),
+            colors=np.broadcast_to(
+                (255 - fade * (255 - np.array(colour))).astype(np.uint8), (TRAIL_LENGTH - 1, 2, 3)
+            ),
+            thickness=0.02 * self.size,
+        )
 
     def _sync_ghost(self, fs: FrameState) -> None:
         """Add the comparison lane's ghost (a translucent copy of the mechanism on the same
-        base, labelled with its planner) when it starts; remove it when it stops."""
+        base, labelled with its planner) and its own tip-error trail when it starts; remove
+        them when it stops."""
         scene = self.server.scene
         if fs.ghost is None:
             if self.ghost is not None:
-                for name in ("/base/ghost", "/ghost_label"):
+                for name in ("/base/ghost", "/ghost_label", "/ghost_trail"):
                     scene.remove_by_name(name)
-                self.ghost = None
+                self.ghost = self.ghost_trail = None
             return
         if self.ghost is None:
             scene.add_frame("/base/ghost", show_axes=False)
@@ -549,6 +560,7 @@ class TwinScene:
                 mesh_color_override=GHOST,
             )
             self.ghost_label = scene.add_label("/ghost_label", "", anchor="top-center")
+            self.ghost_trail = self._add_trail("/ghost_trail", GHOST_TRAIL)
         self.ghost_label.text = f"ghost: {fs.ghost.scenario.planner.upper()}"
 
     # -- per frame ----------------------------------------------------------------------------
@@ -595,20 +607,33 @@ class TwinScene:
         return -fs.transform_base[:3, :3] @ fs.record["tip_error"][:3]
 
     def _update_trail(self, fs: FrameState, show: bool) -> None:
+        """Both trails (the ghost's only while it is shown) at one magnification, so the two
+        planners' tip errors compare by eye."""
+        ghost = fs.ghost if self.ghost_trail is not None else None
         if fs.t > self._trail_t:
             self._trail = np.roll(self._trail, -1, axis=0)
             self._trail[-1] = self._tip_deviation(fs)
+            if ghost is not None:
+                self._ghost_trail = np.roll(self._ghost_trail, -1, axis=0)
+                self._ghost_trail[-1] = self._tip_deviation(ghost)
             self._trail_t = fs.t
         elif fs.t < self._trail_t:  # a restart the version check has not seen yet
             self._trail[:] = self._tip_deviation(fs)
+            if ghost is not None:
+                self._ghost_trail[:] = self._tip_deviation(ghost)
             self._trail_t = fs.t
-        reach = float(np.max(np.linalg.norm(self._trail, axis=-1)))
+        shown = [self._trail] if ghost is None else [self._trail, self._ghost_trail]
+        reach = max(float(np.max(np.linalg.norm(trail, axis=-1))) for trail in shown)
         scale = 10.0 ** np.floor(np.log10(TRAIL_REACH * self.size / max(reach, 1e-9)))
         scale = float(np.clip(scale, 1.0, 1e6))
         anchor = fs.held[:3, 3]
         points = anchor + scale * self._trail
         self.trail.points = np.stack([points[:-1], points[1:]], 1)
         self.trail.visible = self.trail_label.visible = show
+        if self.ghost_trail is not None:
+            points = anchor + scale * self._ghost_trail
+            self.ghost_trail.points = np.stack([points[:-1], points[1:]], 1)
+            self.ghost_trail.visible = show
         if scale != self.trail_scale:
             self.trail_scale = scale
             self.trail_label.text = f"tip error ×{scale:g}"
