@@ -264,8 +264,15 @@ def test_browser_ghost_replay_heatmap_and_a_clean_console_through_switches(
 
                 # back to live, then a sweep from the panel: its heatmap loads in the browser
                 session.reset()
-                page.get_by_role("button", name="Run sweep").click(force=True)
-                assert wait_for(lambda: viewer.gui.sweep_id is not None, timeout=15.0)
+                page.get_by_text(f"Replaying run {run.id[:8]}", exact=False).first.wait_for(
+                    state="detached", timeout=15_000
+                )  # the panel is back to live before its button is pressed
+                button = page.get_by_role("button", name="Run sweep")
+                for _ in range(3):  # a click the panel's re-layout swallowed is clicked again
+                    button.click(force=True)
+                    if wait_for(lambda: viewer.gui.sweep_id is not None, timeout=15.0):
+                        break
+                assert viewer.gui.sweep_id is not None, viewer.gui.last_error
                 page.wait_for_function(HEATMAP_LOADED, timeout=90_000)
                 assert viewer.gui.heatmap is not None
                 page.get_by_text("the ring marks the current sea", exact=False).wait_for(
