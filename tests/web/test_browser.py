@@ -268,11 +268,18 @@ def test_browser_ghost_replay_heatmap_and_a_clean_console_through_switches(
                     state="detached", timeout=15_000
                 )  # the panel is back to live before its button is pressed
                 button = page.get_by_role("button", name="Run sweep")
-                for _ in range(3):  # a click the panel's re-layout swallowed is clicked again
-                    button.click(force=True)
+                for _ in range(3):
+                    # the click event on the button itself: a notification toast over it or a
+                    # re-layout under the pointer cannot take it
+                    button.dispatch_event("click")
                     if wait_for(lambda: viewer.gui.sweep_id is not None, timeout=15.0):
                         break
-                assert viewer.gui.sweep_id is not None, viewer.gui.last_error
+                if viewer.gui.sweep_id is None:
+                    page.screenshot(path=str(tmp_path / "no-sweep.png"), full_page=True)
+                assert viewer.gui.sweep_id is not None, (
+                    viewer.gui.last_error, button.count(), tmp_path / "no-sweep.png",
+                    page.locator("body").inner_text()[-2000:],
+                )  # fmt: skip
                 page.wait_for_function(HEATMAP_LOADED, timeout=90_000)
                 assert viewer.gui.heatmap is not None
                 page.get_by_text("the ring marks the current sea", exact=False).wait_for(
