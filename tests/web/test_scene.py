@@ -124,12 +124,12 @@ def test_vessel_is_the_base_pose_without_the_mount(viewer: Viewer, session: Live
 def test_sea_and_trail_animate(viewer: Viewer, session: LiveSession) -> None:
     """The sea mesh's vertices and the trail move with simulated time (same nodes)."""
     ocean = viewer.server.scene.get_handle_by_name("/ocean")
-    before, trail = np.array(ocean.vertices), np.array(viewer.scene.trail.points)
+    before, trail = np.array(ocean.vertices), np.array(viewer.scene.trail.handle.points)
     session.step(10)
     assert wait_for(caught_up(viewer, session))
     assert viewer.server.scene.get_handle_by_name("/ocean") is ocean
     assert np.abs(ocean.vertices - before).max() > 1e-3
-    assert np.abs(viewer.scene.trail.points - trail).max() > 0.0
+    assert np.abs(viewer.scene.trail.handle.points - trail).max() > 0.0
 
 
 def test_slider_patches_the_session(
@@ -625,15 +625,15 @@ def test_the_panel_compares_planners_and_replays_a_stored_run(
             # the ghost draws its own tip-error trail, at the main trail's magnification
             scene = viewer.scene
             assert viewer.server.scene.get_handle_by_name("/ghost_trail") is not None
-            before = np.array(scene.ghost_trail.points)
+            before = np.array(scene.ghost_trail.handle.points)
             session.step(20)
             assert wait_for(caught_up(viewer, session))
-            after = np.array(scene.ghost_trail.points)
+            after = np.array(scene.ghost_trail.handle.points)
             assert np.abs(after - before).max() > 0.0
             newest = scene.last.held[:3, 3] + scene.trail_scale * scene._tip_deviation(
                 scene.last.ghost)
             np.testing.assert_allclose(after[-1, 1], newest, atol=1e-9)
-            assert np.abs(after[-1, 1] - np.array(scene.trail.points)[-1, 1]).max() > 0.0
+            assert np.abs(after[-1, 1] - np.array(scene.trail.handle.points)[-1, 1]).max() > 0.0
             client.update(client.wait_widget("Compare with"), value="none")
             assert wait_for(lambda: viewer.scene.ghost is None, 5.0)
             assert viewer.server.scene.get_handle_by_name("/ghost_trail") is None

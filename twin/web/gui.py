@@ -453,9 +453,23 @@ READOUT_ORDER = 100.0
 #: buttons that act on the session or the store (disabled while locked); views stay open
 ACTIONS = ("Play", "Pause", "Step", "Reset", "Watch in 3D", "Back to live", "Run sweep")
 LOCKED = "controls are locked: enter the server's token under Access"
-#: a browser's sweep settings (`ClientPanel.settings`), read by `TwinGui.run_sweep`
-SWEEP_SETTINGS = ("sweep_hs_points", "sweep_hs_span", "sweep_tp_points", "sweep_tp_span",
-                  "sweep_seeds", "sweep_duration")  # fmt: skip
+#: a browser's sweep settings (`ClientPanel.settings`, read by `TwinGui.run_sweep`), in panel
+#: order: name → (label, min, max, step, initial value, hint)
+SWEEP_SLIDERS: dict[str, tuple[str, float, float, float, float, str]] = {
+    "sweep_hs_points": ("Hs cells", 3, 9, 1, 5,
+                        "Hs values of the grid, evenly over the Hs span; the current Hs is one"),
+    "sweep_hs_span": ("Hs span [±%]", 10.0, 90.0, 5.0, 50.0,
+                      "the grid's Hs from (100 − span) % to (100 + span) % of the current Hs "
+                      "(on a calm sea, Hs = 0: 0 … 2 × span / 100 m)"),
+    "sweep_tp_points": ("Tp cells", 3, 7, 1, 3,
+                        "Tp values of the grid, evenly over the Tp span; the current Tp is one"),
+    "sweep_tp_span": ("Tp span [± s]", 0.5, 5.0, 0.5, 2.0,
+                      "the grid's Tp from the current Tp − span to + span (kept within 1 … 30 s)"),
+    "sweep_seeds": ("Seeds per cell", 1, 5, 1, 2,
+                    "sea seeds per Hs × Tp cell (the same seeds in every cell)"),
+    "sweep_duration": ("Run length [s]", 10.0, 200.0, 10.0, 60.0, "simulated time of each run"),
+}  # fmt: skip
+SWEEP_SETTINGS = tuple(SWEEP_SLIDERS)
 
 
 def _assign(handle: Any, name: str, value: Any) -> None:
@@ -588,33 +602,15 @@ class ClientPanel:
         """This browser's sweep controls: the Hs × Tp grid, seeds, run length, Run sweep."""
         cg, gui = self.client.gui, self.gui
         with folder:
-            self.settings["sweep_hs_points"] = cg.add_slider(
-                "Hs cells", min=3, max=9, step=1, initial_value=5, order=0,
-                hint="Hs values of the grid, evenly over the Hs span; the current Hs is one",
-            )  # fmt: skip
-            self.settings["sweep_hs_span"] = cg.add_slider(
-                "Hs span [±%]", min=10.0, max=90.0, step=5.0, initial_value=50.0, order=1,
-                hint="the grid's Hs from (100 − span) % to (100 + span) % of the current Hs "
-                "(on a calm sea, Hs = 0: 0 … 2 × span / 100 m)",
-            )  # fmt: skip
-            self.settings["sweep_tp_points"] = cg.add_slider(
-                "Tp cells", min=3, max=7, step=1, initial_value=3, order=2,
-                hint="Tp values of the grid, evenly over the Tp span; the current Tp is one",
-            )  # fmt: skip
-            self.settings["sweep_tp_span"] = cg.add_slider(
-                "Tp span [± s]", min=0.5, max=5.0, step=0.5, initial_value=2.0, order=3,
-                hint="the grid's Tp from the current Tp − span to + span (kept within 1 … 30 s)",
-            )  # fmt: skip
-            self.settings["sweep_seeds"] = cg.add_slider(
-                "Seeds per cell", min=1, max=5, step=1, initial_value=2, order=4,
-                hint="sea seeds per Hs × Tp cell (the same seeds in every cell)",
-            )  # fmt: skip
-            self.settings["sweep_duration"] = cg.add_slider(
-                "Run length [s]", min=10.0, max=200.0, step=10.0, initial_value=60.0, order=5,
-                hint="simulated time of each run",
-            )  # fmt: skip
+            for order, (name, (label, low, high, step, initial, hint)) in enumerate(
+                SWEEP_SLIDERS.items()
+            ):
+                self.settings[name] = cg.add_slider(
+                    label, min=low, max=high, step=step, initial_value=initial, order=order,
+                    hint=hint,
+                )  # fmt: skip
             self.buttons["Run sweep"] = cg.add_button(
-                "Run sweep", icon=viser.Icon.CHART_BAR, order=6,
+                "Run sweep", icon=viser.Icon.CHART_BAR, order=len(SWEEP_SLIDERS),
                 hint="Hs cells × Tp cells around the current sea (the spans above), each with "
                 "the seeds per cell, with the current mechanism, planner and knobs, on the "
                 "server's executor",

@@ -395,6 +395,49 @@ class LiveUrdf(ViserUrdf):
             frame.position = position
 
 
+class Trail:
+    """A tip-error trail: the newest `TRAIL_LENGTH` deviations of a tip from its held position
+    [m] (inertial) and the line segments that draw them, older samples fading to white.
+
+    Args:
+        scene: the viser scene; name: its node; colour: the newest segment's RGB.
+        thickness: [m] of the segments.
+    """
+
+    def __init__(
+        self, scene: Any, name: str, colour: tuple[int, int, int], thickness: float
+    ) -> None:
+        fade = np.linspace(0.25, 1.0, TRAIL_LENGTH - 1)[:, None, None]
+        self.handle = scene.add_line_segments(
+            name,
+            points=np.zeros((TRAIL_LENGTH - 1, 2, 3)),
+            colors=np.broadcast_to(
+                (255 - fade * (255 - np.array(colour))).astype(np.uint8), (TRAIL_LENGTH - 1, 2, 3)
+            ),
+            thickness=thickness,
+        )
+        self.samples = np.zeros((TRAIL_LENGTH, 3))
+
+    def reset(self, deviation: np.ndarray) -> None:
+        """Every sample the deviation (3,) [m]: a (re)start."""
+        self.samples[:] = deviation
+
+    def push(self, deviation: np.ndarray) -> None:
+        """The newest deviation (3,) [m] in, the oldest out."""
+        self.samples = np.roll(self.samples, -1, axis=0)
+        self.samples[-1] = deviation
+
+    def reach(self) -> float:
+        """[m] the largest deviation held."""
+        return float(np.max(np.linalg.norm(self.samples, axis=-1)))
+
+    def draw(self, anchor: np.ndarray, scale: float, visible: bool) -> None:
+        """The segments from `anchor` (3,) [m], the deviations magnified by `scale`."""
+        points = anchor + scale * self.samples
+        self.handle.points = np.stack([points[:-1], points[1:]], 1)
+        self.handle.visible = visible
+
+
 class TwinScene:
     """The scene nodes of one live session, built per mechanism and updated per frame.
 
@@ -416,10 +459,8 @@ class TwinScene:
         self.ghost: LiveUrdf | None = None  # the comparison lane's mechanism
         self._sea_source: WaveComponents | None = None
         self._sea: WaveComponents | None = None
-        self._trail = np.zeros((TRAIL_LENGTH, 3))
-        self._trail_t = -np.inf
-        self.ghost_trail: Any = None  # the comparison lane's trail, while it is shown
-        self._ghost_trail = np.zeros((TRAIL_LENGTH, 3))
+        self._trail_t = -np.inf  # [s] the newest sample of the trails
+        self.ghost_trail: Trail | None = None  # the comparison lane's, while it is shown
         self._roots: list[str] = []
 
     # -- building -----------------------------------------------------------------------------
@@ -474,7 +515,7 @@ class TwinScene:
             colors=np.zeros((n, 2, 3), np.uint8),
             thickness=0.06 * float(np.mean(fs.leg_lengths)),
         )
-        self.trail = self._add_trail("/trail", TRAIL)
+        self.trail = Trail(scene, "/trail", TRAIL, 0.02 * self.size)
         self.trail_label = scene.add_label("/trail_label", "tip error", anchor="bottom-center")
         self.ghost = self.ghost_trail = None
         self._roots = ["/ocean", "/vessel", "/base", "/target", "/trail", "/trail_label",
@@ -522,23 +563,8 @@ class TwinScene:
                 scene.add_mesh_simple(
                     f"/target/{part}", mesh.vertices, mesh.faces, color=colour, opacity=opacity
                 )
-        self._trail[:] = self._tip_deviation(fs)
-        self._trail_t = fs.t
         self._sync_ghost(fs)
-        if fs.ghost is not None:
-            self._ghost_trail[:] = self._tip_deviation(fs.ghost)
-
-    def _add_trail(self, name: str, colour: tuple[int, int, int]) -> Any:
-        """A tip-error trail's line segments, older samples fading to white."""
-        fade = np.linspace(0.25, 1.0, TRAIL_LENGTH - 1)[:, None, None]
-        return self.server.scene.add_line_segments(
-            name,
-            points=np.zeros((TRAIL_LENGTH - 1, 2, 3)),
-            colors=np.broadcast_to(
-                (255 - fade * (255 - np.array(colour))).astype(np.uint8), (TRAIL_LENGTH - 1, 2, 3)
-            ),
-            thickness=0.02 * self.size,
-        )
+        self._reset_trails(fs)
 
     def _sync_ghost(self, fs: FrameState) -> None:
         """Add the comparison lane's ghost (a translucent copy of the mechanism on the same
@@ -560,7 +586,7 @@ class TwinScene:
                 mesh_color_override=GHOST,
             )
             self.ghost_label = scene.add_label("/ghost_label", "", anchor="top-center")
-            self.ghost_trail = self._add_trail("/ghost_trail", GHOST_TRAIL)
+            self.ghost_trail = Trail(scene, "/ghost_trail", GHOST_TRAIL, 0.02 * self.size)
         self.ghost_label.text = f"ghost: {fs.ghost.scenario.planner.upper()}"
 
     # -- per frame ----------------------------------------------------------------------------
@@ -606,34 +632,36 @@ class TwinScene:
         in the base frame, so x - x_d = -ᴵR_B e."""
         return -fs.transform_base[:3, :3] @ fs.record["tip_error"][:3]
 
+    def _trails(self, fs: FrameState) -> list[tuple[Trail, FrameState]]:
+        """The trails shown and the frame each follows: the mechanism's, and the ghost's
+        while it is shown."""
+        shown = [(self.trail, fs)]
+        if self.ghost_trail is not None and fs.ghost is not None:
+            shown.append((self.ghost_trail, fs.ghost))
+        return shown
+
+    def _reset_trails(self, fs: FrameState) -> None:
+        for trail, frame in self._trails(fs):
+            trail.reset(self._tip_deviation(frame))
+        self._trail_t = fs.t
+
     def _update_trail(self, fs: FrameState, show: bool) -> None:
         """Both trails (the ghost's only while it is shown) at one magnification, so the two
         planners' tip errors compare by eye."""
-        ghost = fs.ghost if self.ghost_trail is not None else None
         if fs.t > self._trail_t:
-            self._trail = np.roll(self._trail, -1, axis=0)
-            self._trail[-1] = self._tip_deviation(fs)
-            if ghost is not None:
-                self._ghost_trail = np.roll(self._ghost_trail, -1, axis=0)
-                self._ghost_trail[-1] = self._tip_deviation(ghost)
+            for trail, frame in self._trails(fs):
+                trail.push(self._tip_deviation(frame))
             self._trail_t = fs.t
         elif fs.t < self._trail_t:  # a restart the version check has not seen yet
-            self._trail[:] = self._tip_deviation(fs)
-            if ghost is not None:
-                self._ghost_trail[:] = self._tip_deviation(ghost)
-            self._trail_t = fs.t
-        shown = [self._trail] if ghost is None else [self._trail, self._ghost_trail]
-        reach = max(float(np.max(np.linalg.norm(trail, axis=-1))) for trail in shown)
+            self._reset_trails(fs)
+        shown = self._trails(fs)
+        reach = max(trail.reach() for trail, _ in shown)
         scale = 10.0 ** np.floor(np.log10(TRAIL_REACH * self.size / max(reach, 1e-9)))
         scale = float(np.clip(scale, 1.0, 1e6))
         anchor = fs.held[:3, 3]
-        points = anchor + scale * self._trail
-        self.trail.points = np.stack([points[:-1], points[1:]], 1)
-        self.trail.visible = self.trail_label.visible = show
-        if self.ghost_trail is not None:
-            points = anchor + scale * self._ghost_trail
-            self.ghost_trail.points = np.stack([points[:-1], points[1:]], 1)
-            self.ghost_trail.visible = show
+        for trail, _ in shown:
+            trail.draw(anchor, scale, show)
+        self.trail_label.visible = show
         if scale != self.trail_scale:
             self.trail_scale = scale
             self.trail_label.text = f"tip error ×{scale:g}"
