@@ -85,6 +85,7 @@ class BaseMotion:
             motions: base motions; t0, dt: [s]; n: samples.
             compiled: run the numba-compiled function (else the same function interpreted).
         """
+        from twin.sim.kernels.compile import pick_runner
         from twin.sim.kernels.sea import compiled_base_poses, run_base_poses
 
         # lanes with fewer components are padded with silent ones (zero response)
@@ -97,7 +98,7 @@ class BaseMotion:
         lever_arm = np.array([m.mount.lever_arm for m in motions], dtype=float)
         yaw = np.array([m.mount.yaw for m in motions], dtype=float)
         out = np.empty((len(motions), n, 6))
-        runner = compiled_base_poses(len(motions) > 1) if compiled else run_base_poses
+        runner = pick_runner(compiled_base_poses, run_base_poses, compiled, len(motions))
         runner(omega_e, np.ascontiguousarray(response.real), np.ascontiguousarray(response.imag),
                lever_arm, yaw, float(t0), float(dt), out)  # fmt: skip
         return out

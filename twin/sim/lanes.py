@@ -12,7 +12,6 @@ kernel, which runs it.
 
 from __future__ import annotations
 
-from functools import cache
 from typing import Any, ClassVar
 
 import numpy as np
@@ -29,6 +28,7 @@ from twin.planners import (
     get_planner,
 )
 from twin.sim.kernels import layout
+from twin.sim.kernels.compile import pick_runner
 from twin.sim.metrics import hybrid_metrics, platform_metrics
 from twin.sim.records import hybrid_records, landing_frame, platform_records
 from twin.sim.scenario import Scenario
@@ -59,24 +59,13 @@ def use_numba(engine: str) -> bool:
     return engine == "numba" or (engine == "auto" and numba_available())
 
 
-@cache
-def _threads() -> int:
-    import numba
-
-    return numba.get_num_threads()
-
-
 def runner(kind: str, compiled: bool, lanes: int) -> Any:
-    """The chunk runner of `kind` ("hybrid" or "platform"): compiled, parallel over lanes when
-    there are several and numba has several threads, or the plain Python function."""
+    """The chunk runner of `kind` ("hybrid" or "platform") for `lanes` lanes (`pick_runner`)."""
     from twin.sim.kernels import hybrid, platform
 
-    module = hybrid if kind == "hybrid" else platform
-    plain = module.run_hybrid if kind == "hybrid" else module.run_platform
-    if not compiled:
-        return plain
-    factory = module.compiled_hybrid if kind == "hybrid" else module.compiled_platform
-    return factory(lanes > 1 and _threads() > 1)
+    if kind == "hybrid":
+        return pick_runner(hybrid.compiled_hybrid, hybrid.run_hybrid, compiled, lanes)
+    return pick_runner(platform.compiled_platform, platform.run_platform, compiled, lanes)
 
 
 def tip_target(row: np.ndarray) -> TipTarget:
@@ -110,9 +99,7 @@ class HybridLanes:
         from twin.sim.kernels.records import compiled_records, run_hybrid_records
 
         self.mechanism = mechanism
-        # records of a chunk: compiled, parallel over lanes when there are several
-        parallel = compiled and len(x0) > 1 and _threads() > 1
-        self._records = compiled_records(parallel) if compiled else run_hybrid_records
+        self._records = pick_runner(compiled_records, run_hybrid_records, compiled, len(x0))
         self.x0 = np.array(x0, dtype=float)
         self.held = T_IB0 @ mechanism.end_effector(self.x0)
         self.landing, self.gangway0 = landing_frame(T_IB0, self.x0, mechanism)

@@ -53,10 +53,11 @@ def held_targets(
         (N, B, 18): ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ; ᴮω] [m/s, rad/s] at samples k … k + B − 1
         (rows `twin.sim.kernels.layout.TARGET_*`).
     """
+    from twin.sim.kernels.compile import pick_runner
     from twin.sim.kernels.target import compiled_targets, run_held_targets
 
     poses, held = np.ascontiguousarray(poses, dtype=float), np.ascontiguousarray(held, dtype=float)
     out = np.empty((poses.shape[0], poses.shape[1] - 1, N_TARGET))
-    runner = compiled_targets(len(poses) > 1) if compiled else run_held_targets
+    runner = pick_runner(compiled_targets, run_held_targets, compiled, len(poses))
     runner(poses, held, float(dt), out)
     return out

@@ -15,6 +15,7 @@ import hashlib
 import importlib.util
 import types
 from collections.abc import Callable, Sequence
+from functools import cache
 from pathlib import Path
 
 try:  # without numba the kernels are plain Python functions, run lane by lane
@@ -59,3 +60,24 @@ def compile_runner(runner: Callable, parallel: bool, modules: Sequence[str]) -> 
     function.__qualname__ = name
     function.__doc__ = runner.__doc__
     return numba.njit(parallel=parallel, cache=True, error_model="numpy")(function)
+
+
+@cache
+def numba_threads() -> int:
+    """numba's threads in this process (1 without numba)."""
+    try:
+        import numba
+    except ImportError:  # pragma: no cover - exercised where numba is not installed
+        return 1
+    return numba.get_num_threads()
+
+
+def pick_runner(
+    factory: Callable[[bool], Callable], plain: Callable, compiled: bool, lanes: int
+) -> Callable:
+    """The runner for `lanes` lanes: `factory(parallel)`, parallel over lanes when there are
+    several and numba has several threads, or the `plain` function when not `compiled` (the
+    interpreted engine)."""
+    if not compiled:
+        return plain
+    return factory(lanes > 1 and numba_threads() > 1)
