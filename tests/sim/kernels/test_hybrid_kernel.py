@@ -142,6 +142,28 @@ def run_one(
     return xs[0, 1], diag[0, 0], v, int(faults[0, 0])
 
 
+def assert_step_matches(
+    compiled: object, x: np.ndarray, target: object, prm: np.ndarray, oracle: tuple,
+    check_scale: bool = False,
+) -> np.ndarray:  # fmt: skip
+    """One step of the compiled and of the plain runner equals the oracle's `step_oracle`
+    (velocity, diagnostics, next state, fault bits; the limit scale too if `check_scale`).
+
+    Returns:
+        The plain runner's velocity (9,).
+    """
+    v, expected, x_next, scale, bits = oracle
+    for runner in (compiled, hk.run_hybrid):
+        got_x, diag, got_v, got_bits = run_one(runner, x, pack_target(target), prm)
+        np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
+        assert_diagnostics(diag, expected)
+        if check_scale:
+            assert diag[layout.D_LIMIT_SCALE] == scale
+        np.testing.assert_allclose(got_x, x_next, rtol=0, atol=TOL)
+        assert got_bits == bits
+    return got_v
+
+
 @pytest.fixture(scope="module")
 def compiled() -> object:
     return hk.compiled_hybrid(False)
@@ -171,14 +193,8 @@ def test_one_step_matches_the_planner_and_the_rig(
     prm = hk.pack_differential(build(name, PlannerParameters(), x), hold)
     for held, k in itertools.product(helds(x, base), (0, 57, 211, 398)):
         target = held_target(held, base, k, DT)
-        v, expected, x_next, scale, bits = step_oracle(name, PlannerParameters(), x, target, hold)
-        for runner in (compiled, hk.run_hybrid):
-            got_x, diag, got_v, got_bits = run_one(runner, x, pack_target(target), prm)
-            np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
-            assert_diagnostics(diag, expected)
-            assert diag[layout.D_LIMIT_SCALE] == scale
-            np.testing.assert_allclose(got_x, x_next, rtol=0, atol=TOL)
-            assert got_bits == bits
+        oracle = step_oracle(name, PlannerParameters(), x, target, hold)
+        assert_step_matches(compiled, x, target, prm, oracle, check_scale=True)
 
 
 def test_the_states_cover_the_limit_cases() -> None:
@@ -255,13 +271,8 @@ def test_damping_zero_with_rank_deficient_weights(name: str, compiled: object) -
         prm = hk.pack_differential(build(name, parameters, x), False)
         for k in (3, 80):
             target = held_target(held, base, k, DT)
-            v, expected, x_next, _, bits = step_oracle(name, parameters, x, target, False)
-            for runner in (compiled, hk.run_hybrid):
-                got_x, diag, got_v, got_bits = run_one(runner, x, pack_target(target), prm)
-                np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
-                assert_diagnostics(diag, expected)
-                np.testing.assert_allclose(got_x, x_next, rtol=0, atol=TOL)
-                assert got_bits == bits
+            oracle = step_oracle(name, parameters, x, target, False)
+            got_v = assert_step_matches(compiled, x, target, prm, oracle)
     if name != "pi":  # β reaches the weights: the platform does not move (but for the yaw
         assert np.all(got_v[:5] == 0)  # Algorithm 1 hands it beyond the slew's rate limit)
 
@@ -288,12 +299,7 @@ def test_damping_engages_near_a_singularity(
     if beta > 0:
         assert expected["damping"] < damping or damping == 0
     prm = hk.pack_differential(build(name, parameters, x), True)
-    for runner in (compiled, hk.run_hybrid):
-        got_x, diag, got_v, got_bits = run_one(runner, x, pack_target(target), prm)
-        np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
-        assert_diagnostics(diag, expected)
-        np.testing.assert_allclose(got_x, x_next, rtol=0, atol=TOL)
-        assert got_bits == bits
+    assert_step_matches(compiled, x, target, prm, (v, expected, x_next, None, bits))
 
 
 @pytest.mark.parametrize("row", [layout.TARGET_R + 4, layout.TARGET_P + 1, layout.TARGET_W + 2])
