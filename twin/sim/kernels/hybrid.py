@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from functools import cache
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -79,6 +79,7 @@ from twin.sim.kernels.layout import (
 if TYPE_CHECKING:
     from twin.mechanisms.hybrid import HybridBoardingSystem
     from twin.planners.differential import DifferentialPlanner
+    from twin.planners.tasks import TipPoseTask
 
 
 
@@ -416,6 +417,18 @@ def _flat_weights(weights: object) -> list:
     return [weights]
 
 
+def hybrid_tip_task(planner: Any, refuse: Callable[[str], Exception]) -> TipPoseTask:
+    """The planner's primary task, if the hybrid kernels can run it: a `TipPoseTask` on the
+    hybrid system; else the error `refuse(what)` (which names the kernel) is raised."""
+    from twin.mechanisms.hybrid import HybridBoardingSystem
+    from twin.planners.tasks import TipPoseTask
+
+    tip = planner.tip
+    if not isinstance(tip, TipPoseTask) or not isinstance(tip.mechanism, HybridBoardingSystem):
+        raise refuse(f"the primary task {tip!r:.80}: only TipPoseTask on the hybrid system")
+    return tip
+
+
 def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
     """A `DifferentialPlanner` as its lane's `prm` row (N_PARAMETERS,).
 
@@ -433,9 +446,8 @@ def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
             would give inf or NaN, plain Python would raise).
     """
     from twin.errors import TwinError
-    from twin.mechanisms.hybrid import HybridBoardingSystem
     from twin.planners.differential import DifferentialPlanner
-    from twin.planners.tasks import JointPostureTask, TipPoseTask
+    from twin.planners.tasks import JointPostureTask
     from twin.planners.weights import BetaSplit, JointLimitWeights
 
     def refuse(what: str) -> TwinError:
@@ -443,9 +455,7 @@ def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
 
     if not isinstance(planner, DifferentialPlanner):
         raise refuse(f"a {type(planner).__name__} as a differential planner")
-    tip = planner.tip
-    if not isinstance(tip, TipPoseTask) or not isinstance(tip.mechanism, HybridBoardingSystem):
-        raise refuse(f"the primary task {tip!r:.80}: only TipPoseTask on the hybrid system")
+    tip = hybrid_tip_task(planner, refuse)
     prm = np.zeros(N_PARAMETERS)
     prm[P_KIND], prm[P_HOLD] = KIND_DIFFERENTIAL, 1.0 if hold else 0.0
     prm[P_GAIN] = tip.gain

@@ -41,6 +41,7 @@ import numpy as np
 from twin.sim.kernels.compile import compile_runner, register_jitable
 from twin.sim.kernels.hybrid import (
     hybrid_constants,
+    hybrid_tip_task,
     integrate_hybrid,
     limit_scale_lane,
     limit_work,
@@ -110,18 +111,15 @@ def pack_qp(planner: QPPlanner, hold: bool) -> np.ndarray:
             a negative weight).
     """
     from twin.errors import TwinError
-    from twin.mechanisms.hybrid import HybridBoardingSystem
     from twin.planners.qp import SOLVERS, JointLimit, LegStrokeLimit, QPPlanner
-    from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask
+    from twin.planners.tasks import JointPostureTask, PlatformYawTask
 
     def refuse(what: str) -> TwinError:
         return TwinError(f"planner: the qp kernel cannot run {what}")
 
     if not isinstance(planner, QPPlanner):
         raise refuse(f"a {type(planner).__name__} as a QPPlanner")
-    tip = planner.tip
-    if not isinstance(tip, TipPoseTask) or not isinstance(tip.mechanism, HybridBoardingSystem):
-        raise refuse(f"the primary task {tip!r:.80}: only TipPoseTask on the hybrid system")
+    tip = hybrid_tip_task(planner, refuse)
     mechanism = tip.mechanism
     prm = np.zeros(N_PARAMETERS)
     prm[P_KIND], prm[P_HOLD] = KIND_QP, 1.0 if hold else 0.0
