@@ -7,7 +7,7 @@ import pytest
 
 from twin.mechanisms import HybridBoardingSystem, Upr4, Upu3Up
 from twin.planners.platform import ANGLE_TOL, LENGTH_TOL
-from twin.sim import simulate
+from twin.sim import Simulation, simulate
 from twin.sim.metrics import drift, efficacy
 
 
@@ -36,6 +36,49 @@ def test_efficacy_printed_form_explodes_near_zero_tilt_but_stays_finite() -> Non
     result = efficacy(top, bottom)
     assert result["eta_printed"] < -1e5 and np.isfinite(result["eta_printed"])
     assert efficacy(np.zeros(3), np.zeros(3)) == {"eta_printed": 0.0, "eta": 0.0}
+
+
+def test_drift_and_efficacy_equal_their_numpy_statements() -> None:
+    """`drift` and `efficacy` (the compiled reduction's `drift_lane` and `efficacy_sums`, which
+    the hybrid system's metrics run too) equal the least-squares slope and the two η forms
+    written in numpy, to rounding; a bottom never tilted gives 0."""
+    rng = np.random.default_rng(4)
+    t = np.arange(801) * 0.05
+    x = np.stack([0.02 * t, np.sin(t), 3.0 + 1e-3 * rng.standard_normal(t.size)], -1)
+    tc = t - t.mean()
+    want = (tc @ (x - x.mean(axis=0))) / (tc @ tc) * (t[-1] - t[0])
+    np.testing.assert_allclose(drift(t, x), want, rtol=1e-12, atol=1e-12 * np.ptp(x))
+    top, bottom = 0.01 * rng.random(t.size), 0.05 * rng.random(t.size)
+    bottom[::7] = 0.0
+    tilted = bottom > 1e-9
+    result = efficacy(top, bottom)
+    printed = np.mean((bottom[tilted] - top[tilted]) / bottom[tilted])
+    assert result["eta_printed"] == pytest.approx(100 * printed, rel=1e-12)
+    assert result["eta"] == pytest.approx(100 * (1 - top.sum() / bottom.sum()), rel=1e-12)
+    assert efficacy(top, np.zeros_like(bottom)) == {"eta_printed": 0.0, "eta": 0.0}
+
+
+@pytest.mark.parametrize(
+    "lanes",
+    [
+        [{"planner": "mtmp", "duration": 3.0}, {"planner": "pi", "duration": 1.5, "seed": 1},
+         {"planner": "dwa", "duration": 2.2, "joint_limits": "hold", "seed": 2},
+         {"planner": "wpi", "duration": 0.3, "sea_state": 7}],
+        [{"mechanism": "upr4", "duration": 1.0}, {"mechanism": "upr4", "duration": 0.4,
+                                                  "planner": "ik", "joint_limits": "hold"}],
+    ],
+    ids=["hybrid", "upr4"],
+)  # fmt: skip
+def test_every_lanes_metrics_at_once_are_each_lanes_alone(lanes: list[dict]) -> None:
+    """`results()` reduces the metrics of lanes of different durations in one call: each equals
+    the lane's `result(i)` and the scenario simulated alone, fault counts included."""
+    together = Simulation([{"sea_state": 6, **lane} for lane in lanes])
+    together.run()
+    results = together.results()
+    for i, lane in enumerate(lanes):
+        assert len(results[i].series["t"]) == round(lane["duration"] / 0.05) + 1
+        assert results[i].metrics == together.result(i).metrics
+        assert results[i].metrics == simulate({"sea_state": 6, **lane}).metrics
 
 
 # -------------------------------------------------------- clamped samples count (record mode)

@@ -41,3 +41,9 @@ def test_hybrid_records_equal_the_mechanism(rng: np.random.Generator, runner: st
     np.testing.assert_allclose(out["phi_e"][:, 0], 0.0, atol=1e-12)
     np.testing.assert_allclose(out["theta_e"][:, 0], 0.0, atol=1e-12)
     assert np.abs(out["phi_e"][:, 1:]).max() > 1e-3  # and moves with the states
+    # from a later first sample: the same records of the samples after it, bit for bit
+    later = hybrid_records(poses, xi, held, landing, g0, hybrid_constants(H, HYBRID_RATE_LIMITS),
+                           run, first=7)  # fmt: skip
+    assert later["legs"].shape == (n_lanes, n - 7, 6)
+    for key, values in later.items():
+        np.testing.assert_array_equal(values, out[key][:, 7:], err_msg=key)

@@ -20,7 +20,9 @@ The default band is [0.5, 5]·ω_p: it holds all but 0.2 % of a PM spectrum's m0
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -36,6 +38,48 @@ _BLOCK = 1 << 18  # phase angles per evaluation block: 2 MB temporaries stay in 
 
 def _rng(seed: int | np.random.Generator | None) -> np.random.Generator:
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    """`array` made read-only: a cached array is shared, so no caller may write into it."""
+    array.flags.writeable = False
+    return array
+
+
+def _scalar(
+    value: object, name: str, unit: str, low: float = 0.0, *, low_open: bool = False
+) -> float:
+    """`float(_checked(value, name, unit, low, low_open=low_open))`, with a plain Python check
+    for an int or float (the common case, a tenth of the cost); anything else, or a value
+    out of range, goes through `_checked` for its conversion and its error message."""
+    if isinstance(value, int | float):
+        x = float(value)
+        if math.isfinite(x) and (low < x if low_open else low <= x):
+            return x
+    return float(_checked(value, name, unit, low, low_open=low_open))
+
+
+def _band(omega_range: object) -> tuple[float, float]:
+    """(ω_lo, ω_hi) [rad/s] of a valid band, 0 < ω_lo < ω_hi, both finite, else a `TwinError`;
+    a tuple of two ints or floats is checked in plain Python (the common case)."""
+    if isinstance(omega_range, tuple) and len(omega_range) == 2:
+        low, high = omega_range
+        if isinstance(low, int | float) and isinstance(high, int | float):
+            low, high = float(low), float(high)
+            if 0.0 < low < high and math.isfinite(high):
+                return low, high
+    band = _checked(omega_range, "omega_range", "rad/s", low_open=True)
+    if band.shape != (2,) or not band[1] > band[0]:
+        raise TwinError(f"omega_range must be (low, high) with low < high, got {omega_range}")
+    return float(band[0]), float(band[1])
+
+
+@lru_cache(maxsize=512)
+def _bin_grid(n: int, low: float, high: float) -> tuple[np.ndarray, np.ndarray]:
+    """The edges (n + 1,) and widths (n,) [rad/s] of n equal bins of [low, high], read-only
+    (cached: every seed of a sea state has the same bins)."""
+    edges = np.linspace(low, high, n + 1)
+    return _frozen(edges), _frozen(np.diff(edges))
 
 
 def frequency_bins(
@@ -58,12 +102,9 @@ def frequency_bins(
     """
     if not isinstance(n_components, int | np.integer) or n_components < 1:
         raise TwinError(f"n_components must be an integer ≥ 1, got {n_components!r}")
-    band = _checked(omega_range, "omega_range", "rad/s", low_open=True)
-    if band.shape != (2,) or not band[1] > band[0]:
-        raise TwinError(f"omega_range must be (low, high) with low < high, got {omega_range}")
-    edges = np.linspace(band[0], band[1], n_components + 1)
+    edges, width = _bin_grid(int(n_components), *_band(omega_range))
     offset = _rng(seed).uniform(size=n_components) if jitter else np.full(n_components, 0.5)
-    return edges[:-1] + offset * np.diff(edges), edges
+    return edges[:-1] + offset * width, edges.copy()
 
 
 def _sample_directions(
@@ -72,10 +113,18 @@ def _sample_directions(
     """n directions [rad] drawn from the cos-2s distribution about `heading` (inverse CDF)."""
     if spreading is None:
         return np.full(n, heading)
+    cdf, grid = _spreading_cdf(spreading)
+    return heading + np.interp(rng.uniform(size=n), cdf, grid)
+
+
+@lru_cache(maxsize=64)
+def _spreading_cdf(spreading: float) -> tuple[np.ndarray, np.ndarray]:
+    """The cos-2s distribution's CDF about 0 (4097,) [-] on its grid of directions (4097,)
+    [rad] over [−π, π], trapezoidal, read-only (cached: it depends on s alone)."""
     grid = np.linspace(-np.pi, np.pi, 4097)
     density = cos2s_spreading(grid, 0.0, spreading)
     cdf = np.concatenate([[0.0], np.cumsum((density[1:] + density[:-1]) / 2 * np.diff(grid))])
-    return heading + np.interp(rng.uniform(size=n), cdf / cdf[-1], grid)
+    return _frozen(cdf / cdf[-1]), _frozen(grid)
 
 
 #: nodes and weights of 8-point Gauss–Legendre quadrature on [−1, 1]
@@ -89,6 +138,16 @@ def _bin_energy(edges: np.ndarray, hs: float, tp: float, spectrum: str, gamma: f
     omega = edges[:-1, None] + (nodes + 1.0) / 2.0 * width  # (n, 8)
     density = spectral_density(omega, hs, tp, spectrum, gamma=gamma)
     return np.sum(density * weights * width / 2.0, axis=-1)
+
+
+@lru_cache(maxsize=512)
+def _band_energy(
+    n: int, low: float, high: float, hs: float, tp: float, spectrum: str, gamma: float
+) -> np.ndarray:
+    """`_bin_energy` (n,) [m²] of the n equal bins of [low, high] [rad/s], read-only (cached:
+    a pure function of these scalars, the same for every seed of a sea state)."""
+    edges, _ = _bin_grid(n, low, high)
+    return _frozen(_bin_energy(edges, hs, tp, spectrum, gamma))
 
 
 def wave_components(
@@ -125,16 +184,21 @@ def wave_components(
     Returns:
         The components; amplitudes a_i = sqrt(2 ∫_bin S dω) [m].
     """
-    hs = float(_checked(hs, "hs", "m"))
-    tp = float(_checked(tp, "tp", "s", low_open=True))
-    heading = float(_checked(heading, "heading", "rad", -np.inf))
+    hs = _scalar(hs, "hs", "m")
+    tp = _scalar(tp, "tp", "s", low_open=True)
+    heading = _scalar(heading, "heading", "rad", -np.inf)
     if spreading is not None:
-        spreading = float(_checked(spreading, "spreading", ""))
+        spreading = _scalar(spreading, "spreading", "")
     rng = _rng(seed)
     band = tuple(r * 2.0 * np.pi / tp for r in OMEGA_BAND) if omega_range is None else omega_range
     omega, edges = frequency_bins(n_components, band, jitter=jitter, seed=rng)
     # seed 001 eq (29) with S(ω_i)Δω taken as the bin's exact energy: Σ a_i²/2 = band m0
-    amplitude = np.sqrt(2.0 * _bin_energy(edges, hs, tp, spectrum, gamma))
+    if isinstance(spectrum, str) and isinstance(gamma, int | float):
+        low, high = float(edges[0]), float(edges[-1])  # the band itself: linspace's ends
+        energy = _band_energy(edges.size - 1, low, high, hs, tp, spectrum, float(gamma))
+    else:  # not a cache key (e.g. an array γ): as it comes, and its own error if it is wrong
+        energy = _bin_energy(edges, hs, tp, spectrum, gamma)
+    amplitude = np.sqrt(2.0 * energy)
     phase = rng.uniform(0.0, 2.0 * np.pi, size=n_components)  # seed 001 eq (29), random ε_i
     direction = _sample_directions(heading, spreading, n_components, rng)
     return WaveComponents(omega, amplitude, phase, direction)

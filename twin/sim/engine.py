@@ -201,6 +201,13 @@ class Simulation:
     def metrics(self, series: dict[str, np.ndarray], lane: int = 0) -> dict[str, Any]:
         """A lane's metrics over a series of it (`series(lane)`), its fault counts included."""
         metrics = self.lanes.metrics(series, lane, self.scenarios[lane].joint_limits)
+        return self._with_faults(metrics, series, lane)
+
+    def _with_faults(
+        self, metrics: dict[str, Any], series: dict[str, np.ndarray], lane: int
+    ) -> dict[str, Any]:
+        """A lane's metrics with its fault counts added: held steps from its fault log, limited
+        and damped samples from its series (`series_faults`)."""
         log = self.faults[lane]
         metrics["faults"] = log.holds
         metrics["fault_counts"] = {
@@ -211,21 +218,39 @@ class Simulation:
         return metrics
 
     def result(self, lane: int = 0) -> SimulationResult:
-        """A lane's result: its scenario, its series up to its own duration, its metrics.
+        """A lane's result: its scenario, its series up to its own duration, its metrics."""
+        series = self._result_series(lane)
+        return SimulationResult(self.scenarios[lane], series, self.metrics(series, lane))
+
+    def _result_series(self, lane: int) -> dict[str, np.ndarray]:
+        """A lane's series for its result, up to its own duration while every sample is held.
 
         A finished batch run's series are views of its history, which has room for every
         sample and so never overwrites one; a live session's, or a run's midway, are copies."""
         views = self._keep_all and self.done
         series = self._select(self.history.series(lane, copy=not views), lane)
-        scenario = self.scenarios[lane]
         if self.history.complete:
+            scenario = self.scenarios[lane]
             end = round(scenario.duration / scenario.dt) + 1
             series = {k: v[:end] for k, v in series.items()}
-        return SimulationResult(scenario, series, self.metrics(series, lane))
+        return series
 
     def results(self) -> list[SimulationResult]:
-        """Every lane's result, in order."""
-        return [self.result(i) for i in range(self.n_lanes)]
+        """Every lane's result, in order, each equal to `result(lane)`: the metrics of all lanes
+        are reduced in one call over the history's arrays in place (`lanes.metrics_lanes`)."""
+        series = [self._result_series(i) for i in range(self.n_lanes)]
+        if not self.history.complete:  # a wrapped ring: a lane's samples do not start at slot 0
+            return [
+                SimulationResult(s, x, self.metrics(x, i))
+                for i, (s, x) in enumerate(zip(self.scenarios, series, strict=True))
+            ]
+        ends = np.array([len(x["t"]) for x in series])
+        modes = [s.joint_limits for s in self.scenarios]
+        reduced = self.lanes.metrics_lanes(self.history.data, ends, modes)
+        return [
+            SimulationResult(s, x, self._with_faults(m, x, i))
+            for i, (s, x, m) in enumerate(zip(self.scenarios, series, reduced, strict=True))
+        ]
 
     # -- stepping ----------------------------------------------------------------------------
     def step(self) -> dict[str, np.ndarray]:
@@ -263,8 +288,7 @@ class Simulation:
         faults = np.zeros((N, m), dtype=np.int64)
         targets = np.ascontiguousarray(block.targets[:, local : local + m])
         self.lanes.run(self._run, xs, targets, self.prm, self.memory, self.dt, diag, faults)
-        poses = block.poses[:, local + 1 : local + m + 1]
-        records = self.lanes.records(poses, xs[:, 1:], diag, self.dt)
+        records = self.lanes.records(block.poses[:, local : local + m + 1], xs, diag, self.dt)
         faults |= np.where(
             block.bad[:, local : local + m] | block.bad[:, local + 1 : local + m + 1],
             layout.FAULT_BASE_MOTION,
@@ -446,5 +470,7 @@ def warm(engine: str = "auto") -> float:
         [{**short, "mechanism": "upr4"}],
         [{**short, "mechanism": "upr4"}, {**short, "mechanism": "upr4", "planner": "ik"}],
     ):
-        Simulation(lanes, engine=engine).run()
+        simulation = Simulation(lanes, engine=engine)
+        simulation.run()  # lane 0's result: the one-lane (serial) metrics runner
+        simulation.results()  # every lane's: the parallel one where there are several lanes
     return time.perf_counter() - start

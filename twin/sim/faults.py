@@ -51,9 +51,13 @@ def hold_invalid(pose: np.ndarray, last_good: np.ndarray) -> tuple[np.ndarray, n
         last_good: (..., 6) [m, rad] the finite pose to hold if the first rows are bad.
 
     Returns:
-        (finite poses (..., T, 6), (..., T) bool: the rows replaced).
+        (finite poses (..., T, 6), (..., T) bool: the rows replaced); the poses are `pose`
+        itself when every row is finite, else a copy.
     """
-    pose = np.array(pose, dtype=float)
+    pose = np.asarray(pose, dtype=float)
+    if np.isfinite(pose).all():  # the common case: no copy
+        return pose, np.zeros(pose.shape[:-1], dtype=bool)
+    pose = pose.copy()
     bad = ~np.all(np.isfinite(pose), axis=-1)
     held = np.asarray(last_good, dtype=float)
     for *lane, i in zip(*np.nonzero(bad), strict=True):  # C order: each lane's times in turn
@@ -75,9 +79,10 @@ def hold_nonfinite(records: dict[str, np.ndarray], previous: dict[str, np.ndarra
     N, m = next(iter(records.values())).shape[:2]
     rows = np.zeros((N, m), dtype=bool)
     for key, values in records.items():
-        bad = ~np.isfinite(values)
-        if not bad.any():
+        finite = np.isfinite(values)
+        if finite.all():  # the common case: one pass, no second mask
             continue
+        bad = ~finite
         touched = bad.reshape(N, m, -1).any(-1)
         rows |= touched
         for lane, j in zip(*np.nonzero(touched), strict=True):

@@ -12,6 +12,7 @@ kernel, which runs it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -29,7 +30,7 @@ from twin.planners import (
 )
 from twin.sim.kernels import layout
 from twin.sim.kernels.compile import pick_runner
-from twin.sim.metrics import hybrid_metrics, platform_metrics
+from twin.sim.metrics import hybrid_metrics, hybrid_metrics_lanes, platform_metrics
 from twin.sim.records import hybrid_records, landing_frame, platform_records
 from twin.sim.scenario import Scenario
 from twin.spatial import pose_to_transform
@@ -99,6 +100,7 @@ class HybridLanes:
         from twin.sim.kernels.records import compiled_records, run_hybrid_records
 
         self.mechanism = mechanism
+        self.compiled = compiled
         self._records = pick_runner(compiled_records, run_hybrid_records, compiled, len(x0))
         self.x0 = np.array(x0, dtype=float)
         self.held = T_IB0 @ mechanism.end_effector(self.x0)
@@ -164,11 +166,21 @@ class HybridLanes:
         xs[lanes], diag[lanes], faults[lanes] = x, d, bits
 
     def records(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float) -> dict:
-        """Records (N, T, …) of states xs (N, T, 9) on base poses (N, T, 6), with the steps'
+        """Records (N, T, …) of the chunk just run: its states xs (N, T + 1, 9) on base poses
+        (N, T + 1, 6), the start in row 0 (recorded with the chunk before), with the steps'
         diagnostics (N, T, N_HYBRID_DIAGNOSTICS)."""
         del dt  # Unused: nothing recorded is a rate.
+        return self._record(poses, xs, diag, 1)
+
+    def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
+        """Records (N, 1, …) at t = 0 (diagnostics zero: the engine repeats the first step's)."""
+        diag = np.zeros((len(x), 1, self.n_diagnostics))
+        return self._record(poses, x[:, None], diag, 0)
+
+    def _record(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, first: int) -> dict:
+        """`hybrid_records` of samples first … of xs on poses, with the diagnostics diag."""
         out = hybrid_records(
-            poses, xs, self.held, self.landing, self.gangway0, self.const, self._records
+            poses, xs, self.held, self.landing, self.gangway0, self.const, self._records, first
         )
         out["weights"] = diag[..., layout.D_WEIGHTS : layout.D_WEIGHTS + 9]
         out["null_space_share"] = diag[..., layout.D_SHARE]
@@ -179,11 +191,6 @@ class HybridLanes:
         out["qp_level"] = diag[..., layout.D_QP_LEVEL]
         out["qp_active"] = diag[..., layout.D_QP_ACTIVE]
         return out
-
-    def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
-        """Records (N, 1, …) at t = 0 (diagnostics zero: the engine repeats the first step's)."""
-        diag = np.zeros((len(x), 1, self.n_diagnostics))
-        return self.records(poses, x[:, None], diag, 1.0)
 
     #: each planner family's diagnostics (another family's are left out of a lane's series)
     DIAGNOSTICS: ClassVar[dict[str, frozenset[str]]] = {
@@ -207,6 +214,14 @@ class HybridLanes:
     ) -> dict:
         del lane  # Unused: every lane is the same machine.
         return hybrid_metrics(series, self.mechanism, joint_limits)
+
+    def metrics_lanes(
+        self, data: dict[str, np.ndarray], ends: np.ndarray, joint_limits: Sequence[str]
+    ) -> list[dict]:
+        """Every lane's `metrics` at once from its series as (N, C, ...) arrays (the history's,
+        in place), lane n over its first ends[n] samples: one compiled pass over all lanes
+        (`hybrid_metrics_lanes`)."""
+        return hybrid_metrics_lanes(data, ends, self.mechanism, joint_limits, self.compiled)
 
 
 class PlatformLanes:
@@ -275,12 +290,14 @@ class PlatformLanes:
         self._legs = legs  # read by `records`
 
     def records(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float) -> dict:
-        """Records (N, T, …) of the chunk just run (`run` keeps its actuator lengths)."""
+        """Records (N, T, …) of the chunk just run (`run` keeps its actuator lengths): its
+        states xs (N, T + 1, 3) on base poses (N, T + 1, 6), the start in row 0 (recorded with
+        the chunk before)."""
         from twin.sim.kernels.platform import D_CLIPPED, D_SATURATED
 
         legs = self._legs[:, :, : self.model.n_legs]
         self.extra = self._legs[:, -1].copy()
-        out = self._lanes(poses, xs, legs[:, 1:], np.diff(legs, axis=1) / dt)
+        out = self._lanes(poses[:, 1:], xs[:, 1:], legs[:, 1:], np.diff(legs, axis=1) / dt)
         out["clipped"] = diag[..., D_CLIPPED]
         out["saturated"] = diag[..., D_SATURATED]
         return out
@@ -315,3 +332,13 @@ class PlatformLanes:
         self, series: dict[str, np.ndarray], lane: int, joint_limits: str = "record"
     ) -> dict:
         return platform_metrics(series, self.models[lane], joint_limits)
+
+    def metrics_lanes(
+        self, data: dict[str, np.ndarray], ends: np.ndarray, joint_limits: Sequence[str]
+    ) -> list[dict]:
+        """Every lane's `metrics` from its series as (N, C, ...) arrays, lane n over its first
+        ends[n] samples: lane by lane (numpy; each lane has its own model)."""
+        return [
+            self.metrics({key: values[n, :end] for key, values in data.items()}, n, mode)
+            for n, (end, mode) in enumerate(zip(ends, joint_limits, strict=True))
+        ]

@@ -2,59 +2,63 @@
 
 Every metric is a plain float (JSON-ready) and finite. The first `SETTLE` samples are left
 out of min/max and error statistics, as seed 000 §5.3 drops its first 10 points.
+
+The hybrid system's numbers are reduced by a compiled pass over every lane at once
+(`twin.sim.kernels.metrics`); this module names them, converts them to the reported units and
+keeps them finite. The small platforms' are numpy, lane by lane.
 """
 
 from __future__ import annotations
+
+import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
 from twin.planners.platform import PlatformModel
-
-#: samples left out at the start (seed 000 §5.3: "the first 10 data points are removed")
-SETTLE = 10
+from twin.sim.kernels import metrics as kernel
+from twin.sim.kernels.compile import pick_runner
+from twin.sim.kernels.metrics import SETTLE
 
 _ANGLES = {"roll", "pitch", "yaw", "q1", "q2"}
+_DEGREES = math.degrees(1.0)
 
 
 def finite(x: float | np.floating) -> float:
     """A finite Python float (metrics are JSON and must never carry NaN)."""
     x = float(x)
-    return x if np.isfinite(x) else 0.0
-
-
-def _extreme(x: np.ndarray) -> float:
-    """The signed value of largest magnitude (seed 004 reports φe, θe maxima with sign)."""
-    return float(x[np.argmax(np.abs(x))])
+    return x if math.isfinite(x) else 0.0
 
 
 def drift(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Least-squares trend of x (N, k) over the run, slope × duration, (k,).
+    """Least-squares trend of x (N, k) over the run, slope × duration, (k,) in x's unit
+    (`twin.sim.kernels.metrics.drift_lane`, compiled where numba imports).
 
     An oscillation around a steady mean has no drift; PI/WPI's divergence (seed 000 §5.3
     analysis 1) shows as a trend.
     """
-    tc = t - t.mean()
-    slope = (tc @ (x - x.mean(axis=0))) / max(float(tc @ tc), 1e-300)
-    return slope * (t[-1] - t[0])
+    x = np.ascontiguousarray(x, dtype=float)
+    out = np.empty(x.shape[1])
+    kernel.compiled_series_reductions().drift(np.ascontiguousarray(t, dtype=float), x, out)
+    return out
 
 
 def efficacy(alpha_top: np.ndarray, alpha_bottom: np.ndarray) -> dict[str, float]:
-    """Seed 002 eq (29) as printed and the integral form of SPEC erratum 11 [%].
+    """Seed 002 eq (29) as printed and the integral form of SPEC erratum 11 [%]
+    (`twin.sim.kernels.metrics.efficacy_sums`, compiled where numba imports).
 
     As printed: the time mean of (α_bottom − α_top)/α_bottom, over samples where the base
     is tilted at all (α_bottom > 1e-9 rad) — it explodes when α_bottom passes near zero.
     Integral: 1 − ∫|α_top| dt / ∫|α_bottom| dt (uniform dt).
     """
-    tilted = alpha_bottom > 1e-9
-    printed = (
-        np.mean((alpha_bottom[tilted] - alpha_top[tilted]) / alpha_bottom[tilted])
-        if np.any(tilted)
-        else 0.0
+    out = np.empty(2)
+    kernel.compiled_series_reductions().efficacy(
+        np.ascontiguousarray(alpha_top, dtype=float),
+        np.ascontiguousarray(alpha_bottom, dtype=float),
+        out,
     )
-    denominator = np.sum(np.abs(alpha_bottom))
-    integral = 1.0 - np.sum(np.abs(alpha_top)) / denominator if denominator > 0 else 0.0
-    return {"eta_printed": finite(100 * printed), "eta": finite(100 * integral)}
+    return {"eta_printed": finite(100 * out[0]), "eta": finite(100 * out[1])}
 
 
 def hybrid_metrics(
@@ -68,38 +72,71 @@ def hybrid_metrics(
     design (counted as held: `fault_counts["joint_limit"]`), so only samples beyond count.
     Legs count beyond Table 1's stroke by more than its millimetre precision: the geometry's
     stowed legs, 2.57986 m, are Table 1's 2.58 m.
+
+    The reduction is the compiled one wherever numba imports (`hybrid_metrics_lanes` on this
+    one lane); the interpreted one gives the same numbers.
     """
-    xi, legs, t = series["xi"], series["legs"], series["t"]
-    lower, upper = mechanism.lower[:, None], mechanism.upper[:, None]
+    lane = {key: series[key][None] for key in kernel.REDUCED}
+    ends = np.array([len(series["t"])])
+    return hybrid_metrics_lanes(lane, ends, mechanism, [joint_limits], compiled=True)[0]
+
+
+def hybrid_metrics_lanes(
+    data: dict[str, np.ndarray],
+    ends: np.ndarray,
+    mechanism: HybridBoardingSystem,
+    joint_limits: Sequence[str],
+    compiled: bool,
+) -> list[dict]:
+    """`hybrid_metrics` of N lanes at once, from their series as (N, C, ...) arrays (a batch
+    run's history, read in place): one compiled pass, parallel over lanes
+    (`twin.sim.kernels.metrics.run_hybrid_reductions`), then each lane's dict.
+
+    Args:
+        data: at least the keys of `twin.sim.kernels.metrics.REDUCED`, (N, C, ...) each.
+        ends: (N,) each lane's samples (1 ≤ end ≤ C), from t = 0.
+        mechanism: the lanes' hybrid system (its joint limits and stroke).
+        joint_limits: (N,) each lane's `Scenario.joint_limits`.
+        compiled: numba's runner (parallel over several lanes), or the interpreted one.
+
+    Returns:
+        One metrics dict per lane, as `hybrid_metrics` of its series up to its end.
+    """
+    ends = np.asarray(ends, dtype=np.int64)
+    hold = np.array([mode == "hold" for mode in joint_limits], dtype=bool)
+    rows = np.empty((len(ends), kernel.N_ROW))
+    run = pick_runner(
+        kernel.compiled_hybrid_reductions, kernel.run_hybrid_reductions, compiled, len(ends)
+    )
+    stewart = mechanism.stewart
+    run(*(np.ascontiguousarray(data[key], dtype=float) for key in kernel.REDUCED), ends, hold,
+        mechanism.lower, mechanism.upper, float(stewart.leg_min), float(stewart.leg_max),
+        rows)  # fmt: skip
+    return [hybrid_metrics_from(row, mechanism) for row in rows.tolist()]
+
+
+def hybrid_metrics_from(row: Sequence[float], mechanism: HybridBoardingSystem) -> dict:
+    """A lane's metrics dict from its row of reductions (`twin.sim.kernels.metrics`, N_ROW):
+    counts as ints; joints q1, q2, roll, pitch, yaw in degrees, x, y, z, d3 and legs in m; tip
+    position errors in m, orientation errors in degrees; φe, θe in degrees; η in %."""
+    lower, upper = mechanism.lower.tolist(), mechanism.upper.tolist()  # floats: cheap to index
     leg_min, leg_max = mechanism.stewart.leg_min, mechanism.stewart.leg_max
-    tol = 5e-4  # Table 1's millimetre precision, as StewartPlatform.check_lengths
-    # one row per joint or leg: reductions over time then run along contiguous memory, which
-    # is several times faster than over the short rows of a (T, 9) array
-    joints_t, legs_t = np.ascontiguousarray(xi.T), np.ascontiguousarray(legs.T)
-    if joint_limits == "record":  # at or beyond
-        joint_bad = np.any((joints_t <= lower + 1e-9) | (joints_t >= upper - 1e-9), axis=0)
-    else:
-        joint_bad = np.any((joints_t < lower - 1e-9) | (joints_t > upper + 1e-9), axis=0)
-    leg_bad = np.any((legs_t < leg_min - tol) | (legs_t > leg_max + tol), axis=0)
-    s = slice(min(SETTLE, len(t) - 1), None)
-    err = series["tip_error"][s]
-    pos_err = np.linalg.norm(err[:, :3], axis=1)
-    rot_err = np.degrees(np.linalg.norm(err[:, 3:], axis=1))
-    low, high, trend = joints_t[:, s].min(axis=1), joints_t[:, s].max(axis=1), drift(t, xi)
-    legs_low, legs_high = legs_t[:, s].min(), legs_t[:, s].max()
     joints: dict[str, dict[str, float]] = {}
     for j, name in enumerate(JOINT_NAMES):
-        scale = np.degrees(1.0) if name in _ANGLES else 1.0
+        scale = _DEGREES if name in _ANGLES else 1.0
+        low, high = row[kernel.R_JOINT_MIN + j], row[kernel.R_JOINT_MAX + j]
         joints[name] = {
-            "min": finite(low[j] * scale),
-            "max": finite(high[j] * scale),
-            "margin": finite(min(low[j] - lower[j, 0], upper[j, 0] - high[j]) * scale),
-            "drift": finite(trend[j] * scale),
+            "min": finite(low * scale),
+            "max": finite(high * scale),
+            "margin": finite(min(low - lower[j], upper[j] - high) * scale),
+            "drift": finite(row[kernel.R_JOINT_DRIFT + j] * scale),
         }
+    legs_low, legs_high = row[kernel.R_LEGS_MIN], row[kernel.R_LEGS_MAX]
+    leg_drift = row[kernel.R_LEG_DRIFT : kernel.R_LEG_DRIFT + kernel.N_LEGS]
     return {
-        "violations": int(np.sum(joint_bad | leg_bad)),
-        "joint_violations": int(np.sum(joint_bad)),
-        "leg_violations": int(np.sum(leg_bad)),
+        "violations": int(row[kernel.R_VIOLATIONS]),
+        "joint_violations": int(row[kernel.R_JOINT_VIOLATIONS]),
+        "leg_violations": int(row[kernel.R_LEG_VIOLATIONS]),
         "table7": {  # seed 000 Table 7's columns: q1, q2 [deg], d3 [m], legs [m]
             "q1_max": joints["q1"]["max"], "q1_min": joints["q1"]["min"],
             "q2_max": joints["q2"]["max"], "q2_min": joints["q2"]["min"],
@@ -108,15 +145,16 @@ def hybrid_metrics(
         },
         "joints": joints,
         "leg_margin": finite(min(legs_low - leg_min, leg_max - legs_high)),
-        "leg_drift": [finite(v) for v in drift(t, legs)],
-        "tip_position_error_rms": finite(np.sqrt(np.mean(pos_err**2))),
-        "tip_position_error_max": finite(pos_err.max()),
-        "tip_orientation_error_rms": finite(np.sqrt(np.mean(rot_err**2))),
-        "tip_orientation_error_max": finite(rot_err.max()),
-        "manipulability_min": finite(series["manipulability"][s].min()),
-        "phi_e_max": finite(np.degrees(_extreme(series["phi_e"][s]))),
-        "theta_e_max": finite(np.degrees(_extreme(series["theta_e"][s]))),
-        **efficacy(series["alpha_top"], series["alpha_bottom"]),
+        "leg_drift": [finite(v) for v in leg_drift],
+        "tip_position_error_rms": finite(row[kernel.R_POSITION_RMS]),
+        "tip_position_error_max": finite(row[kernel.R_POSITION_MAX]),
+        "tip_orientation_error_rms": finite(row[kernel.R_ORIENTATION_RMS] * _DEGREES),
+        "tip_orientation_error_max": finite(row[kernel.R_ORIENTATION_MAX] * _DEGREES),
+        "manipulability_min": finite(row[kernel.R_MANIPULABILITY_MIN]),
+        "phi_e_max": finite(row[kernel.R_PHI_E] * _DEGREES),
+        "theta_e_max": finite(row[kernel.R_THETA_E] * _DEGREES),
+        "eta_printed": finite(100 * row[kernel.R_ETA_PRINTED]),
+        "eta": finite(100 * row[kernel.R_ETA]),
     }  # fmt: skip
 
 

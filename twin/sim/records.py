@@ -54,17 +54,20 @@ def hybrid_records(
     gangway0: np.ndarray,
     const: np.ndarray,
     runner: Callable,
+    first: int = 0,
 ) -> dict[str, np.ndarray]:
     """The hybrid system's record at T samples of N lanes, computed by the compiled records
     runner (`twin.sim.kernels.records`, one pass over the chunk).
 
     Args:
-        poses: (N, T, 6) inertial base poses [m, rad].
-        xi: (N, T, 9) virtual joints [m, rad].
+        poses: (N, S, 6) inertial base poses [m, rad].
+        xi: (N, S, 9) virtual joints [m, rad].
         held: (N, 4, 4) ᴵT_E*, the held tip pose.
         landing, gangway0: (N, 3, 3) and (N, 3), `landing_frame` at t = 0.
         const: the hybrid constants (`twin.sim.kernels.hybrid.hybrid_constants`).
         runner: `compiled_records(...)` or the plain `run_hybrid_records`.
+        first: the first sample recorded: samples first … S − 1 are (T = S − first), so a
+            chunk's states with its start in row 0 go in as the kernel wrote them.
 
     Returns:
         base_pose, xi, legs, tip_error (tip pose error against ᴮT_d, [m, rad] in B),
@@ -74,15 +77,15 @@ def hybrid_records(
     """
     from twin.sim.kernels import records as kernel
 
-    N, T = xi.shape[:2]
+    N, T = xi.shape[0], xi.shape[1] - first
     legs, errors = np.empty((N, T, 6)), np.empty((N, T, 6))
     scalars = np.empty((N, T, kernel.N_SCALARS))
-    runner(np.ascontiguousarray(poses), np.ascontiguousarray(xi), np.ascontiguousarray(held),
-           np.ascontiguousarray(landing), np.ascontiguousarray(gangway0), const, legs, errors,
-           scalars)  # fmt: skip
+    runner(np.ascontiguousarray(poses), np.ascontiguousarray(xi), first,
+           np.ascontiguousarray(held), np.ascontiguousarray(landing),
+           np.ascontiguousarray(gangway0), const, legs, errors, scalars)  # fmt: skip
     return {
-        "base_pose": poses,
-        "xi": xi,
+        "base_pose": poses[:, first:],
+        "xi": xi[:, first:],
         "legs": legs,
         "tip_error": errors,
         "manipulability": scalars[..., kernel.S_MANIPULABILITY],

@@ -277,6 +277,46 @@ def test_damping_zero_with_rank_deficient_weights(name: str, compiled: object) -
         assert np.all(got_v[:5] == 0)  # Algorithm 1 hands it beyond the slew's rate limit)
 
 
+def test_chunk_in_and_out_of_the_damped_branch(compiled: object) -> None:
+    """A chunk whose steps go in and out of the SVD branch (β = 0.036 by the joint limits: the
+    damping test fails for steps 0-7, passes for 8-17, fails again after) equals the rig every
+    step, and equals the same steps taken one chunk of one step at a time: the runner resumes
+    a lane's loop after each damped step exactly where it left it."""
+    n, parameters = 40, PlannerParameters(beta=0.036)
+    base = base_samples(n + 1, amplitude=4.0)
+    start = STATES["near_joint_limit"]
+    held = helds(start, base)[0]
+    planner = build("mtmp", parameters, start)
+    planner.reset(start, held_target(held, base, 0, DT))
+    targets = held_targets(held[None], base.pose[None], DT)
+    prm = hk.pack_differential(planner, True)[None]
+
+    def chunk(runner: object, x0: np.ndarray, k0: int, m: int) -> tuple[np.ndarray, ...]:
+        xs = np.empty((1, m + 1, 9))
+        xs[0, 0] = x0
+        diag = np.zeros((1, m, layout.N_HYBRID_DIAGNOSTICS))
+        faults = np.empty((1, m), dtype=np.int64)
+        runner(xs, np.ascontiguousarray(targets[:, k0 : k0 + m]), prm,
+               np.zeros((1, layout.N_MEMORY)), CONST, DT, diag, faults)  # fmt: skip
+        return xs[0, 1:], diag[0], faults[0]
+
+    for runner in (compiled, hk.run_hybrid):
+        xs, diag, faults = chunk(runner, start, 0, n)
+        singular = (faults & layout.FAULT_SINGULAR) > 0
+        assert singular[:8].all() and not singular[8:18].any() and singular[18:].all()
+        x = start
+        for k in range(n):
+            one = chunk(runner, x, k, 1)
+            np.testing.assert_array_equal(one[0][0], xs[k])
+            np.testing.assert_array_equal(one[1][0], diag[k])
+            assert one[2][0] == faults[k]
+            _, expected, x_rig, _, bits = advance(planner, x, held_target(held, base, k, DT), True)
+            np.testing.assert_allclose(xs[k], x_rig, rtol=0, atol=TOL, err_msg=f"k={k}")
+            assert_diagnostics(diag[k], expected)
+            assert faults[k] == bits
+            x = xs[k]
+
+
 @pytest.mark.parametrize(("beta", "damping"), [(0.0, 0.05), (2e-5, 0.05), (2e-5, 0.0)])
 @pytest.mark.parametrize("name", ["wpi", "mtmp"])
 def test_damping_engages_near_a_singularity(

@@ -182,8 +182,8 @@ def manipulability_lane(
         a0 = R[0, 0] * h0 + R[0, 1] * h1 + R[0, 2] * h2
         a1 = R[1, 0] * h0 + R[1, 1] * h1 + R[1, 2] * h2
         a2 = R[2, 0] * h0 + R[2, 1] * h1 + R[2, 2] * h2
-        length = lengths[i]
-        n0, n1, n2 = vectors[i, 0] / length, vectors[i, 1] / length, vectors[i, 2] / length
+        inverse = 1.0 / lengths[i]  # one division, three multiplications
+        n0, n1, n2 = vectors[i, 0] * inverse, vectors[i, 1] * inverse, vectors[i, 2] * inverse
         J[i, 0], J[i, 1], J[i, 2] = n0, n1, n2
         J[i, 3], J[i, 4], J[i, 5] = a1 * n2 - a2 * n1, a2 * n0 - a0 * n2, a0 * n1 - a1 * n0
     det = 1.0
@@ -200,8 +200,9 @@ def manipulability_lane(
         det *= d
         if d == 0.0:
             return 0.0
+        inverse = 1.0 / d
         for i in range(j + 1, 6):
-            f = J[i, j] / d
+            f = J[i, j] * inverse
             for k in range(j + 1, 6):
                 J[i, k] -= f * J[j, k]
     return abs(det)

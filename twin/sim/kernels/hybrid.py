@@ -520,7 +520,10 @@ def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
 
 @register_borrowing
 def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
-    """Lower Cholesky factor of A − shift·I (A (6, 6) symmetric) into L (6, 6).
+    """Lower Cholesky factor of A − shift·I (A (6, 6) symmetric) into L (6, 6), its diagonal
+    stored inverted: L[j, j] = 1 / l_jj, so the factorisation and the solves
+    (`cholesky_pinv_apply`) multiply where they would divide (a division costs several
+    multiplications' latency, and these chains are latency-bound).
 
     Returns whether A − shift·I is positive definite (every pivot > 0; False on a NaN).
     """
@@ -530,12 +533,13 @@ def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
             d -= L[j, k] * L[j, k]
         if not d > 0.0:
             return False
-        L[j, j] = math.sqrt(d)
+        inverse = 1.0 / math.sqrt(d)
+        L[j, j] = inverse
         for i in range(j + 1, 6):
             s = A[i, j]
             for k in range(j):
                 s -= L[i, k] * L[j, k]
-            L[i, j] = s / L[j, j]
+            L[i, j] = s * inverse
     return True
 
 
@@ -544,17 +548,18 @@ def cholesky_pinv_apply(
     K: np.ndarray, w: np.ndarray, L: np.ndarray, c: np.ndarray, y: np.ndarray, out: np.ndarray
 ) -> None:
     """out (9,) = W Kᵀ (K W Kᵀ)⁻¹ c, the undamped J_W⁺ (seed 000 eq (31)) in P applied to c (6,),
-    with L Lᵀ = K W Kᵀ (`cholesky_lane`) and W = diag(w); y (6,) is scratch."""
+    with L Lᵀ = K W Kᵀ (`cholesky_lane`: its diagonal inverted) and W = diag(w); y (6,) is
+    scratch."""
     for i in range(6):  # L z = c
         s = c[i]
         for k in range(i):
             s -= L[i, k] * y[k]
-        y[i] = s / L[i, i]
+        y[i] = s * L[i, i]
     for i in range(5, -1, -1):  # Lᵀ y = z
         s = y[i]
         for k in range(i + 1, 6):
             s -= L[k, i] * y[k]
-        y[i] = s / L[i, i]
+        y[i] = s * L[i, i]
     for j in range(9):
         s = 0.0
         for a in range(6):

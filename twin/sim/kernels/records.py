@@ -42,9 +42,9 @@ N_SCALARS = 5
 def record_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Scratch of `hybrid_record_sample`, allocated once per lane (numba puts every array on the
     heap, and a reshaped view costs as much; views along a leading axis are free): rotations
-    (3, 3, 3) ᴵR_B, ᴮR_P and the error rotation; transforms (2, 4, 4) ᴾT_E and ᴮT_E; the
-    tip's directions (2, 3); the leg vectors (6, 3); the leg Jacobian (6, 6)."""
-    return (np.empty((3, 3, 3)), np.empty((2, 4, 4)), np.empty((2, 3)), np.empty((6, 3)),
+    (4, 3, 3) ᴵR_B, ᴮR_P, the error rotation and ᴮR_d; transforms (2, 4, 4) ᴾT_E and ᴮT_E;
+    the tip's directions (2, 3); the leg vectors (6, 3); the leg Jacobian (6, 6)."""
+    return (np.empty((4, 3, 3)), np.empty((2, 4, 4)), np.empty((2, 3)), np.empty((6, 3)),
             np.empty((6, 6)))  # fmt: skip
 
 
@@ -54,7 +54,8 @@ def hybrid_record_sample(
     x: np.ndarray,
     held: np.ndarray,
     landing: np.ndarray,
-    g0: np.ndarray,
+    phi0: float,
+    theta0: float,
     const: np.ndarray,
     legs_out: np.ndarray,
     error_out: np.ndarray,
@@ -67,13 +68,14 @@ def hybrid_record_sample(
         pose: (6,) ᴵT_B as [x, y, z, roll, pitch, yaw] [m, rad].
         x: (9,) xi [m, rad].
         held: (4, 4) ᴵT_E*.
-        landing: (3, 3) inertial → landing frame; g0: (3,) the gangway vector at t = 0 in it.
+        landing: (3, 3) inertial → landing frame; phi0, theta0: [rad] the gangway's azimuth
+            and elevation in it at t = 0 (`hybrid_record_lane`).
         const: hybrid constants.
         legs_out: (6,) [m]; error_out: (6,) [m, rad] in B; scalars_out: (N_SCALARS,) written.
         work: `record_work()`, overwritten.
     """
     rotations, frames, axes, vectors, J = work
-    R_IB, R_BP, R_err = rotations[0], rotations[1], rotations[2]
+    R_IB, R_BP, R_err, R_d = rotations[0], rotations[1], rotations[2], rotations[3]
     up, g = axes[0], axes[1]
     rpy_to_matrix_lane(pose[3], pose[4], pose[5], R_IB)
     rpy_to_matrix_lane(x[3], x[4], x[5], R_BP)
@@ -84,13 +86,13 @@ def hybrid_record_sample(
         d = 0.0
         for k in range(3):
             d += R_IB[k, i] * (held[k, 3] - pose[k])
+            R_d[i, k] = R_IB[0, i] * held[0, k] + R_IB[1, i] * held[1, k] + R_IB[2, i] * held[2, k]
         error_out[i] = d - T_E[i, 3]
+    for i in range(3):
         for j in range(3):
             s = 0.0
             for k in range(3):
-                # (ᴮR_d)_ik = Σ_m R_IB[m, i] held[m, k]; times (ᴮR_E)_jk
-                rd = R_IB[0, i] * held[0, k] + R_IB[1, i] * held[1, k] + R_IB[2, i] * held[2, k]
-                s += rd * T_E[j, k]
+                s += R_d[i, k] * T_E[j, k]
             R_err[i, j] = s
     so3_log_lane(R_err, error_out[3:])
     # legs and manipulability
@@ -103,8 +105,8 @@ def hybrid_record_sample(
     gl0 = landing[0, 0] * g[0] + landing[0, 1] * g[1] + landing[0, 2] * g[2]
     gl1 = landing[1, 0] * g[0] + landing[1, 1] * g[1] + landing[1, 2] * g[2]
     gl2 = landing[2, 0] * g[0] + landing[2, 1] * g[1] + landing[2, 2] * g[2]
-    scalars_out[S_PHI_E] = math.atan2(gl1, gl0) - math.atan2(g0[1], g0[0])
-    scalars_out[S_THETA_E] = math.atan2(gl2, gl0) - math.atan2(g0[2], g0[0])
+    scalars_out[S_PHI_E] = math.atan2(gl1, gl0) - phi0
+    scalars_out[S_THETA_E] = math.atan2(gl2, gl0) - theta0
     u0, u1, u2 = held[0, 0], held[1, 0], held[2, 0]
     c0 = up[1] * u2 - up[2] * u1
     c1 = up[2] * u0 - up[0] * u2
@@ -118,6 +120,7 @@ def hybrid_record_sample(
 def hybrid_record_lane(
     poses: np.ndarray,
     xs: np.ndarray,
+    first: int,
     held: np.ndarray,
     landing: np.ndarray,
     g0: np.ndarray,
@@ -132,18 +135,23 @@ def hybrid_record_lane(
     counting (two atomic operations per view and sample in the runner).
 
     Args:
-        poses: (T, 6) ᴵT_B per sample; xs: (T, 9) xi per sample [m, rad].
-        held, landing, g0, const, work: as in `hybrid_record_sample`.
+        poses: (S, 6) ᴵT_B per sample; xs: (S, 9) xi per sample [m, rad].
+        first: the first sample recorded: samples first … S − 1 are (T = S − first).
+        landing: (3, 3) inertial → landing frame; g0: (3,) the gangway vector at t = 0 in it.
+        held, const, work: as in `hybrid_record_sample`.
         legs_out: (T, 6) [m]; errors_out: (T, 6) [m, rad]; scalars_out: (T, N_SCALARS) written.
     """
-    for k in range(xs.shape[0]):
-        hybrid_record_sample(poses[k], xs[k], held, landing, g0, const, legs_out[k],
-                             errors_out[k], scalars_out[k], work)  # fmt: skip
+    phi0, theta0 = math.atan2(g0[1], g0[0]), math.atan2(g0[2], g0[0])  # once per lane
+    for k in range(first, xs.shape[0]):
+        i = k - first
+        hybrid_record_sample(poses[k], xs[k], held, landing, phi0, theta0, const, legs_out[i],
+                             errors_out[i], scalars_out[i], work)  # fmt: skip
 
 
 def run_hybrid_records(
     poses: np.ndarray,
     xs: np.ndarray,
+    first: int,
     held: np.ndarray,
     landing: np.ndarray,
     gangway0: np.ndarray,
@@ -152,16 +160,17 @@ def run_hybrid_records(
     errors: np.ndarray,
     scalars: np.ndarray,
 ) -> None:
-    """Records of N lanes × T samples.
+    """Records of N lanes × T samples: samples first … S − 1 of S (a chunk's states as the
+    kernel wrote them, its start in row 0, need no copy without it).
 
     Args:
-        poses: (N, T, 6) base poses; xs: (N, T, 9) states; held: (N, 4, 4);
-        landing: (N, 3, 3); gangway0: (N, 3); const: hybrid constants.
-        legs: (N, T, 6), errors: (N, T, 6), scalars: (N, T, N_SCALARS), written.
+        poses: (N, S, 6) base poses; xs: (N, S, 9) states; first: the first sample recorded;
+        held: (N, 4, 4); landing: (N, 3, 3); gangway0: (N, 3); const: hybrid constants.
+        legs: (N, T, 6), errors: (N, T, 6), scalars: (N, T, N_SCALARS), written (T = S − first).
     """
     for n in prange(xs.shape[0]):
-        hybrid_record_lane(poses[n], xs[n], held[n], landing[n], gangway0[n], const, legs[n],
-                           errors[n], scalars[n], record_work())  # fmt: skip
+        hybrid_record_lane(poses[n], xs[n], first, held[n], landing[n], gangway0[n], const,
+                           legs[n], errors[n], scalars[n], record_work())  # fmt: skip
 
 
 @cache

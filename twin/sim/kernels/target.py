@@ -40,6 +40,48 @@ def desired_lane(pose: np.ndarray, held: np.ndarray, R_IB: np.ndarray, out: np.n
         )
 
 
+@register_borrowing
+def held_targets_lane(
+    poses: np.ndarray,
+    held: np.ndarray,
+    dt: float,
+    out: np.ndarray,
+    R_IB: np.ndarray,
+    now: np.ndarray,
+    nxt: np.ndarray,
+    R_step: np.ndarray,
+    w: np.ndarray,
+) -> None:
+    """One lane's held targets (`run_held_targets`): the loop is here, not in the runner,
+    because a borrowing function takes its per-sample views without reference counting.
+
+    Args:
+        poses: (B + 1, 6) ᴵT_B [m, rad]; held: (4, 4) ᴵT*; dt: [s].
+        out: (B, 18) written.
+        R_IB, R_step: (3, 3), now, nxt: (12,), w: (3,): scratch.
+    """
+    desired_lane(poses[0], held, R_IB, nxt)
+    for k in range(out.shape[0]):
+        for i in range(12):
+            now[i] = nxt[i]
+        desired_lane(poses[k + 1], held, R_IB, nxt)
+        for i in range(3):  # ᴮR_d(k+1) ᴮR_d(k)ᵀ
+            for j in range(3):
+                R_step[i, j] = (
+                    nxt[3 * i] * now[3 * j]
+                    + nxt[3 * i + 1] * now[3 * j + 1]
+                    + nxt[3 * i + 2] * now[3 * j + 2]
+                )
+        so3_log_lane(R_step, w)
+        row = out[k]
+        for i in range(9):
+            row[TARGET_R + i] = now[i]
+        for i in range(3):
+            row[TARGET_P + i] = now[9 + i]
+            row[TARGET_V + i] = (nxt[9 + i] - now[9 + i]) / dt
+            row[TARGET_W + i] = w[i] / dt
+
+
 def run_held_targets(poses: np.ndarray, held: np.ndarray, dt: float, out: np.ndarray) -> None:
     """The held targets of N lanes over B samples.
 
@@ -50,27 +92,8 @@ def run_held_targets(poses: np.ndarray, held: np.ndarray, dt: float, out: np.nda
         out: (N, B, 18) written, rows `twin.sim.kernels.layout.TARGET_*`.
     """
     for n in prange(poses.shape[0]):
-        R_IB, now, nxt = np.empty((3, 3)), np.empty(12), np.empty(12)
-        R_step, w = np.empty((3, 3)), np.empty(3)
-        desired_lane(poses[n, 0], held[n], R_IB, nxt)
-        for k in range(out.shape[1]):
-            now[:] = nxt
-            desired_lane(poses[n, k + 1], held[n], R_IB, nxt)
-            for i in range(3):  # ᴮR_d(k+1) ᴮR_d(k)ᵀ
-                for j in range(3):
-                    R_step[i, j] = (
-                        nxt[3 * i] * now[3 * j]
-                        + nxt[3 * i + 1] * now[3 * j + 1]
-                        + nxt[3 * i + 2] * now[3 * j + 2]
-                    )
-            so3_log_lane(R_step, w)
-            row = out[n, k]
-            for i in range(9):
-                row[TARGET_R + i] = now[i]
-            for i in range(3):
-                row[TARGET_P + i] = now[9 + i]
-                row[TARGET_V + i] = (nxt[9 + i] - now[9 + i]) / dt
-                row[TARGET_W + i] = w[i] / dt
+        held_targets_lane(poses[n], held[n], dt, out[n], np.empty((3, 3)), np.empty(12),
+                          np.empty(12), np.empty((3, 3)), np.empty(3))  # fmt: skip
 
 
 @cache
