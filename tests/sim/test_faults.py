@@ -187,6 +187,20 @@ def test_hold_nonfinite_fills_from_the_sample_before() -> None:
     assert not hold_nonfinite(untouched, previous).any()
 
 
+def test_hold_nonfinite_on_views_of_shared_arrays() -> None:
+    """Records that are views of one array (the kernel's diagnostics, say) are held alike: a
+    NaN in the array but outside every view changes nothing, one inside a view is held."""
+    diag = np.ones((2, 4, 3))
+    diag[1, 3, 2] = np.nan  # outside both views below
+    records = {"a": diag[:, :3, 0], "b": diag[:, :3, 1:2]}
+    previous = {"a": np.zeros(2), "b": np.zeros((2, 1))}
+    assert not hold_nonfinite(records, previous).any()
+    diag[0, 1, 1] = np.inf
+    rows = hold_nonfinite(records, previous)
+    assert rows.tolist() == [[False, True, False], [False, False, False]]
+    assert diag[0, 1, 1] == 1.0 and np.isnan(diag[1, 3, 2])
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_fault_log_of_a_chunk_equals_step_by_step(seed: int) -> None:
     """`add_chunk` gives `add`'s counts, holds and events, across chunk edges, whatever the

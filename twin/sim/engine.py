@@ -145,7 +145,9 @@ class Simulation:
                 for s in self.scenarios
             ]
         ).astype(float)
-        at_rest = np.stack([b.mount.pose(np.zeros((1, 6)))[0] for b in self.base_motions])
+        # every lane sits on its mechanism's mount: the pose at rest is computed once
+        at_rest = np.broadcast_to(self.base_motions[0].mount.pose(np.zeros((1, 6)))[0],
+                                  (self.n_lanes, 6))  # fmt: skip
         block = self._sample(self.base_motions, 0, at_rest)
         T_IB0 = pose_to_transform(block.poses[:, 0])
         self.lanes = LANES[first.mechanism](self.mechanism, x0, T_IB0, self.compiled)

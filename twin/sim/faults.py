@@ -78,11 +78,19 @@ def hold_nonfinite(records: dict[str, np.ndarray], previous: dict[str, np.ndarra
     """
     N, m = next(iter(records.values())).shape[:2]
     rows = np.zeros((N, m), dtype=bool)
+    owners: dict[int, bool] = {}  # id of an array the records view → all of it finite
     for key, values in records.items():
-        finite = np.isfinite(values)
-        if finite.all():  # the common case: one pass, no second mask
+        # Most records are views of a few arrays (the kernel's states and diagnostics, the
+        # record runner's outputs): one contiguous check of each array the views share clears
+        # them all, where a check per strided view reads the same memory many times over.
+        owner = values.base if isinstance(values.base, np.ndarray) else values
+        if id(owner) not in owners:
+            owners[id(owner)] = bool(np.isfinite(owner).all())
+        if owners[id(owner)]:
             continue
-        bad = ~finite
+        bad = ~np.isfinite(values)
+        if not bad.any():  # a non-finite value outside this view
+            continue
         touched = bad.reshape(N, m, -1).any(-1)
         rows |= touched
         for lane, j in zip(*np.nonzero(touched), strict=True):
