@@ -240,12 +240,9 @@ class Simulation:
     def results(self) -> list[SimulationResult]:
         """Every lane's result, in order, each equal to `result(lane)`: the metrics of all lanes
         are reduced in one call over the history's arrays in place (`lanes.metrics_lanes`)."""
-        series = [self._result_series(i) for i in range(self.n_lanes)]
         if not self.history.complete:  # a wrapped ring: a lane's samples do not start at slot 0
-            return [
-                SimulationResult(s, x, self.metrics(x, i))
-                for i, (s, x) in enumerate(zip(self.scenarios, series, strict=True))
-            ]
+            return [self.result(i) for i in range(self.n_lanes)]
+        series = [self._result_series(i) for i in range(self.n_lanes)]
         ends = np.array([len(x["t"]) for x in series])
         modes = [s.joint_limits for s in self.scenarios]
         reduced = self.lanes.metrics_lanes(self.history.data, ends, modes)

@@ -213,7 +213,7 @@ class HybridLanes:
         self, series: dict[str, np.ndarray], lane: int, joint_limits: str = "record"
     ) -> dict:
         del lane  # Unused: every lane is the same machine.
-        return hybrid_metrics(series, self.mechanism, joint_limits)
+        return hybrid_metrics(series, self.mechanism, joint_limits, self.compiled)
 
     def metrics_lanes(
         self, data: dict[str, np.ndarray], ends: np.ndarray, joint_limits: Sequence[str]

@@ -62,7 +62,10 @@ def efficacy(alpha_top: np.ndarray, alpha_bottom: np.ndarray) -> dict[str, float
 
 
 def hybrid_metrics(
-    series: dict[str, np.ndarray], mechanism: HybridBoardingSystem, joint_limits: str = "record"
+    series: dict[str, np.ndarray],
+    mechanism: HybridBoardingSystem,
+    joint_limits: str = "record",
+    compiled: bool = True,
 ) -> dict:
     """Metrics of a hybrid-system run from its series (`twin.sim.records.hybrid_records`).
 
@@ -73,12 +76,12 @@ def hybrid_metrics(
     Legs count beyond Table 1's stroke by more than its millimetre precision: the geometry's
     stowed legs, 2.57986 m, are Table 1's 2.58 m.
 
-    The reduction is the compiled one wherever numba imports (`hybrid_metrics_lanes` on this
-    one lane); the interpreted one gives the same numbers.
+    The reduction is `hybrid_metrics_lanes` on this one lane: compiled (where numba imports),
+    or with compiled=False interpreted, as the engine runs its kernels; the same numbers.
     """
     lane = {key: series[key][None] for key in kernel.REDUCED}
     ends = np.array([len(series["t"])])
-    return hybrid_metrics_lanes(lane, ends, mechanism, [joint_limits], compiled=True)[0]
+    return hybrid_metrics_lanes(lane, ends, mechanism, [joint_limits], compiled)[0]
 
 
 def hybrid_metrics_lanes(
