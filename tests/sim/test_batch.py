@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import threading
 
 import numpy as np
 import pytest
@@ -128,6 +129,66 @@ def test_order_and_mixed_groups_are_kept() -> None:
     assert [r.scenario.planner for r in results] == ["pi", "mtmp", "pi"]
     assert [len(r.series["t"]) for r in results] == [21, 11, 41]
     assert results[0].series["xi"][0] == pytest.approx(HybridBoardingSystem().working_state)
+
+
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+def test_lanes_split_over_threads_give_the_same_numbers(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A group of lanes run as one Simulation per thread, each thread's runners serial, gives
+    the numbers of the group in one Simulation with runners parallel over its lanes."""
+    import numba
+
+    from twin.sim import engine
+
+    scenarios = [{"planner": "mtmp", "sea_state": 4, "seed": s, "duration": 3.0} for s in range(6)]
+    scenarios += [{"planner": "dwa", "sea_state": 6, "seed": s, "duration": 3.0} for s in range(6)]
+    monkeypatch.setattr(engine, "numba_threads", lambda: 2)  # two threads on any machine
+    monkeypatch.setattr(engine, "MIN_THREAD_LANES", 10**6)
+    together = simulate_many(scenarios)
+    monkeypatch.setattr(engine, "MIN_THREAD_LANES", 4)
+    names: set[str] = set()
+    original = engine.Simulation.advance
+
+    def advance(self: engine.Simulation, n: int) -> int:
+        names.add(threading.current_thread().name)
+        assert numba.get_num_threads() == 1  # the part's runners are serial on its thread
+        return original(self, n)
+
+    monkeypatch.setattr(engine.Simulation, "advance", advance)
+    split = simulate_many(scenarios)
+    assert len(names) == 2 and all(name.startswith("lanes") for name in names)
+    for expected, actual in zip(together, split, strict=True):
+        assert actual.scenario == expected.scenario
+        assert_same(expected, actual)
+
+
+@pytest.mark.parametrize(
+    ("size", "threads", "sizes"),
+    [(3, 2, [3]), (16, 2, [8, 8]), (17, 2, [9, 8]), (15, 2, [15]), (600, 2, [200, 200, 200]),
+     (64, 8, [8] * 8), (256, 1, [256]), (257, 1, [129, 128])],
+)  # fmt: skip
+def test_lane_parts(size: int, threads: int, sizes: list[int]) -> None:
+    """At most MAX_LANES lanes a Simulation; one part per thread where each has ≥ 8 lanes."""
+    from twin.sim.engine import lane_parts
+
+    parts = lane_parts(list(range(size)), threads)
+    assert [len(p) for p in parts] == sizes
+    assert [i for p in parts for i in p] == list(range(size))
+
+
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+def test_one_thread_picks_the_serial_runners() -> None:
+    """Under `limit_threads(1)` a many-lane runner is the serial one, and the count returns."""
+    from twin.sim.kernels.compile import limit_threads, numba_threads, pick_runner
+
+    def factory(parallel: bool) -> str:
+        return "parallel" if parallel else "serial"
+
+    before = numba_threads()
+    with limit_threads(1):
+        assert pick_runner(factory, print, True, 64) == "serial"
+    assert numba_threads() == before
+    assert pick_runner(factory, print, True, 64) == ("parallel" if before > 1 else "serial")
+    assert pick_runner(factory, print, False, 64) is print
 
 
 @pytest.mark.parametrize(

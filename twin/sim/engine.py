@@ -24,8 +24,10 @@ step, and each such step is flagged (`twin.sim.faults`) and counted in the metri
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,6 +47,7 @@ from twin.sim.faults import (
 )
 from twin.sim.history import History
 from twin.sim.kernels import layout
+from twin.sim.kernels.compile import limit_threads, numba_threads
 from twin.sim.lanes import HybridLanes, PlatformLanes, runner, use_numba
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import Scenario
@@ -413,6 +416,8 @@ def simulate(
 
 #: most scenarios stepped together; larger groups run in Simulations of this size
 MAX_LANES = 256
+#: fewest lanes worth a thread of their own (`simulate_many`)
+MIN_THREAD_LANES = 8
 
 
 def simulate_many(
@@ -420,7 +425,14 @@ def simulate_many(
 ) -> list[SimulationResult]:
     """Run many scenarios: the same results as `[simulate(s) for s in scenarios]` (tested),
     stepped together in lanes — scenarios of one mechanism, dt and number of steps share a
-    `Simulation` (the kernel runs its lanes in parallel threads).
+    `Simulation`.
+
+    With several numba threads, a group of lanes is split into one `Simulation` per thread
+    (at least MIN_THREAD_LANES lanes each), each run on a thread of its own with its runners
+    serial: the runners release the GIL, so one part's Python bookkeeping (sampling, copying
+    into the history, results) overlaps the other parts' compiled steps, where lanes in one
+    Simulation would leave all but one core idle while it runs. A lane's numbers do not depend
+    on which lanes it runs beside.
 
     Args:
         scenarios: `Scenario`s or dicts of their fields (validated).
@@ -434,22 +446,44 @@ def simulate_many(
         ValueError: a bad scenario (naming the field) or an unknown or unavailable engine.
     """
     scenarios = [s if isinstance(s, Scenario) else Scenario(**s) for s in scenarios]
-    use_numba(engine)  # an unknown engine fails before any work
+    threads = numba_threads() if use_numba(engine) else 1  # an unknown engine fails here
     groups: dict[tuple, list[int]] = {}
     for i, s in enumerate(scenarios):
         groups.setdefault((s.mechanism, s.dt, round(s.duration / s.dt)), []).append(i)
+    parts = sorted((part for members in groups.values() for part in lane_parts(members, threads)),
+                   key=len, reverse=True)  # fmt: skip
     results: list[SimulationResult | None] = [None] * len(scenarios)
-    total = sum(round(s.duration / s.dt) * 1 for s in scenarios)
+    total = sum(round(s.duration / s.dt) for s in scenarios)
+    lock = threading.Lock()
     with tqdm(total=total, disable=not progress, unit="step", unit_scale=True) as bar:
-        for members in groups.values():
-            for start in range(0, len(members), MAX_LANES):
-                lanes = members[start : start + MAX_LANES]
-                sim = Simulation([scenarios[i] for i in lanes], engine=engine)
-                while not sim.done:
-                    bar.update(sim.advance(sim._block_size) * len(lanes))
-                for i, result in zip(lanes, sim.results(), strict=True):
-                    results[i] = result
+
+        def run(lanes: list[int]) -> None:
+            sim = Simulation([scenarios[i] for i in lanes], engine=engine)
+            while not sim.done:
+                steps = sim.advance(sim._block_size) * len(lanes)
+                with lock:
+                    bar.update(steps)
+            for i, result in zip(lanes, sim.results(), strict=True):
+                results[i] = result
+
+        def run_serial(lanes: list[int]) -> None:
+            with limit_threads(1):
+                run(lanes)
+
+        if threads > 1 and len(parts) > 1:
+            with ThreadPoolExecutor(threads, thread_name_prefix="lanes") as pool:
+                list(pool.map(run_serial, parts))  # re-raises a part's error here
+        else:
+            for lanes in parts:
+                run(lanes)
     return results  # type: ignore[return-value]
+
+
+def lane_parts(members: list[int], threads: int) -> list[list[int]]:
+    """A group's lanes split into Simulations: at most MAX_LANES each, and into `threads`
+    near-equal parts where each would have at least MIN_THREAD_LANES lanes."""
+    n = max(-(-len(members) // MAX_LANES), min(threads, len(members) // MIN_THREAD_LANES), 1)
+    return [part.tolist() for part in np.array_split(np.array(members), n)]
 
 
 def warm(engine: str = "auto") -> float:

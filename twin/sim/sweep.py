@@ -24,8 +24,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -39,6 +38,7 @@ from twin.errors import TwinError
 from twin.planners import get_planner
 from twin.sim.batch import simulate_many
 from twin.sim.executor import SWEEP_PRIORITY, Executor
+from twin.sim.kernels.compile import limit_threads
 from twin.sim.scenario import TP_RANGE, Scenario
 
 #: most grid cells (Hs × Tp × heading × planner × β × k_e × k_c) one sweep may ask for
@@ -304,7 +304,7 @@ def run_chunk(
         threads: numba threads for the chunk (1 on a cluster of one worker per core; None:
             numba's own count).
     """
-    with _numba_threads(threads):
+    with limit_threads(threads):
         results = simulate_many(scenarios)
     rows = []
     for fields, result in zip(scenarios, results, strict=True):
@@ -496,25 +496,6 @@ def _collect(
     bar.update(len(chunk))
     if on_progress is not None:
         on_progress(sum(row is not None for row in rows), len(rows))  # a bar may be disabled
-
-
-@contextmanager
-def _numba_threads(n: int | None) -> Iterator[None]:
-    """Limit numba's threads for the block (no-op without numba or with n None)."""
-    try:
-        import numba
-    except ImportError:
-        yield
-        return
-    if n is None:
-        yield
-        return
-    before = numba.get_num_threads()
-    numba.set_num_threads(n)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(before)
 
 
 def _plain(value: Any) -> Any:
