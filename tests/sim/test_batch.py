@@ -92,6 +92,28 @@ def test_rough_sea_with_damping_and_rate_limits(engine: str) -> None:
     assert_same(expected, simulate_many([scenario, {**scenario, "seed": 1}], engine=engine)[0])
 
 
+def test_base_motions_built_together_equal_each_built_alone() -> None:
+    """`BaseMotion.many` (one RAO interpolation per vessel and speed) gives each lane the
+    terms its own `response_amplitudes` call gives, bit for bit, across vessels, speeds,
+    mechanisms, component counts and a regular-wave preset."""
+    from twin.sim.base_motion import mount_for
+
+    scenarios = [
+        Scenario(sea_state=4, seed=1),
+        Scenario(sea_state=6, seed=2, n_components=37, forward_speed=3.0),
+        Scenario(mechanism="upr4", hs=1.0, tp=6.0, seed=3, vessel="barge"),
+        Scenario(sea_state=5, seed=4, vessel="asv", heading=150.0),
+        Scenario(mechanism="upr4", regular_waves="state2"),
+        Scenario(sea_state=4, seed=5, forward_speed=3.0),
+    ]
+    for s, together in zip(scenarios, BaseMotion.many(scenarios), strict=True):
+        alone = BaseMotion(s.components(), mount_for(s.mechanism), vessel=s.vessel,
+                           speed=s.forward_speed)  # fmt: skip
+        assert together.raos is alone.raos and together.mount == alone.mount
+        np.testing.assert_array_equal(together.omega_e, alone.omega_e)
+        np.testing.assert_array_equal(together.amplitude, alone.amplitude)
+
+
 def test_uniform_poses_equal_vessel_motion_on_the_mount() -> None:
     """The compiled phasor sum is vessel_motion at t = t0 + k dt put on the mount, from t = 0
     and from a later start (a chunk of a running simulation), lane by lane in one call, with

@@ -72,10 +72,10 @@ def test_a_sea_change_that_fails_changes_nothing(monkeypatch: pytest.MonkeyPatch
     run(sim, 5)
     before = (sim.scenario, sim.base_motion, sim.k)
 
-    def broken(scenario):
+    def broken(cls, scenarios):
         raise ValueError("tp: the RAO table does not reach this frequency")
 
-    monkeypatch.setattr(BaseMotion, "of", broken)
+    monkeypatch.setattr(BaseMotion, "many", classmethod(broken))
     with pytest.raises(ValueError, match="RAO table"):
         sim.update({"sea_state": 6, "beta": 0.2})
     assert (sim.scenario, sim.base_motion, sim.k) == before and sim.scenario.beta == 0.7

@@ -39,6 +39,8 @@ class BaseMotion:
         mount: where the base sits on which vessel.
         vessel: RAO table name, overriding the mount's.
         speed: [m/s] forward speed.
+        terms: (omega_e, amplitude), `response_amplitudes` of these components on this
+            vessel at this speed when already computed (`many`); None computes them.
     """
 
     def __init__(
@@ -47,23 +49,48 @@ class BaseMotion:
         mount: Mount,
         vessel: str | None = None,
         speed: float = 0.0,
+        terms: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> None:
         self.components = components
         self.mount = mount
         self.raos = raos_named(vessel or mount.vessel)
         self.speed = speed
         # the terms vessel_motion sums, interpolated from the RAO table once per sea
-        self.omega_e, self.amplitude = response_amplitudes(components, self.raos, 0.0, speed)
+        if terms is None:
+            terms = response_amplitudes(components, self.raos, 0.0, speed)
+        self.omega_e, self.amplitude = terms
 
     @classmethod
     def of(cls, scenario: Scenario) -> BaseMotion:
         """The base motion of a scenario: its sea, its mechanism's mount, its vessel."""
-        return cls(
-            scenario.components(),
-            mount_for(scenario.mechanism),
-            vessel=scenario.vessel,
-            speed=scenario.forward_speed,
-        )
+        return cls.many([scenario])[0]
+
+    @classmethod
+    def many(cls, scenarios: Sequence[Scenario]) -> list[BaseMotion]:
+        """`of` each scenario, the same numbers: the response terms of every lane on one
+        vessel at one speed come from one `response_amplitudes` call over all their
+        components (elementwise, so each lane's equal its own call's), where a call per lane
+        would cost mostly its fixed overhead."""
+        seas = [s.components() for s in scenarios]
+        mounts = [mount_for(s.mechanism) for s in scenarios]
+        vessels = [s.vessel or m.vessel for s, m in zip(scenarios, mounts, strict=True)]
+        groups: dict[tuple[str, float], list[int]] = {}
+        for i, s in enumerate(scenarios):
+            groups.setdefault((vessels[i], s.forward_speed), []).append(i)
+        terms: list[tuple[np.ndarray, np.ndarray]] = [None] * len(scenarios)  # type: ignore[list-item]
+        for (vessel, speed), lanes in groups.items():
+            every = WaveComponents(*(np.concatenate([getattr(seas[i], field) for i in lanes])
+                                     for field in ("omega", "amplitude", "phase", "direction")))
+            omega_e, amplitude = response_amplitudes(every, raos_named(vessel), 0.0, speed)
+            ends = np.cumsum([seas[i].omega.size for i in lanes])[:-1]
+            for i, w, a in zip(lanes, np.split(omega_e, ends), np.split(amplitude, ends),
+                               strict=True):  # fmt: skip
+                terms[i] = (w, a)
+        return [
+            cls(sea, mount, vessel=vessel, speed=s.forward_speed, terms=t)
+            for s, sea, mount, vessel, t in zip(scenarios, seas, mounts, vessels, terms,
+                                                strict=True)
+        ]  # fmt: skip
 
     def poses(self, t: np.ndarray) -> np.ndarray:
         """(N, 6) inertial base poses at times t (N,) [s] (`twin.vessel.vessel_motion`)."""

@@ -138,7 +138,7 @@ class Simulation:
         self.n_steps = max(round(s.duration / s.dt) for s in self.scenarios)
         self.k = 0
         self.mechanism = MECHANISMS[first.mechanism]()
-        self.base_motions = [BaseMotion.of(s) for s in self.scenarios]
+        self.base_motions = BaseMotion.many(self.scenarios)
         self._block_size = LIVE_BLOCK if history_limit else min(
             MAX_BLOCK, max(16, BLOCK // self.n_lanes)
         )
@@ -353,7 +353,7 @@ class Simulation:
         base_motions, block = self.base_motions, self._block
         local = self.k - block.start
         if changed & SEA_FIELDS or local >= block.steps:  # a new sea, or the block is used up
-            base_motions = [BaseMotion.of(s) for s in new] if changed & SEA_FIELDS else base_motions
+            base_motions = BaseMotion.many(new) if changed & SEA_FIELDS else base_motions
             now = block.poses[:, min(local, block.steps)]
             block = self._with_targets(self._sample(base_motions, self.k, now, n_steps))
         replan = bool(changed - SEA_FIELDS - {"duration", "joint_limits"})
