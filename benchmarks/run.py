@@ -10,10 +10,10 @@
   Pinocchio chain, in a plain Python loop (`pinocchio_peer.py`), tracking the reference
   scenario's held-tip targets as the engine builds them;
 - `simulate()` of the reference run (seed 000's MTMP at WMO 4, 200 s) end to end, with where
-  its time goes;
+  its CPU time goes;
 - `simulate()` of 200 s for every other planner, mechanism and joint-limit mode;
 - the interpreted engine (`engine="python"`, the fallback without numba) on a short run;
-- `simulate_many` at N = 256, end to end, with where its time goes and the kernel alone;
+- `simulate_many` at N = 256, end to end, with where its CPU time goes and the kernel alone;
 - a sweep of 1000 × 200 s runs in-process and on a two-worker Dask `LocalCluster`;
 - scaling with duration and with N, with the fitted exponent;
 - numba's compile time on first use (no cache) and its load time from the cache;
@@ -35,6 +35,7 @@ import platform
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -49,6 +50,7 @@ from twin.mechanisms import HybridBoardingSystem
 from twin.planners import PLANNERS
 from twin.sim import PAPER_PRESETS, Scenario, Simulation, simulate, simulate_many
 from twin.sim.base_motion import BaseMotion
+from twin.sim.kernels.compile import numba_threads
 from twin.sim.lanes import HybridLanes, PlatformLanes, numba_available
 from twin.sim.live import LiveSession
 from twin.sim.sweep import SweepSpec, run_sweep
@@ -111,7 +113,7 @@ def fit_exponent(x: list[float], y: list[float]) -> str:
 #: phase name → (owner, method) timed by `phases` (a call inside another timed call counts
 #: for the outer one)
 PHASES = {
-    "sea": [(BaseMotion, "of"), (Simulation, "_sample")],
+    "sea": [(BaseMotion, "many"), (Simulation, "_sample")],
     "targets": [(Simulation, "_with_targets")],
     "planner set-up": [(Simulation, "_pack")],
     "kernel": [(HybridLanes, "run"), (PlatformLanes, "run")],
@@ -127,26 +129,30 @@ PHASES = {
 
 @contextmanager
 def phases() -> Iterator[dict[str, float]]:
-    """Time the engine's phases while inside: yields {phase: [s]}, filled as it runs.
+    """Time the engine's phases while inside: yields {phase: [core-s]}, filled as it runs, the
+    CPU time of the calling threads (`time.thread_time`) summed over every thread that runs a
+    phase (`simulate_many` runs parts of a batch on threads of its own).
 
     Wraps the methods of `PHASES` on their classes (a benchmark's instrument, restored on
     exit); the wrappers cost a few microseconds per chunk.
     """
     spent = dict.fromkeys(PHASES, 0.0)
-    active = [False]
+    inside = threading.local()  # a phase called inside another counts for the outer one
+    lock = threading.Lock()
     saved = []
 
     def wrap(name: str, function: Callable) -> Callable:
         def timed(*args: object, **kwargs: object) -> object:
-            if active[0]:
+            if getattr(inside, "active", False):
                 return function(*args, **kwargs)
-            active[0] = True
-            start = time.perf_counter()
+            inside.active = True
+            start = time.thread_time()
             try:
                 return function(*args, **kwargs)
             finally:
-                spent[name] += time.perf_counter() - start
-                active[0] = False
+                with lock:
+                    spent[name] += time.thread_time() - start
+                inside.active = False
 
         return timed
 
@@ -165,25 +171,29 @@ def phases() -> Iterator[dict[str, float]]:
             setattr(owner, attribute, raw)
 
 
-def timed_phases(function: Callable[[], object], repeat: int) -> tuple[float, dict[str, float]]:
-    """Best wall time [s] of `repeat` calls of function() and that call's phase times."""
-    best_time, best_split = np.inf, {}
+def timed_phases(
+    function: Callable[[], object], repeat: int
+) -> tuple[float, float, dict[str, float]]:
+    """Of the fastest of `repeat` calls of function(): its wall time [s], the process's CPU
+    time over it [core-s] and its phases' CPU times [core-s] (`phases`)."""
+    best_time, best_cpu, best_split = np.inf, np.inf, {}
     for _ in range(repeat):
         with phases() as spent:
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.process_time()
             function()
-            elapsed = time.perf_counter() - start
+            elapsed, used = time.perf_counter() - start, time.process_time() - cpu
         if elapsed < best_time:
-            best_time, best_split = elapsed, dict(spent)
-    return best_time, best_split
+            best_time, best_cpu, best_split = elapsed, used, dict(spent)
+    return best_time, best_cpu, best_split
 
 
-def split_text(total: float, spent: dict[str, float]) -> str:
-    """'kernel 4.1 ms (20 %), …, other …' for a breakdown of `total` [s]."""
-    unit, scale = ("ms", 1e3) if total < 1.0 else ("s", 1.0)
-    parts = {**spent, "other": total - sum(spent.values())}
-    return ", ".join(
-        f"{name} {scale * t:.{2 if unit == 's' else 1}f} {unit} ({100 * t / total:.0f} %)"
+def split_text(cpu: float, spent: dict[str, float]) -> str:
+    """'kernel 4.1 ms (20 %), …, other …' for a breakdown of `cpu` [core-s] of CPU time, other
+    the part no phase accounts for."""
+    unit, scale = ("ms", 1e3) if cpu < 1.0 else ("s", 1.0)
+    parts = {**spent, "other": max(0.0, cpu - sum(spent.values()))}
+    return f"CPU {scale * cpu:.{2 if unit == 's' else 1}f} {unit}: " + ", ".join(
+        f"{name} {scale * t:.{2 if unit == 's' else 1}f} {unit} ({100 * t / cpu:.0f} %)"
         for name, t in sorted(parts.items(), key=lambda item: -item[1])
     )
 
@@ -380,8 +390,8 @@ def main(quick: bool = False) -> None:
         f"≤ {SINGLE_TARGET:.1f}× peer",
         t <= SINGLE_TARGET * t_peer,
     )
-    t, split = timed_phases(lambda: simulate(single), 5)
-    row(f"simulate(), {REFERENCE}: where the time goes", split_text(t, split))
+    _, cpu, split = timed_phases(lambda: simulate(single), 5)
+    row(f"simulate(), {REFERENCE}: where the CPU time goes", split_text(cpu, split))
 
     # every other planner, mechanism and mode (qp against issue 15's target)
     for label, scenario in others:
@@ -411,12 +421,12 @@ def main(quick: bool = False) -> None:
     # simulate_many at N = 256, interleaved with the peer as simulate() is above: the machine's
     # speed drifts over minutes, so the batch divides by the peer measured beside it
     scenarios = [single.model_copy(update={"seed": i}) for i in range(n_batch)]
-    batch_peer, t, split = np.inf, np.inf, {}
+    batch_peer, t, cpu, split = np.inf, np.inf, np.inf, {}
     for _ in range(4):
         batch_peer = min(batch_peer, best(lambda: peer.run(q0, targets, twists, 0.05), 3))
-        t_batch, split_batch = timed_phases(lambda: simulate_many(scenarios), 1)
+        t_batch, cpu_batch, split_batch = timed_phases(lambda: simulate_many(scenarios), 1)
         if t_batch < t:
-            t, split = t_batch, split_batch
+            t, cpu, split = t_batch, cpu_batch, split_batch
     batch_peer_rate = steps / batch_peer
     rate = n_batch * steps / t
     row(
@@ -426,15 +436,19 @@ def main(quick: bool = False) -> None:
         f"≥ {BATCH_TARGET:g}× peer",
         rate >= BATCH_TARGET * batch_peer_rate,
     )
-    row(f"simulate_many N={n_batch}: where the time goes", split_text(t, split))
+    cores = numba_threads()
+    row(
+        f"simulate_many N={n_batch}: where the CPU time goes ({cpu / t:.2f} of {cores} cores busy)",
+        split_text(cpu, split),
+    )
     rate = n_batch * steps / split["kernel"]
     row(
-        f"simulate_many N={n_batch}: the kernel alone (plan, guard, integrate)",
-        f"{rate:,.0f} steps/s = {rate / batch_peer_rate:.1f}× peer",
+        f"simulate_many N={n_batch}: the kernel alone (plan, guard, integrate), per core",
+        f"{rate:,.0f} steps/core-s = {rate / batch_peer_rate:.1f}× peer (one core)",
     )
-    rate = n_batch * steps / (split["kernel"] + split["records"])
+    rate = cores * n_batch * steps / (split["kernel"] + split["records"])
     row(
-        f"simulate_many N={n_batch}: kernel and records alone (the ceiling end to end)",
+        f"simulate_many N={n_batch}: kernel and records alone on {cores} cores (the ceiling)",
         f"{rate:,.0f} steps/s = {rate / batch_peer_rate:.1f}× peer",
     )
 
@@ -571,12 +585,15 @@ What is measured:
   per step, as a multiple of the peer's time per step.
 - **N = 256**: 256 reference runs (sea seeds 0-255) in one `simulate_many`, end to end, best
   of 4, each after a measurement of the peer: these rows divide by the peer measured beside
-  them (the machine's speed drifts over the minutes between the first rows and these); the
-  kernel alone is the time inside the compiled runner (parallel over lanes, numba's threads).
-  Kernel and records together are the compute every sample of a result needs (plan, guard,
-  integrate; legs, tip error, manipulability, attitude angles), both compiled and parallel
-  over lanes: no end-to-end figure can pass theirs, since sea, targets, history and metrics
-  come on top.
+  them (the machine's speed drifts over the minutes between the first rows and these).
+  `simulate_many` runs the batch as one `Simulation` per numba thread, each on a thread of its
+  own with serial runners. Where the time goes is CPU time [core-s] per phase, summed over
+  those threads (`time.thread_time`), against the process's CPU time over the run; the kernel
+  alone is the CPU time inside the compiled runner, as steps per core-second against the
+  peer's on its one core. Kernel and records together are the compute every sample of a
+  result needs (plan, guard, integrate; legs, tip error, manipulability, attitude angles): no
+  end-to-end figure can pass theirs spread over every core, since sea, targets, history and
+  metrics come on top.
 - **sweep**: `run_sweep` over 10 Hs × 5 Tp × {MTMP, WPI} × 10 seeds = 1000 runs of 200 s,
   in-process and on a two-worker `LocalCluster` (start-up and shut-down shown apart).
 - **scaling**: end-to-end time against duration (N = 32) and against N (50 s runs): the
