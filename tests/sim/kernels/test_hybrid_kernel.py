@@ -523,3 +523,34 @@ def test_packing_refuses_what_the_kernel_cannot_run() -> None:
     for planner in refused:
         with pytest.raises(TwinError):
             hk.pack_differential(planner, False)
+
+
+@numba.njit(error_model="numpy")  # not cached: numba would not see an edit of the kernel
+def _factor_and_bound(A: np.ndarray, shift: float) -> tuple[bool, float, bool]:
+    """`cholesky_lane` of A into a new L (whether it succeeded), the bound of L, and whether
+    factoring a copy of A in place gave the same."""
+    L, inplace = np.zeros((6, 6)), A.copy()
+    ok = hk.cholesky_lane(A, shift, L)
+    same = hk.cholesky_lane(inplace, shift, inplace) == ok
+    for i in range(6):
+        for j in range(i + 1):
+            same = same and (not ok or inplace[i, j] == L[i, j])
+    return ok, hk.smallest_eigenvalue_bound(L) if ok else 0.0, same
+
+
+@pytest.mark.parametrize("conditioning", [1.0, 1e3, 1e8])
+def test_the_eigenvalue_bound_is_below_the_smallest_eigenvalue(conditioning: float) -> None:
+    """`smallest_eigenvalue_bound` lies in [λ_min / 6, λ_min] (so a test it passes the shifted
+    factorisation passes too), and the factorisation gives the same factor in place."""
+    rng = np.random.default_rng(int(conditioning))
+    for _ in range(50):
+        Q = np.linalg.qr(rng.normal(size=(6, 6)))[0]
+        eigenvalues = np.geomspace(1.0, conditioning, 6) * rng.uniform(0.5, 2.0)
+        A = (Q * eigenvalues) @ Q.T
+        A = (A + A.T) / 2
+        ok, bound, same = _factor_and_bound(A, 0.0)
+        lowest = np.linalg.eigvalsh(A)[0]
+        assert ok and same
+        assert lowest / 6 * (1 - 1e-9) <= bound <= lowest * (1 + 1e-9)
+        assert _factor_and_bound(A, 0.5 * bound)[0]  # the shift the kernel skips at 2× clears
+        assert not _factor_and_bound(A, 1.5 * lowest)[0]  # past λ_min the shifted one fails

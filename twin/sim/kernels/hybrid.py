@@ -28,7 +28,10 @@ the task Jacobian of seed 000 eq (24) is J = D K where
 and D is orthogonal, so J_W⁺ ẋ = W Kᵀ (K W Kᵀ + λ²I)⁻¹ Dᵀ ẋ and σ(J W^½) = σ(K W^½): the same
 planner as `twin.planners.differential` to rounding. The damping test of `weighted_pinv`
 (σ_min of J W^½ against ε) runs as a Cholesky factorisation of K W Kᵀ − ε²(1 + 10⁻⁶) I: when
-it succeeds σ_min > ε, λ = 0 and the undamped solve is that Cholesky factor's. Only where it
+it succeeds σ_min > ε, λ = 0 and the undamped solve is that of the Cholesky factor L of
+K W Kᵀ. That factor comes first, and most steps skip the shifted one: λ_min(K W Kᵀ) =
+1 / ‖L⁻¹‖₂² ≥ 1 / ‖L⁻¹‖_F², so where that bound clears the shift twice over the test passes
+without it (`smallest_eigenvalue_bound`; the shifted factorisation decides the rest). Only where it
 fails (near a singularity, or a rank-deficient J_W when β = 0) is the SVD of K W^½ taken, and
 the solve is then `weighted_pinv`'s own SVD form (damped gains s / (s² + λ²), singular values
 below s_max·9·eps dropped), so damping = 0 on a rank-deficient J_W gives its numbers too.
@@ -520,8 +523,9 @@ def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
 
 @register_borrowing
 def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
-    """Lower Cholesky factor of A − shift·I (A (6, 6) symmetric) into L (6, 6), its diagonal
-    stored inverted: L[j, j] = 1 / l_jj, so the factorisation and the solves
+    """Lower Cholesky factor of A − shift·I (A (6, 6) symmetric; its lower triangle is read)
+    into L's lower triangle (L (6, 6), the strict upper one left as it was; L may be A itself),
+    its diagonal stored inverted: L[j, j] = 1 / l_jj, so the factorisation and the solves
     (`cholesky_pinv_apply`) multiply where they would divide (a division costs several
     multiplications' latency, and these chains are latency-bound).
 
@@ -541,6 +545,29 @@ def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
                 s -= L[i, k] * L[j, k]
             L[i, j] = s * inverse
     return True
+
+
+@register_borrowing
+def smallest_eigenvalue_bound(L: np.ndarray) -> float:
+    """1 / ‖L⁻¹‖_F², a lower bound on the smallest eigenvalue of A = L Lᵀ (λ_min(A) =
+    1 / ‖L⁻¹‖₂² and ‖·‖₂ ≤ ‖·‖_F), from its Cholesky factor L (6, 6) with the diagonal stored
+    inverted (`cholesky_lane`). X = L⁻¹ column by column by forward substitution, kept in L's
+    strict upper triangle (X[i, j] at L[j, i]), which `cholesky_lane` leaves unused: at most a
+    sixth of the bound is lost (the Frobenius norm sums the six 1/λ_i), for half the cost of a
+    factorisation and no square root or division but the last."""
+    total = 0.0
+    for j in range(6):
+        x0 = L[j, j]
+        column = x0 * x0
+        for i in range(j + 1, 6):
+            s = -L[i, j] * x0
+            for k in range(j + 1, i):
+                s -= L[i, k] * L[j, k]
+            x = s * L[i, i]
+            L[j, i] = x
+            column += x * x
+        total += column
+    return 1.0 / total
 
 
 @register_borrowing
@@ -737,7 +764,12 @@ def differential_velocity(
         wanted = posture_rate(x, prm, posture)
         for a in range(6):
             column[a] = K[a, posture] * wanted
-    if not (cholesky_lane(A, prm[P_EPSILON] ** 2 * (1.0 + 1e-6), L) and cholesky_lane(A, 0.0, L)):
+    shift = prm[P_EPSILON] ** 2 * (1.0 + 1e-6)
+    if not cholesky_lane(A, 0.0, L):
+        return NEEDS_SVD
+    # the shifted factor only where the bound does not decide; A's own lower triangle takes
+    # it (each entry is read once, before its place is written), L stays A's factor
+    if not (smallest_eigenvalue_bound(L) > 2.0 * shift or cholesky_lane(A, shift, A)):
         return NEEDS_SVD
     # σ_min(J W^½) > ε: λ = 0, J_W⁺ = W Kᵀ (K W Kᵀ)⁻¹ Dᵀ (eq (31))
     cholesky_pinv_apply(K, w, L, b, y, v_out)  # J_W⁺ ẋ; the null-space term in the finish
