@@ -4,6 +4,7 @@ SIGTERM with a long run open), one server per data directory, Dockerfile."""
 from __future__ import annotations
 
 import csv
+import http.client
 import json
 import os
 import shlex
@@ -111,28 +112,42 @@ def test_bad_arguments_exit_2_saying_what_is_allowed(
 
 def start_server(cwd: Path, *args: str, env: dict[str, str] | None = None) -> tuple[Any, int]:
     """`twin serve --no-viewer` on a free port, once /api/health answers: (process, port).
-    Its executor is in process unless `args` say otherwise (the test is not about it)."""
-    port = free_port()
+    Its executor is in process unless `args` say otherwise (the test is not about it).
+
+    A port free when picked can be taken before the server binds it — by the server's own
+    Dask cluster, whose scheduler and workers bind ephemeral ports first — so a server that
+    exits, or a port that answers with anything but the twin's health, means another port
+    (up to 3)."""
     if "--scheduler" not in args and "--default-executor" not in args:
         args = ("--scheduler", "in-process", *args)
     args = tuple(a for a in args if a != "--default-executor")
-    process = subprocess.Popen(
-        [sys.executable, "-m", "twin.cli", "serve", "--port", str(port), "--no-viewer", *args],
-        cwd=cwd,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env={**os.environ, **(env or {})},
-    )
-    deadline, health = time.monotonic() + 30, None
-    while health is None and time.monotonic() < deadline and process.poll() is None:
-        try:
-            with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health") as r:
-                health = json.load(r)
-        except OSError:
-            time.sleep(0.2)
-    assert health is not None and health["status"] == "ok", process.poll()
-    return process, port
+    for _ in range(3):
+        port = free_port()
+        process = subprocess.Popen(
+            [sys.executable, "-m", "twin.cli", "serve", "--port", str(port), "--no-viewer", *args],
+            cwd=cwd,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, **(env or {})},
+        )
+        deadline, health, foreign = time.monotonic() + 30, None, False
+        while health is None and not foreign and time.monotonic() < deadline:
+            if process.poll() is not None:
+                break
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health") as r:
+                    health = json.load(r)
+            except http.client.HTTPException:  # not an HTTP server: someone else's port
+                foreign = True
+            except OSError:
+                time.sleep(0.2)
+        if health is not None and health["status"] == "ok":
+            return process, port
+        if process.poll() is None:
+            process.kill()
+        process.communicate(timeout=10)
+    raise AssertionError(f"twin serve did not answer on 3 free ports (last exit {process.poll()})")
 
 
 def test_serve_answers_prints_its_urls_and_stops_cleanly(tmp_path: Path) -> None:
