@@ -155,18 +155,20 @@ def test_order_and_mixed_groups_are_kept() -> None:
 
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_lanes_split_over_threads_give_the_same_numbers(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A group of lanes run as one Simulation per thread, each thread's runners serial, gives
-    the numbers of the group in one Simulation with runners parallel over its lanes."""
+    """Lanes run in parts of 3 on two threads, each part's runners serial on its thread, give
+    the numbers of the same lanes run as one Simulation per planner, one after the other, with
+    runners over their lanes."""
     import numba
 
     from twin.sim import engine
 
     scenarios = [{"planner": "mtmp", "sea_state": 4, "seed": s, "duration": 3.0} for s in range(6)]
     scenarios += [{"planner": "dwa", "sea_state": 6, "seed": s, "duration": 3.0} for s in range(6)]
+    monkeypatch.setattr(engine, "numba_threads", lambda: 1)  # parts one after the other
+    monkeypatch.setattr(engine, "MAX_LANES", 12)
+    together = simulate_many(scenarios)  # a part per planner: 6 lanes, runners over lanes
     monkeypatch.setattr(engine, "numba_threads", lambda: 2)  # two threads on any machine
-    monkeypatch.setattr(engine, "MIN_THREAD_LANES", 10**6)
-    together = simulate_many(scenarios)
-    monkeypatch.setattr(engine, "MIN_THREAD_LANES", 4)
+    monkeypatch.setattr(engine, "MAX_LANES", 4)
     names: set[str] = set()
     original = engine.Simulation.advance
 
@@ -176,7 +178,7 @@ def test_lanes_split_over_threads_give_the_same_numbers(monkeypatch: pytest.Monk
         return original(self, n)
 
     monkeypatch.setattr(engine.Simulation, "advance", advance)
-    split = simulate_many(scenarios)
+    split = simulate_many(scenarios)  # parts of 3 lanes, two threads
     assert len(names) == 2 and all(name.startswith("lanes") for name in names)
     for expected, actual in zip(together, split, strict=True):
         assert actual.scenario == expected.scenario
@@ -184,15 +186,15 @@ def test_lanes_split_over_threads_give_the_same_numbers(monkeypatch: pytest.Monk
 
 
 @pytest.mark.parametrize(
-    ("size", "threads", "sizes"),
-    [(3, 2, [3]), (16, 2, [8, 8]), (17, 2, [9, 8]), (15, 2, [15]), (600, 2, [200, 200, 200]),
-     (64, 8, [8] * 8), (256, 1, [256]), (257, 1, [129, 128])],
-)  # fmt: skip
-def test_lane_parts(size: int, threads: int, sizes: list[int]) -> None:
-    """At most MAX_LANES lanes a Simulation; one part per thread where each has ≥ 8 lanes."""
-    from twin.sim.engine import lane_parts
+    ("size", "sizes"),
+    [(3, [3]), (16, [16]), (17, [9, 8]), (33, [11, 11, 11]), (256, [16] * 16), (40, [14, 13, 13])],
+)
+def test_lane_parts(size: int, sizes: list[int]) -> None:
+    """Near-equal parts of at most MAX_LANES (16) lanes, every lane once, in order."""
+    from twin.sim.engine import MAX_LANES, lane_parts
 
-    parts = lane_parts(list(range(size)), threads)
+    assert MAX_LANES == 16
+    parts = lane_parts(list(range(size)))
     assert [len(p) for p in parts] == sizes
     assert [i for p in parts for i in p] == list(range(size))
 

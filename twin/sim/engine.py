@@ -414,10 +414,14 @@ def simulate(
     return Simulation(scenario, engine=engine).run(progress=progress)
 
 
-#: most scenarios stepped together; larger groups run in Simulations of this size
-MAX_LANES = 256
-#: fewest lanes worth a thread of their own (`simulate_many`)
-MIN_THREAD_LANES = 8
+#: most scenarios `simulate_many` steps together in one Simulation. The compiled runners go
+#: lane by lane, so lanes gain nothing from sharing one Simulation beyond its fixed cost (a few
+#: ms), while parts this small run a 200 s run in one chunk, with temporaries small enough
+#: that the allocator hands one part's memory to the next instead of fresh pages the kernel
+#: must zero, and spread evenly over the threads. Measured on 2 cores, 256 lanes of the
+#: reference run, interleaved: parts of 16 took 0.83× the time of two parts of 128, parts of
+#: 8 0.86×, of 32 0.88× (docs/simulation.md).
+MAX_LANES = 16
 
 
 def simulate_many(
@@ -427,12 +431,12 @@ def simulate_many(
     stepped together in lanes — scenarios of one mechanism, dt and number of steps share a
     `Simulation`.
 
-    With several numba threads, a group of lanes is split into one `Simulation` per thread
-    (at least MIN_THREAD_LANES lanes each), each run on a thread of its own with its runners
-    serial: the runners release the GIL, so one part's Python bookkeeping (sampling, copying
-    into the history, results) overlaps the other parts' compiled steps, where lanes in one
-    Simulation would leave all but one core idle while it runs. A lane's numbers do not depend
-    on which lanes it runs beside.
+    A group larger than MAX_LANES runs as near-equal parts of at most MAX_LANES lanes, one
+    `Simulation` each. With several numba threads the parts run on threads of their own, each
+    part's runners serial: the runners release the GIL, so one part's Python bookkeeping
+    (sampling set-up, copying into the history, results) overlaps the other parts' compiled
+    steps, where lanes in one Simulation would leave all but one core idle while it runs. A
+    lane's numbers do not depend on which lanes it runs beside.
 
     Args:
         scenarios: `Scenario`s or dicts of their fields (validated).
@@ -450,7 +454,7 @@ def simulate_many(
     groups: dict[tuple, list[int]] = {}
     for i, s in enumerate(scenarios):
         groups.setdefault((s.mechanism, s.dt, round(s.duration / s.dt)), []).append(i)
-    parts = sorted((part for members in groups.values() for part in lane_parts(members, threads)),
+    parts = sorted((part for members in groups.values() for part in lane_parts(members)),
                    key=len, reverse=True)  # fmt: skip
     results: list[SimulationResult | None] = [None] * len(scenarios)
     total = sum(round(s.duration / s.dt) for s in scenarios)
@@ -479,10 +483,9 @@ def simulate_many(
     return results  # type: ignore[return-value]
 
 
-def lane_parts(members: list[int], threads: int) -> list[list[int]]:
-    """A group's lanes split into Simulations: at most MAX_LANES each, and into `threads`
-    near-equal parts where each would have at least MIN_THREAD_LANES lanes."""
-    n = max(-(-len(members) // MAX_LANES), min(threads, len(members) // MIN_THREAD_LANES), 1)
+def lane_parts(members: list[int]) -> list[list[int]]:
+    """A group's lanes as near-equal parts of at most MAX_LANES lanes, in order."""
+    n = -(-len(members) // MAX_LANES)
     return [part.tolist() for part in np.array_split(np.array(members), n)]
 
 
