@@ -114,10 +114,9 @@ def start_server(cwd: Path, *args: str, env: dict[str, str] | None = None) -> tu
     """`twin serve --no-viewer` on a free port, once /api/health answers: (process, port).
     Its executor is in process unless `args` say otherwise (the test is not about it).
 
-    A port free when picked can be taken before the server binds it — by the server's own
-    Dask cluster, whose scheduler and workers bind ephemeral ports first — so a server that
-    exits, or a port that answers with anything but the twin's health, means another port
-    (up to 3)."""
+    A port free when picked can be taken by another process (a Dask worker of another test,
+    say) before the server binds it, so a server that exits, or a port that answers with
+    anything but the twin's health, means another port (up to 3)."""
     if "--scheduler" not in args and "--default-executor" not in args:
         args = ("--scheduler", "in-process", *args)
     args = tuple(a for a in args if a != "--default-executor")
@@ -209,6 +208,26 @@ def test_a_second_server_on_the_same_data_dir_exits_2_naming_the_first(tmp_path:
     assert first.returncode == 0
     record("attack_two_servers", exit_code=second.returncode, refused_in_s=round(took, 1),
            names_pid=True)  # fmt: skip
+
+
+def test_a_port_in_use_exits_2_naming_it_before_starting(tmp_path: Path) -> None:
+    """The REST port is bound first: one already taken fails at once (no kernels warmed, no
+    executor started), naming the port and how to choose another, and leaves the data
+    directory unlocked."""
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        start = time.monotonic()
+        result = twin("serve", "--no-viewer", "--port", str(port), cwd=tmp_path)
+        took = time.monotonic() - start
+    assert result.returncode == 2, result.stderr
+    assert f"127.0.0.1:{port}" in result.stderr and "--port" in result.stderr
+    assert "compiled kernels ready" not in result.stdout and took < 15.0
+    second, _ = start_server(tmp_path)  # the data directory was released
+    second.send_signal(signal.SIGINT)
+    second.communicate(timeout=20)
+    assert second.returncode == 0
 
 
 #: the longest run a scenario may be (200 000 steps on the finest sea): seconds on a worker

@@ -2,7 +2,9 @@
 sweeps, in one process that holds its data directory for as long as it runs.
 
 Start-up, in order: the data directory's lock (`twin.web.lock`: a second server on it exits
-2, naming the first's pid); the compiled kernels; the executor (a Dask LocalCluster of one
+2, naming the first's pid); the REST port, bound at once (`listen`: one in use exits 2 naming
+it, before seconds of start-up; and the executor's workers, which bind ports of their own,
+cannot take it meanwhile); the compiled kernels; the executor (a Dask LocalCluster of one
 worker per core, kernels warmed on each, or `--scheduler tcp://HOST:PORT`), started once; the
 run store, the live session, the viewer and the REST app. Stop (Ctrl-C, SIGTERM, `docker
 stop`): requests still waiting for a run answer 503 at once, the runs' futures are cancelled
@@ -14,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import signal
+import socket
 import threading
 from pathlib import Path
 from types import FrameType
@@ -64,6 +67,27 @@ class _Uvicorn(uvicorn.Server):
         super().handle_exit(sig, frame)
 
 
+def listen(host: str, port: int) -> socket.socket:
+    """A TCP socket bound to host:port for uvicorn to serve on (as uvicorn binds its own:
+    SO_REUSEADDR, inheritable), bound before the rest of the server starts.
+
+    Raises:
+        TwinError: the port is in use or the address cannot be bound, naming it.
+    """
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as exc:
+        sock.close()
+        raise TwinError(
+            f"cannot listen on {host}:{port} ({exc.strerror}); choose another port with --port"
+        ) from exc
+    sock.set_inheritable(True)
+    return sock
+
+
 def _terminate(sig: int, frame: FrameType | None) -> None:
     raise Terminated(f"signal {sig}")
 
@@ -109,8 +133,9 @@ def serve(
 
     Raises:
         TwinError: `host` is not loopback and there is no token, a short token, a bad
-            allowed host or origin, or the data directory is held by another server
-            (`DataDirBusy`, naming its pid); nothing is started.
+            allowed host or origin, the data directory is held by another server
+            (`DataDirBusy`, naming its pid), or the REST port cannot be bound (`listen`);
+            nothing is started.
     """
     if not is_loopback(host) and not token:
         raise TwinError(
@@ -123,6 +148,11 @@ def serve(
         allow_origins=allow_origins,
     )  # fmt: skip
     lock = DataDirLock(data_dir).acquire()  # before anything starts: a second server stops here
+    try:
+        rest = listen(host, port)
+    except TwinError:
+        lock.release()
+        raise
     previous = signal.getsignal(signal.SIGTERM)
     main = threading.current_thread() is threading.main_thread()
     if main:  # PID 1 in a container ignores SIGTERM unless something handles it
@@ -165,8 +195,9 @@ def serve(
         config = uvicorn.Config(
             app, host=host, port=port, access_log=False, timeout_graceful_shutdown=GRACEFUL
         )
-        _Uvicorn(config, app.state.services.stopping).run()
+        _Uvicorn(config, app.state.services.stopping).run(sockets=[rest])
     finally:
+        rest.close()
         if handle is not None:
             handle.stop()
         if session is not None:
