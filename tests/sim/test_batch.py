@@ -7,6 +7,7 @@ import json
 import subprocess
 import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -183,6 +184,30 @@ def test_lanes_split_over_threads_give_the_same_numbers(monkeypatch: pytest.Monk
     for expected, actual in zip(together, split, strict=True):
         assert actual.scenario == expected.scenario
         assert_same(expected, actual)
+
+
+@pytest.mark.skipif(not numba_available(), reason="numba not installed")
+def test_a_failing_part_stops_the_parts_not_yet_started(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A part's error reaches the caller, and the parts queued behind it never start (a Ctrl-C
+    does not wait for the whole batch)."""
+    from twin.sim import engine
+
+    monkeypatch.setattr(engine, "numba_threads", lambda: 2)
+    monkeypatch.setattr(engine, "MAX_LANES", 1)
+    started: list[int] = []
+    original = engine.Simulation.advance
+
+    def advance(self: engine.Simulation, n: int) -> int:
+        started.append(self.scenario.seed)
+        if self.scenario.seed == 0:
+            raise FloatingPointError("injected")
+        time.sleep(0.05)
+        return original(self, n)
+
+    monkeypatch.setattr(engine.Simulation, "advance", advance)
+    with pytest.raises(FloatingPointError, match="injected"):
+        simulate_many([{"seed": s, "duration": 1.0} for s in range(12)])
+    assert 0 in started and len(set(started)) < 6
 
 
 @pytest.mark.parametrize(

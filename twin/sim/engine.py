@@ -475,8 +475,11 @@ def simulate_many(
                 run(lanes)
 
         if threads > 1 and len(parts) > 1:
-            with ThreadPoolExecutor(threads, thread_name_prefix="lanes") as pool:
+            pool = ThreadPoolExecutor(threads, thread_name_prefix="lanes")
+            try:
                 list(pool.map(run_serial, parts))  # re-raises a part's error here
+            finally:  # on an error or Ctrl-C the parts not yet started are dropped
+                pool.shutdown(wait=True, cancel_futures=True)
         else:
             for lanes in parts:
                 run(lanes)
