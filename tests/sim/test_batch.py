@@ -171,10 +171,14 @@ def test_lanes_split_over_threads_give_the_same_numbers(monkeypatch: pytest.Monk
     monkeypatch.setattr(engine, "numba_threads", lambda: 2)  # two threads on any machine
     monkeypatch.setattr(engine, "MAX_LANES", 4)
     names: set[str] = set()
+    both = threading.Barrier(2, timeout=60)  # each thread's first part waits for the other's
     original = engine.Simulation.advance
 
     def advance(self: engine.Simulation, n: int) -> int:
-        names.add(threading.current_thread().name)
+        name = threading.current_thread().name
+        if name not in names:
+            names.add(name)
+            both.wait()  # fails unless two threads run parts at once
         assert numba.get_num_threads() == 1  # the part's runners are serial on its thread
         return original(self, n)
 
@@ -201,7 +205,7 @@ def test_a_failing_part_stops_the_parts_not_yet_started(monkeypatch: pytest.Monk
         started.append(self.scenario.seed)
         if self.scenario.seed == 0:
             raise FloatingPointError("injected")
-        time.sleep(0.05)
+        time.sleep(0.2)  # a part takes a while: the queue is still full when 0 fails
         return original(self, n)
 
     monkeypatch.setattr(engine.Simulation, "advance", advance)
