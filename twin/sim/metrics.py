@@ -58,7 +58,12 @@ def efficacy(alpha_top: np.ndarray, alpha_bottom: np.ndarray) -> dict[str, float
         np.ascontiguousarray(alpha_bottom, dtype=float),
         out,
     )
-    return {"eta_printed": finite(100 * out[0]), "eta": finite(100 * out[1])}
+    return efficacy_percent(out[0], out[1])
+
+
+def efficacy_percent(printed: float, integral: float) -> dict[str, float]:
+    """The two efficacies (`efficacy`) as fractions [-] → the reported dict [%], finite."""
+    return {"eta_printed": finite(100 * printed), "eta": finite(100 * integral)}
 
 
 def hybrid_metrics(
@@ -156,8 +161,7 @@ def hybrid_metrics_from(row: Sequence[float], mechanism: HybridBoardingSystem) -
         "manipulability_min": finite(row[kernel.R_MANIPULABILITY_MIN]),
         "phi_e_max": finite(row[kernel.R_PHI_E] * _DEGREES),
         "theta_e_max": finite(row[kernel.R_THETA_E] * _DEGREES),
-        "eta_printed": finite(100 * row[kernel.R_ETA_PRINTED]),
-        "eta": finite(100 * row[kernel.R_ETA]),
+        **efficacy_percent(row[kernel.R_ETA_PRINTED], row[kernel.R_ETA]),
     }  # fmt: skip
 
 
