@@ -38,7 +38,8 @@ serve: $(SERVE_STAMP)
 ## test: install, lint and run the whole test suite (what CI runs)
 test: $(STAMP) /usr/bin/chromium
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not serial"
+	$(BIN)/python -m pytest -m serial
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
