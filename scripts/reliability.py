@@ -250,9 +250,11 @@ SECURITY = """\
   are not handled (any browser could otherwise ask the server for a public tunnel).
 - **No paths from requests**; **rate and size limits** on submission (above).
 - **Executor**: the Dask scheduler, workers and their HTTP endpoints listen on 127.0.0.1
-  only, on free ports; Dask has no authentication of its own, so a local user of the
-  machine can reach it (as before with the per-sweep clusters). `--scheduler` joins a cluster
-  the operator secures.
+  only, on free ports. Scheduler and workers take pickled functions from whoever connects, so
+  they speak mutual TLS with a key made for the cluster and held only in the server's memory
+  (`Security.temporary()`): another local user, in plain TCP or with a key of their own, is
+  turned away (tests/sim/test_sweep.py). Their HTTP endpoints (health, metrics, task info)
+  are read-only. `--scheduler` joins a cluster the operator secures.
 - **Docker** runs as the non-root user `twin` (uid 10001) and stops on `docker stop` (SIGTERM,
   handled: PID 1 would ignore it otherwise); tests/web/test_cli.py checks the Dockerfile and
   tests/web/test_dockerfile.py replays its install.

@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pytest
+from distributed import Client, Security
 
 from twin.sim import simulate
 from twin.sim.executor import BudgetExceeded, Executor, map_unordered, unpack_series
@@ -36,8 +37,9 @@ def steps_of(fields: dict) -> tuple[str, int]:
 def test_one_executor_runs_sweeps_runs_and_maps() -> None:
     """A two-worker LocalCluster, started once: a sweep gives the same table as in process; a
     run reports its progress and comes back packed, equal to `simulate`; a script's map runs
-    there too; a run over its budget fails saying so; zero steps are refused; and closing it
-    while a long run is in hand takes seconds."""
+    there too; its scheduler takes no client without the cluster's TLS key; a run over its
+    budget fails saying so; zero steps are refused; and closing it while a long run is in hand
+    takes seconds."""
     seen: list[tuple[int, int]] = []
     local = run_sweep(
         SMALL, scheduler="in-process", progress=False, chunk_size=3,
@@ -47,6 +49,13 @@ def test_one_executor_runs_sweeps_runs_and_maps() -> None:
     executor = Executor.start(n_workers=2)
     try:
         assert executor.info()["workers"] == 2 and executor.where == "local cluster"
+        address = executor.client.scheduler.address
+        assert address.startswith("tls://127.0.0.1:"), address
+        # a client in plain TCP, and one over TLS with a key of its own, are both turned away
+        for stranger, security in ((address.replace("tls://", "tcp://"), None),
+                                   (address, Security.temporary())):  # fmt: skip
+            with pytest.raises((OSError, TimeoutError)):
+                Client(stranger, timeout=2, set_as_default=False, security=security)
         cluster = run_sweep(SMALL, executor=executor, chunk_size=2, progress=False)
         assert cluster.scheduler == "local cluster"
         assert len(cluster.runs) == len(local.runs) == 8

@@ -246,6 +246,10 @@ class Executor:
                 # (not 8787, which another cluster on the machine may hold)
                 dashboard_address="127.0.0.1:0",
                 worker_dashboard_address="127.0.0.1:0",
+                # the scheduler takes pickled functions from whoever connects: over TLS with a
+                # key made for this cluster and held only in memory (`Security.temporary`),
+                # another local user cannot submit one (an in-process cluster has no port)
+                security=None if in_process else True,
                 # workers log connection errors while a cluster shuts down; a task's own error
                 # still reaches its future
                 silence_logs=logging.CRITICAL,
