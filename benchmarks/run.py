@@ -2,7 +2,7 @@
 
     python benchmarks/run.py            # about 3 minutes on 2 cores; writes docs/performance.md
     python benchmarks/run.py --quick    # smaller sizes, a smoke test (does not write the doc)
-    python benchmarks/run.py --server-only   # live session, live server and REST rows only,
+    python benchmarks/run.py --server-only   # collection, live and REST rows only,
                                              # patched into the doc
 
 **Features**
@@ -17,6 +17,7 @@
 - a sweep of 1000 × 200 s runs in-process and on a two-worker Dask `LocalCluster`;
 - scaling with duration and with N, with the fitted exponent;
 - numba's compile time on first use (no cache) and its load time from the cache;
+- a full garbage collection in a server process, before and after its start-up freeze;
 - the live session's CPU per simulated second and whether it keeps pace at 8× in a WMO 9 sea;
 - the live server's websocket updates to 1 and 10 clients and REST latency (`server.py`);
 - `scripts/reproduce.py` over 5 seeds, written to a scratch folder.
@@ -249,6 +250,58 @@ def compile_times() -> tuple[float, float]:
             return float(done.stdout)
 
         return run(), min(run(), run())
+
+
+#: what `twin serve` holds once started, without binding a port: kernels, live session, viewer
+#: and REST modules; then a full collection before `freeze_startup`, and after it and a
+#: minute of the live session; best of 3 each
+PAUSE_CODE = """
+import gc, time
+import twin.web.api, twin.web.scene, twin.web.server
+from twin.sim.engine import warm
+from twin.sim.heap import freeze_startup
+from twin.sim.live import LiveSession
+warm()
+session = LiveSession()
+session.advance(100)
+def pause():
+    best = float("inf")
+    for _ in range(3):
+        start = time.perf_counter(); gc.collect(); best = min(best, time.perf_counter() - start)
+    return best
+tracked, before = len(gc.get_objects()), pause()
+freeze_startup()
+session.advance(1200)  # a minute of the live session after the freeze
+print(tracked, before, len(gc.get_objects()), pause())
+"""
+
+
+def collection_pauses() -> tuple[int, float, int, float]:
+    """A full garbage collection in a fresh process holding what `twin serve` holds (kernels,
+    live session, viewer and REST modules), before and after `freeze_startup`: (objects
+    tracked, [s] its time, the same after).
+
+    Raises:
+        RuntimeError: the subprocess failed (its error's last line).
+    """
+    done = subprocess.run([sys.executable, "-c", PAUSE_CODE], capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError((done.stderr.strip().splitlines() or ["no output"])[-1])
+    tracked, before, left, after = done.stdout.split()
+    return int(tracked), float(before), int(left), float(after)
+
+
+def pause_rows(row: Row) -> None:
+    """The garbage-collection rows (`collection_pauses`)."""
+    try:
+        tracked, before, left, after = collection_pauses()
+    except RuntimeError as exc:
+        row("garbage collection: a full collection in a server process", f"failed: {exc}")
+        return
+    row("garbage collection: a full collection in a server process (GIL held)",
+        f"{before * 1e3:.0f} ms over {tracked:,} objects")  # fmt: skip
+    row("garbage collection: the same after freeze_startup and a live minute",
+        f"{after * 1e3:.1f} ms over {left:,} objects")  # fmt: skip
 
 
 def live_session_rows(row: Row, window: float = 60.0, fast_window: float = 10.0) -> None:
@@ -522,6 +575,7 @@ def main(quick: bool = False) -> None:
             row("numba: warm() loads them from the cache (new process)", f"{cached:.2f} s")
 
     # the served twin
+    pause_rows(row)
     live_session_rows(row, window=5.0 if quick else 60.0, fast_window=3.0 if quick else 10.0)
     live_rows(row, window=2.0 if quick else 5.0)
     rest_rows(row, requests_1=3 if quick else 20, requests_20=1 if quick else 2)
@@ -540,11 +594,12 @@ def server_only() -> None:
         print(f"{figure:<66} {value:>30}  {target:<22} {rows[-1][3]}", flush=True)
 
     logging.disable(logging.INFO)
+    pause_rows(row)
     live_session_rows(row)
     live_rows(row)
     rest_rows(row)
     lines = DOC.read_text().splitlines()
-    ours = ("| live session", "| live server", "| REST:")
+    ours = ("| garbage collection", "| live session", "| live server", "| REST:")
     kept = [line for line in lines if not line.startswith(ours)]
     before = next(i for i, line in enumerate(kept) if line.startswith("| scripts/reproduce"))
     new = [f"| {a.strip()} | {b} | {c} | {d} |" for a, b, c, d in rows]
@@ -602,6 +657,11 @@ What is measured:
 - **numba**: `twin.sim.engine.warm()` (what `twin serve` and each run worker call first: every
   runner, hybrid and platform kernels, serial and parallel) in a fresh process with an empty
   cache, compiling, then in another fresh process loading them from that cache.
+- **garbage collection**: a full collection (`gc.collect()`, the GIL held throughout) in a
+  fresh process holding what `twin serve` holds once started (kernels, live session, viewer
+  and REST modules; no port bound), before `twin.sim.heap.freeze_startup` (which the server
+  and each run worker call once up), and after it and a minute of the live session; best of 3
+  each.
 - **live session**: `LiveSession` with its background loop and nothing else (no viewer, no
   server): the loop thread's CPU time per simulated second at WMO 4 and speed 1 over 60 s,
   and `advance` alone called back to back; at WMO 9 and speed 8, simulated over wall time

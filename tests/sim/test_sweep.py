@@ -4,6 +4,7 @@ and scripts' maps on the same workers, and closes at once."""
 
 from __future__ import annotations
 
+import gc
 import json
 import time
 
@@ -37,9 +38,9 @@ def steps_of(fields: dict) -> tuple[str, int]:
 def test_one_executor_runs_sweeps_runs_and_maps() -> None:
     """A two-worker LocalCluster, started once: a sweep gives the same table as in process; a
     run reports its progress and comes back packed, equal to `simulate`; a script's map runs
-    there too; its scheduler takes no client without the cluster's TLS key; a run over its
-    budget fails saying so; zero steps are refused; and closing it while a long run is in hand
-    takes seconds."""
+    there too; its workers froze their start-up objects; its scheduler takes no client without
+    the cluster's TLS key; a run over its budget fails saying so; zero steps are refused; and
+    closing it while a long run is in hand takes seconds."""
     seen: list[tuple[int, int]] = []
     local = run_sweep(
         SMALL, scheduler="in-process", progress=False, chunk_size=3,
@@ -51,6 +52,9 @@ def test_one_executor_runs_sweeps_runs_and_maps() -> None:
         assert executor.info()["workers"] == 2 and executor.where == "local cluster"
         address = executor.client.scheduler.address
         assert address.startswith("tls://127.0.0.1:"), address
+        # each worker froze its start-up objects (the kernels) once they were loaded
+        frozen = executor.client.run(gc.get_freeze_count)
+        assert len(frozen) == 2 and min(frozen.values()) > 10_000, frozen
         # a client in plain TCP, and one over TLS with a key of its own, are both turned away
         for stranger, security in ((address.replace("tls://", "tcp://"), None),
                                    (address, Security.temporary())):  # fmt: skip

@@ -165,8 +165,11 @@ def run_scenario(
     )
 
 
-def _warm_plugin() -> Any:
-    """A Dask worker plugin that loads the compiled kernels when a worker starts."""
+def _warm_plugin(freeze: bool) -> Any:
+    """A Dask worker plugin that loads the compiled kernels when a worker starts and, with
+    `freeze`, then freezes its start-up objects (`twin.sim.heap.freeze_startup`): for the
+    worker processes of our own LocalCluster, not for a worker in the caller's process nor
+    for another cluster's workers."""
     from distributed.diagnostics.plugin import WorkerPlugin
 
     class WarmKernels(WorkerPlugin):
@@ -175,8 +178,11 @@ def _warm_plugin() -> Any:
 
         def setup(self, worker: Any) -> None:
             from twin.sim.engine import warm
+            from twin.sim.heap import freeze_startup
 
             warm()
+            if freeze:  # no full collection walks the kernels between two runs
+                freeze_startup()
 
     return WarmKernels()
 
@@ -272,7 +278,7 @@ class Executor:
             if not client.scheduler_info(n_workers=-1)["workers"]:
                 client.wait_for_workers(1, timeout=timeout)
             if warm:
-                client.register_plugin(_warm_plugin())
+                client.register_plugin(_warm_plugin(freeze=executor.where == "local cluster"))
         except BaseException:
             executor.close()
             raise

@@ -27,6 +27,7 @@ import uvicorn
 from twin.errors import TwinError
 from twin.sim.engine import warm
 from twin.sim.executor import RUN_BUDGET, Executor
+from twin.sim.heap import freeze_startup
 from twin.sim.live import LiveSession
 from twin.web.access import Access, is_loopback
 from twin.web.api import create_app
@@ -192,6 +193,7 @@ def serve(
         if viewer:
             print(f"twin: 3D twin {url(host, viser_port)}")
         print(f"twin: runs stored in {store.path}", flush=True)
+        freeze_startup()  # no full collection walks the start-up objects while serving
         config = uvicorn.Config(
             app, host=host, port=port, access_log=False, timeout_graceful_shutdown=GRACEFUL
         )
