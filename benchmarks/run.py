@@ -243,13 +243,21 @@ def compile_times() -> tuple[float, float]:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache}
 
         def run() -> float:
-            done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                                  text=True)  # fmt: skip
-            if done.returncode != 0:
-                raise RuntimeError((done.stderr.strip().splitlines() or ["no output"])[-1])
-            return float(done.stdout)
+            return float(python_output(code, env))
 
         return run(), min(run(), run())
+
+
+def python_output(code: str, env: dict[str, str] | None = None) -> str:
+    """What `python -c code` prints, in a fresh process.
+
+    Raises:
+        RuntimeError: the process failed (its error's last line).
+    """
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError((done.stderr.strip().splitlines() or ["no output"])[-1])
+    return done.stdout
 
 
 #: what `twin serve` holds once started, without binding a port: kernels, live session, viewer
@@ -284,10 +292,7 @@ def collection_pauses() -> tuple[int, float, int, float]:
     Raises:
         RuntimeError: the subprocess failed (its error's last line).
     """
-    done = subprocess.run([sys.executable, "-c", PAUSE_CODE], capture_output=True, text=True)
-    if done.returncode != 0:
-        raise RuntimeError((done.stderr.strip().splitlines() or ["no output"])[-1])
-    tracked, before, left, after = done.stdout.split()
+    tracked, before, left, after = python_output(PAUSE_CODE).split()
     return int(tracked), float(before), int(left), float(after)
 
 
@@ -641,14 +646,14 @@ What is measured:
 - **N = 256**: 256 reference runs (sea seeds 0-255) in one `simulate_many`, end to end, best
   of 4, each after a measurement of the peer: these rows divide by the peer measured beside
   them (the machine's speed drifts over the minutes between the first rows and these).
-  `simulate_many` runs the batch as one `Simulation` per numba thread, each on a thread of its
-  own with serial runners. Where the time goes is CPU time [core-s] per phase, summed over
-  those threads (`time.thread_time`), against the process's CPU time over the run; the kernel
-  alone is the CPU time inside the compiled runner, as steps per core-second against the
-  peer's on its one core. Kernel and records together are the compute every sample of a
-  result needs (plan, guard, integrate; legs, tip error, manipulability, attitude angles): no
-  end-to-end figure can pass theirs spread over every core, since sea, targets, history and
-  metrics come on top.
+  `simulate_many` runs the batch as parts of at most 16 lanes, one `Simulation` each, on as
+  many threads of its own as numba has, with serial runners. Where the time goes is CPU time
+  [core-s] per phase, summed over those threads (`time.thread_time`), against the process's
+  CPU time over the run; the kernel alone is the CPU time inside the compiled runner, as steps
+  per core-second against the peer's on its one core. Kernel and records together are the
+  compute every sample of a result needs (plan, guard, integrate; legs, tip error,
+  manipulability, attitude angles): no end-to-end figure can pass theirs spread over every
+  core, since sea, targets, history and metrics come on top.
 - **sweep**: `run_sweep` over 10 Hs × 5 Tp × {MTMP, WPI} × 10 seeds = 1000 runs of 200 s,
   in-process and on a two-worker `LocalCluster` (start-up and shut-down shown apart).
 - **scaling**: end-to-end time against duration (N = 32) and against N (50 s runs): the

@@ -278,7 +278,7 @@ class Executor:
             if not client.scheduler_info(n_workers=-1)["workers"]:
                 client.wait_for_workers(1, timeout=timeout)
             if warm:
-                client.register_plugin(_warm_plugin(freeze=executor.where == "local cluster"))
+                client.register_plugin(_warm_plugin(freeze=scheduler is None))  # our own processes
         except BaseException:
             executor.close()
             raise
