@@ -94,7 +94,7 @@ def peer_inputs(steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     t = np.arange(steps + 1) * scenario.dt
     poses = BaseMotion.of(scenario).poses(t)
     rows = held_targets(sim.held, poses[None], scenario.dt)[0]
-    first = sim._block.targets[0]  # the engine's own first block: the same numbers
+    first = sim.targets(sim._block, 0, sim._block.steps)[0]  # the engine's: the same numbers
     assert np.allclose(rows[: len(first)], first, rtol=0.0, atol=1e-9), "targets differ"
     T = np.tile(np.eye(4), (steps, 1, 1))
     T[:, :3, :3] = rows[:, :9].reshape(-1, 3, 3)
@@ -115,7 +115,7 @@ def fit_exponent(x: list[float], y: list[float]) -> str:
 #: for the outer one)
 PHASES = {
     "sea": [(BaseMotion, "many"), (Simulation, "_sample")],
-    "targets": [(Simulation, "_with_targets")],
+    "targets": [(Simulation, "targets")],
     "planner set-up": [(Simulation, "_pack")],
     "kernel": [(HybridLanes, "run"), (PlatformLanes, "run")],
     "records": [

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -67,16 +68,18 @@ def nan_target(monkeypatch: pytest.MonkeyPatch) -> Callable[..., None]:
     planner fault injected into the one engine, whatever the mechanism."""
 
     def inject(*steps: int) -> None:
-        original = Simulation._with_targets
+        original = Simulation.targets
 
-        def poisoned(self: Simulation, block: object) -> object:
-            block = original(self, block)
+        def poisoned(
+            self: Simulation, block: Any, local: int, m: int, out: np.ndarray | None = None
+        ) -> np.ndarray:
+            rows = original(self, block, local, m, out)
             for k in steps:
-                if 0 <= k - block.start < block.steps:
-                    block.targets[:, k - block.start, TARGET_V:] = np.nan
-            return block
+                if 0 <= k - block.start - local < m:
+                    rows[:, k - block.start - local, TARGET_V:] = np.nan
+            return rows
 
-        monkeypatch.setattr(Simulation, "_with_targets", poisoned)
+        monkeypatch.setattr(Simulation, "targets", poisoned)
 
     return inject
 

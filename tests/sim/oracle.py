@@ -189,10 +189,10 @@ class OracleRun:
 
     What the oracle takes from the engine: the lane's start (`sim.lanes.x0`; for the small
     platforms its actuator lengths `sim.lanes.extra` and its rig model `sim.lanes.models`) and
-    the held targets of each step (rows of `sim._block.targets`, so a sea change or an injected
-    fault reaches both). Planners are built from the registry as `twin.sim.lanes` builds them:
-    the hybrid's with the lane's x0 (MTMP's q2 set-point, seed 000 eq (40)), a platform's at
-    the current state; each reset at the current state and target.
+    the held targets of each step (`sim.targets` of its current block, so a sea change or an
+    injected fault reaches both). Planners are built from the registry as `twin.sim.lanes`
+    builds them: the hybrid's with the lane's x0 (MTMP's q2 set-point, seed 000 eq (40)), a
+    platform's at the current state; each reset at the current state and target.
 
     Use: build it on a fresh Simulation; after the Simulation advanced, `follow()` steps the
     oracle up to it (the steps must still be in the engine's current block); after
@@ -239,7 +239,7 @@ class OracleRun:
                 f"step {self.k} is outside the engine's block ({block.start} … "
                 f"{block.start + block.steps - 1}): follow before the engine re-samples"
             )
-        return block.targets[self.lane, local].copy()
+        return self.sim.targets(block, local, 1)[self.lane, 0]
 
     def _build(self, scenario: Scenario) -> object:
         """The registry's planner for `scenario`, built at the lane's start x0 (MTMP's q̃2, the

@@ -24,6 +24,13 @@ def test_step_equals_simulate() -> None:
     assert live.done
     for key in ("xi", "legs", "tip_error", "base_pose"):
         np.testing.assert_array_equal(np.stack([r[key] for r in records]), batch.series[key][1:])
+    # every key, sample 0 too: the batch run recorded its start with its one chunk, whose
+    # arrays became its history; the stepped one appended sample by sample to a ring
+    stepped = live.series()
+    assert stepped.keys() == batch.series.keys()
+    for key, values in batch.series.items():
+        np.testing.assert_array_equal(stepped[key], values, err_msg=key)
+    assert live.result().metrics == batch.metrics
 
 
 def test_series_has_the_contract_keys_and_shapes() -> None:

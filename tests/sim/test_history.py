@@ -49,3 +49,20 @@ def test_backfill_first_copies_the_first_steps_values_into_sample_zero() -> None
     history.append(step)
     np.testing.assert_array_equal(history.series(0)["d"], [7.0, 7.0, 8.0])
     np.testing.assert_array_equal(history.series(0)["t"], [0.0, 1.0, 1.0])
+
+
+def test_adopt_makes_a_whole_runs_records_the_history_without_a_copy() -> None:
+    history = History(1)
+    history.append(chunk(0, 1))
+    run = chunk(0, 6)
+    history.adopt(run)
+    assert len(history) == 6 and history.complete
+    view = history.series(1, copy=False)
+    assert np.shares_memory(view["v"], run["v"])  # the run's own arrays: nothing copied
+    np.testing.assert_array_equal(view["t"], np.arange(6) + 1000.0)
+    history.reserve(8)  # a run that grows afterwards moves to arrays of its own
+    history.append(chunk(6, 2))
+    np.testing.assert_array_equal(history.series(0)["t"], np.arange(8))
+    assert not np.shares_memory(history.data["v"], run["v"])
+    with pytest.raises(ValueError, match="sample 0 alone"):
+        history.adopt(chunk(0, 8))

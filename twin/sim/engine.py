@@ -3,13 +3,15 @@
 A `Simulation` holds N ≥ 1 scenarios of one mechanism and one dt as arrays (lanes). Each
 chunk of steps it
 
-1. samples every lane's base motion for the chunk (vectorised over the wave components;
-   a non-finite sample holds the last finite one and flags `Fault.BASE_MOTION`),
-2. builds the held targets ᴮT_d and their twists (`twin.sim.target.held_targets`),
+1. samples every lane's base motion for a block of steps (vectorised over the wave
+   components; a non-finite sample holds the last finite one and flags `Fault.BASE_MOTION`),
+2. builds the chunk's held targets ᴮT_d and their twists from the block's poses
+   (`twin.sim.target.held_targets`, into the thread's scratch buffer: they die with the chunk),
 3. calls the mechanism's kernel (`twin.sim.kernels`, compiled by numba): plan, guard,
    integrate, step after step, writing states, diagnostics and fault bits,
 4. computes what is recorded from the chunk's states at once (`twin.sim.records`) and writes
-   it into the history, a preallocated ring of arrays.
+   it into the history, a preallocated ring of arrays — or, for a batch run stepped in one
+   chunk, makes the chunk's arrays the history, with no copy.
 
 `simulate(s)` is `Simulation(s).run().` and `simulate_many` groups scenarios into
 Simulations; `step()` and `advance(n)` run the same chunks, so stepping one by one, in chunks
@@ -51,14 +53,15 @@ from twin.sim.kernels.compile import limit_threads, numba_threads
 from twin.sim.lanes import HybridLanes, PlatformLanes, runner, use_numba
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import Scenario
+from twin.sim.scratch import scratch
 from twin.sim.target import held_targets
 from twin.spatial import pose_to_transform
 
-#: steps of base motion and targets prepared at once for a live session (a sea change
-#: re-samples from the current step, so a short block wastes little)
+#: steps of base motion prepared at once for a live session (a sea change re-samples from
+#: the current step, so a short block wastes little)
 LIVE_BLOCK = 256
-#: most steps × lanes prepared at once for a batch run (bounds memory: 18 floats of target
-#: and 16 of diagnostics each), and most steps per lane
+#: most steps × lanes prepared and stepped at once for a batch run (bounds the chunk's memory:
+#: 18 floats of target and 18 of diagnostics each), and most steps per lane
 BLOCK = 262_144
 MAX_BLOCK = 8192
 
@@ -78,23 +81,21 @@ LANES = {"hybrid": HybridLanes, "upu3up": PlatformLanes, "upr4": PlatformLanes}
 
 @dataclass
 class _Block:
-    """Base motion and targets for steps `start` … `start + steps` of every lane.
+    """Base motion for steps `start` … `start + steps` of every lane.
 
     Attributes:
         start: the first step.
         poses: (N, steps + 1, 6) finite base poses [m, rad].
         bad: (N, steps + 1) samples that were not finite (held).
-        targets: (N, steps, 18) the held targets (`held_targets`).
     """
 
     start: int
     poses: np.ndarray
     bad: np.ndarray
-    targets: np.ndarray
 
     @property
     def steps(self) -> int:
-        return self.targets.shape[1]
+        return self.poses.shape[1] - 1
 
 
 class Simulation:
@@ -154,13 +155,15 @@ class Simulation:
         block = self._sample(self.base_motions, 0, at_rest)
         T_IB0 = pose_to_transform(block.poses[:, 0])
         self.lanes = LANES[first.mechanism](self.mechanism, x0, T_IB0, self.compiled)
-        self._block = self._with_targets(block)
+        self._block = block
         self.x = x0.copy()
         self.prm, self.memory = self._pack(self.scenarios, self._block, 0)
         self._run = runner(self.lanes.kind, self.compiled, self.n_lanes)
         self.faults = [FaultLog() for _ in self.scenarios]
         self._keep_all = history_limit is None  # a batch run keeps every sample
-        self.history = History(history_limit or self.n_steps + 1)
+        # A batch run grows its history to the whole run at its first chunk, unless that chunk
+        # is the whole run: then its arrays become the history (`_chunk`).
+        self.history = History(history_limit or 1)
         first_row = self.lanes.initial_records(self._block.poses[:, :1], self.x)
         self.history.append({"t": np.zeros((self.n_lanes, 1)), **first_row})
 
@@ -267,7 +270,7 @@ class Simulation:
             local = self.k - self._block.start
             if local >= self._block.steps:
                 last = self._block.poses[:, -1]
-                self._block = self._with_targets(self._sample(self.base_motions, self.k, last))
+                self._block = self._sample(self.base_motions, self.k, last)
                 local = 0
             m = min(n - taken, self._block.steps - local, self.n_steps - self.k)
             self._chunk(local, m)
@@ -282,31 +285,46 @@ class Simulation:
         return self.result()
 
     def _chunk(self, local: int, m: int) -> None:
-        """Run the kernel over m steps from the block's step `local`, record them."""
+        """Run the kernel over m steps from the block's step `local`, record them.
+
+        A batch run stepped in one chunk (the usual: up to MAX_BLOCK steps of a part of
+        MAX_LANES lanes) records its start with it, and the chunk's arrays (states, diagnostics,
+        records) become its history as they are: nothing is copied."""
         N, block = self.n_lanes, self._block
+        whole = self._keep_all and self.history.count == 1 and m == self.n_steps
+        first = 0 if whole else 1
         xs = np.empty((N, m + 1, self.x.shape[1]))
         xs[:, 0] = self.x
-        diag = np.zeros((N, m, self.lanes.n_diagnostics))
+        diag = np.zeros((N, m + 1, self.lanes.n_diagnostics))
         faults = np.zeros((N, m), dtype=np.int64)
-        targets = np.ascontiguousarray(block.targets[:, local : local + m])
+        targets = self.targets(block, local, m, scratch((N, m, layout.N_TARGET)))
         self.lanes.run(self._run, xs, targets, self.prm, self.memory, self.dt, diag, faults)
-        records = self.lanes.records(block.poses[:, local : local + m + 1], xs, diag, self.dt)
+        if self.k == 0:  # no step has been taken at t = 0: the first step's diagnostics repeat
+            diag[:, 0] = diag[:, 1]
+        poses = block.poses[:, local : local + m + 1]
+        records = self.lanes.records(poses, xs, diag, self.dt, first)
         faults |= np.where(
             block.bad[:, local : local + m] | block.bad[:, local + 1 : local + m + 1],
             layout.FAULT_BASE_MOTION,
             0,
         )
         held = hold_nonfinite(records, self.history.newest())
-        faults |= np.where(held, layout.FAULT_PLANNER, 0)
-        t = (self.k + 1 + np.arange(m)) * self.dt  # exact multiples, chunk-independent
-        records["t"] = np.broadcast_to(t, (N, m))
-        if self.k == 0:  # no step has been taken at t = 0: the first step's diagnostics repeat
-            step_keys = {"limit_scale", "clipped", "saturated"}
-            self.history.backfill_first(records, self.lanes.diagnostics | step_keys)
-        self.history.append(records)
+        faults |= np.where(held[:, -m:], layout.FAULT_PLANNER, 0)  # not the start's
+        t = (self.k + np.arange(first, m + 1)) * self.dt  # exact multiples, chunk-independent
+        if whole:
+            records["t"] = np.repeat(t[None], N, axis=0)
+            self.history.adopt(records)
+        else:
+            records["t"] = np.broadcast_to(t, (N, m))
+            if self._keep_all:
+                self.history.reserve(self.n_steps + 1)
+            if self.k == 0:
+                step_keys = {"limit_scale", "clipped", "saturated"}
+                self.history.backfill_first(records, self.lanes.diagnostics | step_keys)
+            self.history.append(records)
         self.x = xs[:, -1].copy()
         for lane in np.flatnonzero(faults.any(axis=1)):
-            self.faults[lane].add_chunk(t, faults[lane])
+            self.faults[lane].add_chunk(t[-m:], faults[lane])
         self.k += m
 
     # -- changes -----------------------------------------------------------------------------
@@ -355,7 +373,7 @@ class Simulation:
         if changed & SEA_FIELDS or local >= block.steps:  # a new sea, or the block is used up
             base_motions = BaseMotion.many(new) if changed & SEA_FIELDS else base_motions
             now = block.poses[:, min(local, block.steps)]
-            block = self._with_targets(self._sample(base_motions, self.k, now, n_steps))
+            block = self._sample(base_motions, self.k, now, n_steps)
         replan = bool(changed - SEA_FIELDS - {"duration", "joint_limits"})
         prm, memory = self.prm.copy(), self.memory.copy()
         if replan:
@@ -373,10 +391,8 @@ class Simulation:
         self, scenarios: Sequence[Scenario], block: _Block, local: int
     ) -> tuple[np.ndarray, np.ndarray]:
         """Every lane's planner built, reset at the current state and packed: (prm, memory)."""
-        rows = [
-            self.lanes.pack(i, s, self.x[i], block.targets[i, local])
-            for i, s in enumerate(scenarios)
-        ]
+        targets = self.targets(block, local, 1)[:, 0]
+        rows = [self.lanes.pack(i, s, self.x[i], targets[i]) for i, s in enumerate(scenarios)]
         return np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows])
 
     def _sample(
@@ -389,8 +405,7 @@ class Simulation:
         """Base samples for steps start … start + block (one more for the last step's end),
         each finite: a sample that is not, or a sea that fails to evaluate, holds the last
         good pose before it (`hold_invalid`; `last_good` (N, 6) for the first). The block ends
-        at the run's end (`n_steps`, default the current one). Targets are added by
-        `_with_targets`."""
+        at the run's end (`n_steps`, default the current one)."""
         end = self.n_steps if n_steps is None else n_steps
         steps = max(1, min(self._block_size, end - start))
         try:
@@ -400,11 +415,16 @@ class Simulation:
         except NUMERICAL:
             sampled = np.full((len(base_motions), steps + 1, 6), np.nan)
         poses, bad = hold_invalid(sampled, last_good)
-        return _Block(start, poses, bad, np.empty((len(poses), steps, 0)))
+        return _Block(start, poses, bad)
 
-    def _with_targets(self, block: _Block) -> _Block:
-        block.targets = held_targets(self.lanes.held, block.poses, self.dt, self.compiled)
-        return block
+    def targets(
+        self, block: _Block, local: int, m: int, out: np.ndarray | None = None
+    ) -> np.ndarray:
+        """The held targets (N, m, 18) of the block's steps local … local + m − 1
+        (`held_targets` of its poses; a target depends only on its step's pose and the next),
+        into `out` when given."""
+        poses = block.poses[:, local : local + m + 1]
+        return held_targets(self.lanes.held, poses, self.dt, self.compiled, out)
 
 
 def simulate(

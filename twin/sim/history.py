@@ -53,6 +53,16 @@ class History:
                 self.data[key][:, slots] = values
         self.count += T
 
+    def adopt(self, records: dict[str, np.ndarray]) -> None:
+        """Make a whole run's records the history, as they are (no copy): name → (N, T, ...),
+        samples 0 … T − 1, the same names as before. Only while the history holds sample 0
+        alone, which they restate; its capacity becomes T."""
+        if self.count != 1:
+            raise ValueError(f"history: adopting a run needs sample 0 alone, not {self.count}")
+        T = next(iter(records.values())).shape[1]
+        self.data = dict(records)
+        self.capacity = self.count = T
+
     def reserve(self, capacity: int) -> None:
         """Hold at least `capacity` samples from now on (a run whose duration grew); only
         while nothing has been dropped yet, so the order stays the ring's."""

@@ -165,12 +165,15 @@ class HybridLanes:
         run_qp(x, targets[lanes], prm[lanes], self.const, dt, d, bits, compiled)
         xs[lanes], diag[lanes], faults[lanes] = x, d, bits
 
-    def records(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float) -> dict:
-        """Records (N, T, …) of the chunk just run: its states xs (N, T + 1, 9) on base poses
-        (N, T + 1, 6), the start in row 0 (recorded with the chunk before), with the steps'
-        diagnostics (N, T, N_HYBRID_DIAGNOSTICS)."""
+    def records(
+        self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float, first: int = 1
+    ) -> dict:
+        """Records (N, S − first, …) of the chunk just run: its states xs (N, S, 9) on base
+        poses (N, S, 6) with the steps' diagnostics (N, S, N_HYBRID_DIAGNOSTICS), the start in
+        row 0, samples first … S − 1 (first = 1: the start was recorded with the chunk before;
+        0: a run's first chunk recording its start too)."""
         del dt  # Unused: nothing recorded is a rate.
-        return self._record(poses, xs, diag, 1)
+        return self._record(poses, xs, diag, first)
 
     def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
         """Records (N, 1, …) at t = 0 (diagnostics zero: the engine repeats the first step's)."""
@@ -182,6 +185,7 @@ class HybridLanes:
         out = hybrid_records(
             poses, xs, self.held, self.landing, self.gangway0, self.const, self._records, first
         )
+        diag = diag[:, first:]
         out["weights"] = diag[..., layout.D_WEIGHTS : layout.D_WEIGHTS + 9]
         out["null_space_share"] = diag[..., layout.D_SHARE]
         out["damping"] = diag[..., layout.D_DAMPING]
@@ -289,17 +293,21 @@ class PlatformLanes:
         run(xs, legs, targets, prm, memory, self.const, dt, diag, faults)
         self._legs = legs  # read by `records`
 
-    def records(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float) -> dict:
-        """Records (N, T, …) of the chunk just run (`run` keeps its actuator lengths): its
-        states xs (N, T + 1, 3) on base poses (N, T + 1, 6), the start in row 0 (recorded with
-        the chunk before)."""
+    def records(
+        self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float, first: int = 1
+    ) -> dict:
+        """Records (N, S − first, …) of the chunk just run (`run` keeps its actuator lengths):
+        its states xs (N, S, 3) on base poses (N, S, 6) with the steps' diagnostics, the start
+        in row 0, samples first … S − 1 (as `HybridLanes.records`; the start's rates are 0)."""
         from twin.sim.kernels.platform import D_CLIPPED, D_SATURATED
 
         legs = self._legs[:, :, : self.model.n_legs]
         self.extra = self._legs[:, -1].copy()
-        out = self._lanes(poses[:, 1:], xs[:, 1:], legs[:, 1:], np.diff(legs, axis=1) / dt)
-        out["clipped"] = diag[..., D_CLIPPED]
-        out["saturated"] = diag[..., D_SATURATED]
+        rates = np.zeros_like(legs)
+        rates[:, 1:] = np.diff(legs, axis=1) / dt
+        out = self._lanes(poses[:, first:], xs[:, first:], legs[:, first:], rates[:, first:])
+        out["clipped"] = diag[:, first:, D_CLIPPED]
+        out["saturated"] = diag[:, first:, D_SATURATED]
         return out
 
     def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:

@@ -37,7 +37,11 @@ def tilt(R: np.ndarray, axis: int = 2) -> np.ndarray:
 
 
 def held_targets(
-    held: np.ndarray, poses: np.ndarray, dt: float, compiled: bool = True
+    held: np.ndarray,
+    poses: np.ndarray,
+    dt: float,
+    compiled: bool = True,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """`held_target` for a chunk of samples of N lanes at once, packed as the kernels read it
     (`twin.sim.kernels.target`, parallel over lanes when there are several).
@@ -48,6 +52,8 @@ def held_targets(
         dt: [s] sample period.
         compiled: run the numba-compiled function (else the same function interpreted: the
             engine without numba).
+        out: (N, B, 18) C-contiguous float64 to write into (e.g. `twin.sim.scratch.scratch`);
+            None: a new array.
 
     Returns:
         (N, B, 18): ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ; ᴮω] [m/s, rad/s] at samples k … k + B − 1
@@ -57,7 +63,8 @@ def held_targets(
     from twin.sim.kernels.target import compiled_targets, run_held_targets
 
     poses, held = np.ascontiguousarray(poses, dtype=float), np.ascontiguousarray(held, dtype=float)
-    out = np.empty((poses.shape[0], poses.shape[1] - 1, N_TARGET))
+    if out is None:
+        out = np.empty((poses.shape[0], poses.shape[1] - 1, N_TARGET))
     runner = pick_runner(compiled_targets, run_held_targets, compiled, len(poses))
     runner(poses, held, float(dt), out)
     return out

@@ -130,7 +130,7 @@ def run_one(
     """
     xs = np.empty((1, 2, 9))
     xs[0, 0] = x
-    diag = np.zeros((1, 1, layout.N_HYBRID_DIAGNOSTICS))
+    diag = np.zeros((1, 2, layout.N_HYBRID_DIAGNOSTICS))  # row 1: the step's
     faults = np.full((1, 1), -1, dtype=np.int64)
     memory = np.zeros((1, layout.N_MEMORY))
     runner(xs, target[None, None], prm[None], memory, CONST, DT, diag, faults)
@@ -138,8 +138,9 @@ def run_one(
     v, d = np.empty(9), np.zeros(layout.N_HYBRID_DIAGNOSTICS)
     bits = velocity(x, target, prm, CONST, v, d)
     assert bits == faults[0, 0] & layout.FAULT_SINGULAR
-    np.testing.assert_array_equal(d[: layout.D_LIMIT_SCALE], diag[0, 0, : layout.D_LIMIT_SCALE])
-    return xs[0, 1], diag[0, 0], v, int(faults[0, 0])
+    np.testing.assert_array_equal(d[: layout.D_LIMIT_SCALE], diag[0, 1, : layout.D_LIMIT_SCALE])
+    assert not diag[0, 0].any()  # row 0, the chunk's start, is left alone
+    return xs[0, 1], diag[0, 1], v, int(faults[0, 0])
 
 
 def assert_step_matches(
@@ -238,11 +239,11 @@ def test_chunk_follows_the_rig(name: str, hold: bool, compiled: object) -> None:
     for label, runner in (("compiled", compiled), ("python", hk.run_hybrid)):
         xs = np.empty((1, n + 1, 9))
         xs[0, 0] = start
-        diag = np.zeros((1, n, layout.N_HYBRID_DIAGNOSTICS))  # as the engine hands it in
+        diag = np.zeros((1, n + 1, layout.N_HYBRID_DIAGNOSTICS))  # as the engine hands it in
         faults = np.empty((1, n), dtype=np.int64)
         runner(xs, targets[None], prm[None], np.zeros((1, layout.N_MEMORY)), CONST, DT, diag,
                faults)  # fmt: skip
-        runs[label] = xs[0], diag[0], faults[0]
+        runs[label] = xs[0], diag[0, 1:], faults[0]
     xs, diag, faults = runs["compiled"]
     x = start.copy()
     kinds = Fault(0)
@@ -294,11 +295,11 @@ def test_chunk_in_and_out_of_the_damped_branch(compiled: object) -> None:
     def chunk(runner: object, x0: np.ndarray, k0: int, m: int) -> tuple[np.ndarray, ...]:
         xs = np.empty((1, m + 1, 9))
         xs[0, 0] = x0
-        diag = np.zeros((1, m, layout.N_HYBRID_DIAGNOSTICS))
+        diag = np.zeros((1, m + 1, layout.N_HYBRID_DIAGNOSTICS))
         faults = np.empty((1, m), dtype=np.int64)
         runner(xs, np.ascontiguousarray(targets[:, k0 : k0 + m]), prm,
                np.zeros((1, layout.N_MEMORY)), CONST, DT, diag, faults)  # fmt: skip
-        return xs[0, 1:], diag[0], faults[0]
+        return xs[0, 1:], diag[0, 1:], faults[0]
 
     for runner in (compiled, hk.run_hybrid):
         xs, diag, faults = chunk(runner, start, 0, n)
@@ -381,7 +382,7 @@ def test_lanes_are_independent_in_the_parallel_runner(compiled: object) -> None:
         targets[i] = [pack_target(held_target(held, base, k, DT)) for k in range(n)]
         prm[i] = hk.pack_differential(build(name, PlannerParameters(), xs[i, 0]), hold)
     memory = np.zeros((len(lanes), layout.N_MEMORY))
-    diag = np.empty((len(lanes), n, layout.N_HYBRID_DIAGNOSTICS))
+    diag = np.empty((len(lanes), n + 1, layout.N_HYBRID_DIAGNOSTICS))
     faults = np.empty((len(lanes), n), dtype=np.int64)
     parallel(xs, targets, prm, memory, CONST, DT, diag, faults)
     for i in range(len(lanes)):
@@ -390,7 +391,7 @@ def test_lanes_are_independent_in_the_parallel_runner(compiled: object) -> None:
         compiled(one_xs, targets[i : i + 1], prm[i : i + 1], memory[i : i + 1], CONST, DT,
                  one_diag, one_faults)  # fmt: skip
         np.testing.assert_allclose(one_xs[0], xs[i], rtol=0, atol=TOL)
-        np.testing.assert_allclose(one_diag[0, :, :12], diag[i, :, :12], rtol=0, atol=TOL)
+        np.testing.assert_allclose(one_diag[0, 1:, :12], diag[i, 1:, :12], rtol=0, atol=TOL)
         assert np.array_equal(one_faults[0], faults[i])
 
 

@@ -190,13 +190,14 @@ def run(mechanism: str, engine: str) -> Record:
     for B in CHUNKS:
         xs, legs = np.zeros((N, B + 1, 3)), np.zeros((N, B + 1, 4))
         xs[:, 0], legs[:, 0] = out.xs[:, start], out.legs[:, start]
-        diag = np.full((N, B, kernel.N_PLATFORM_DIAGNOSTICS), np.nan)
+        diag = np.full((N, B + 1, kernel.N_PLATFORM_DIAGNOSTICS), np.nan)
         faults = np.full((N, B), -1, dtype=np.int64)
         targets = np.ascontiguousarray(data.targets[:, start : start + B])
         runner(xs, legs, targets, data.prm, memory, data.const, data.dt, diag, faults)
         out.xs[:, start + 1 : start + B + 1] = xs[:, 1:]
         out.legs[:, start + 1 : start + B + 1] = legs[:, 1:]
-        out.diag[:, start : start + B], out.faults[:, start : start + B] = diag, faults
+        assert np.isnan(diag[:, 0]).all()  # row 0, the chunk's start, is left alone
+        out.diag[:, start : start + B], out.faults[:, start : start + B] = diag[:, 1:], faults
         start += B
     assert start == STEPS
     return out

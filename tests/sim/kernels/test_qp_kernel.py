@@ -99,9 +99,11 @@ def test_a_chunk_equals_the_planner_stepped(rng: np.random.Generator) -> None:
     for compiled in (True, False):
         xs = np.empty((2, n + 1, 9))
         xs[:, 0] = xi0
-        diag = np.zeros((2, n, layout.N_HYBRID_DIAGNOSTICS))
+        diag = np.zeros((2, n + 1, layout.N_HYBRID_DIAGNOSTICS))  # row k + 1: step k's
         faults = np.zeros((2, n), dtype=np.int64)
         kq.run_qp(xs, targets, prm, CONST, dt, diag, faults, compiled)
+        assert not diag[:, 0].any()  # row 0, the chunk's start, is left alone
+        diag = diag[:, 1:]
         for lane, hold in enumerate((False, True)):
             x = xi0.copy()
             for k in range(n):

@@ -964,7 +964,7 @@ def run_hybrid(
         memory: (N, N_MEMORY) each lane's planner state, read and written (allocation).
         const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
         dt: [s] control period.
-        diag: (N, B, N_HYBRID_DIAGNOSTICS) written.
+        diag: (N, B + 1, N_HYBRID_DIAGNOSTICS): rows 1 … B written (step k's in row k + 1).
         faults: (N, B) int64 written: the step's fault bits (`twin.sim.faults.Fault`).
     """
     n_steps = targets.shape[1]
@@ -977,7 +977,7 @@ def run_hybrid(
         kind = row[P_KIND]
         hold = row[P_HOLD] > 0.0
         for k in range(n_steps):
-            x, x_next, d = xs[n, k], xs[n, k + 1], diag[n, k]
+            x, x_next, d = xs[n, k], xs[n, k + 1], diag[n, k + 1]
             rpy_to_matrix_lane(x[3], x[4], x[5], R)  # ᴮR_P: the planner's, the guard's, the step's
             if kind == KIND_DIFFERENTIAL:
                 bits = differential_velocity(x, R, targets[n, k], row, const, differential, v, d)

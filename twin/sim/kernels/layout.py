@@ -9,7 +9,9 @@ kernel runner with
 - `memory` (N, N_MEMORY): each lane's planner state carried from step to step (DWA's shares,
   a PID's integral, …), read and written by the kernel;
 - `const`: the mechanism's constants;
-- `diag` (N, B, …) and `faults` (N, B) int64: written, one row per step.
+- `diag` (N, B + 1, …): rows 1 … B written, row k + 1 by step k, beside the state it led to
+  (row 0, the chunk's start, is left alone);
+- `faults` (N, B) int64: written, one row per step.
 
 Row 0 of `prm` names the lane's planner family (`KIND_*`), row 1 whether the lane holds its
 joint limits (1.0) or only records passing them (0.0); the rest belongs to the family's kernel.
@@ -42,7 +44,7 @@ C_LOWER, C_UPPER, C_RATE, C_D1, C_A1 = 0, 9, 18, 27, 28
 C_BASE_HINGES, C_PLATFORM_HINGES, C_LEG_MIN, C_LEG_MAX = 29, 47, 65, 66
 N_HYBRID_CONSTANTS = 67
 
-#: Hybrid diagnostics rows (diag (N, B, N_HYBRID_DIAGNOSTICS)): the weights diag(W⁻¹) (9),
+#: Hybrid diagnostics rows (diag (N, B + 1, N_HYBRID_DIAGNOSTICS)): the weights diag(W⁻¹) (9),
 #: null-space share, damping λ, rate-limit scale (differential planners); the position
 #: shares (3, allocation planners); the fraction of the step taken (1: all; `hold` mode).
 #: The engine hands diag in zeroed; a kernel leaves another family's rows alone (no NaN).

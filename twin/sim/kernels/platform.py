@@ -93,7 +93,7 @@ P_LAW, P_KP, P_KI, P_KD, P_SPEED_LIMIT, P_Z_HOLD, P_MASS, P_SPEED = (P_FAMILY + 
 #: whether there is one (1.0) or the next step starts its derivative from zero (0.0), the
 #: effort-driven actuators' velocity (4) [native/s].
 M_INTEGRAL, M_PREVIOUS, M_HAS_PREVIOUS, M_VELOCITY = 0, 4, 8, 9
-#: diag rows (N, B, N_PLATFORM_DIAGNOSTICS): 1.0 where the desired state or a desired length
+#: diag rows (N, B + 1, N_PLATFORM_DIAGNOSTICS): 1.0 where the desired state or a desired length
 #: was clipped to a limit, 1.0 where the speed limit bound (`PlatformPlanner.step`).
 D_CLIPPED, D_SATURATED = 0, 1
 N_PLATFORM_DIAGNOSTICS = 2
@@ -680,7 +680,8 @@ def run_platform(
         memory: (N, N_MEMORY) per lane, read and written (`M_*` rows).
         const: (N_PLATFORM_CONSTANTS,) the mechanism (`platform_constants`).
         dt: [s] control period.
-        diag: (N, B, N_PLATFORM_DIAGNOSTICS) written (`D_*` rows).
+        diag: (N, B + 1, N_PLATFORM_DIAGNOSTICS): rows 1 … B written (`D_*` rows; step k's in
+            row k + 1).
         faults: (N, B) int64 written: fault bits of each step (`layout.FAULT_*`).
     """
     for n in prange(xs.shape[0]):
@@ -689,7 +690,7 @@ def run_platform(
         for k in range(targets.shape[1]):
             faults[n, k] = step(
                 xs[n, k], legs[n, k], targets[n, k], prm[n], memory[n], const, dt,
-                xs[n, k + 1], legs[n, k + 1], diag[n, k], work, R, J, M,
+                xs[n, k + 1], legs[n, k + 1], diag[n, k + 1], work, R, J, M,
             )  # fmt: skip
 
 

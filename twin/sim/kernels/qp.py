@@ -421,11 +421,11 @@ def qp_finish(
     faults: np.ndarray,
 ) -> None:
     """Every lane's step k from its solved rates V (N, 9) and levels (N,) (`qp_finish_lane`):
-    xs[:, k + 1], diag[:, k] and faults[:, k] written."""
+    xs[:, k + 1], diag[:, k + 1] and faults[:, k] written."""
     for n in range(xs.shape[0]):
         faults[n, k] = qp_finish_lane(
             xs[n, k], V[n], levels[n], prm[n, P_HOLD] > 0.0, const, dt, A[n], lower[n],
-            upper[n], xs[n, k + 1], diag[n, k],
+            upper[n], xs[n, k + 1], diag[n, k + 1],
         )  # fmt: skip
 
 
