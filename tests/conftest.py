@@ -71,9 +71,10 @@ def nan_target(monkeypatch: pytest.MonkeyPatch) -> Callable[..., None]:
         original = Simulation.targets
 
         def poisoned(
-            self: Simulation, block: Any, local: int, m: int, out: np.ndarray | None = None
-        ) -> np.ndarray:
-            rows = original(self, block, local, m, out)
+            self: Simulation, block: Any, local: int, m: int, out: np.ndarray | None = None,
+            end: bool = False,
+        ) -> np.ndarray:  # fmt: skip
+            rows = original(self, block, local, m, out, end)
             for k in steps:
                 if 0 <= k - block.start - local < m:
                     rows[:, k - block.start - local, TARGET_V:] = np.nan

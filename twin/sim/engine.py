@@ -297,8 +297,8 @@ class Simulation:
         xs[:, 0] = self.x
         diag = np.zeros((N, m + 1, self.lanes.n_diagnostics))
         faults = np.zeros((N, m), dtype=np.int64)
-        targets = self.targets(block, local, m, scratch((N, m, layout.N_TARGET)))
-        self.lanes.run(self._run, xs, targets, self.prm, self.memory, self.dt, diag, faults)
+        targets = self.targets(block, local, m, scratch((N, m + 1, layout.N_TARGET)), end=True)
+        self.lanes.run(self._run, xs, targets, self.prm, self.memory, self.dt, diag, faults, first)
         if self.k == 0:  # no step has been taken at t = 0: the first step's diagnostics repeat
             diag[:, 0] = diag[:, 1]
         poses = block.poses[:, local : local + m + 1]
@@ -418,13 +418,13 @@ class Simulation:
         return _Block(start, poses, bad)
 
     def targets(
-        self, block: _Block, local: int, m: int, out: np.ndarray | None = None
+        self, block: _Block, local: int, m: int, out: np.ndarray | None = None, end: bool = False
     ) -> np.ndarray:
-        """The held targets (N, m, 18) of the block's steps local … local + m − 1
-        (`held_targets` of its poses; a target depends only on its step's pose and the next),
-        into `out` when given."""
+        """The held targets (N, m + end, 18) of the block's steps local … local + m − 1, and
+        with `end` the desired pose at the last one's end (`held_targets` of its poses; a
+        target depends only on its step's pose and the next), into `out` when given."""
         poses = block.poses[:, local : local + m + 1]
-        return held_targets(self.lanes.held, poses, self.dt, self.compiled, out)
+        return held_targets(self.lanes.held, poses, self.dt, self.compiled, out, end)
 
 
 def simulate(

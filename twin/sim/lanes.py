@@ -31,8 +31,15 @@ from twin.planners import (
 from twin.sim.kernels import layout
 from twin.sim.kernels.compile import pick_runner
 from twin.sim.metrics import hybrid_metrics, hybrid_metrics_lanes, platform_metrics
-from twin.sim.records import hybrid_records, landing_frame, platform_records
+from twin.sim.records import (
+    hybrid_records,
+    landing_frame,
+    platform_records,
+    record_arrays,
+    record_views,
+)
 from twin.sim.scenario import Scenario
+from twin.sim.target import held_targets
 from twin.spatial import pose_to_transform
 
 #: the engines: "numba" (compiled), "python" (the same kernels interpreted, lane by lane: for
@@ -62,10 +69,12 @@ def use_numba(engine: str) -> bool:
 
 def runner(kind: str, compiled: bool, lanes: int) -> Any:
     """The chunk runner of `kind` ("hybrid" or "platform") for `lanes` lanes (`pick_runner`)."""
-    from twin.sim.kernels import hybrid, platform
+    from twin.sim.kernels import hybrid_runner, platform
 
     if kind == "hybrid":
-        return pick_runner(hybrid.compiled_hybrid, hybrid.run_hybrid, compiled, lanes)
+        return pick_runner(
+            hybrid_runner.compiled_hybrid, hybrid_runner.run_hybrid, compiled, lanes
+        )
     return pick_runner(platform.compiled_platform, platform.run_platform, compiled, lanes)
 
 
@@ -108,6 +117,8 @@ class HybridLanes:
         self.const = hybrid_constants(mechanism, HYBRID_RATE_LIMITS)
         self.n_diagnostics = layout.N_HYBRID_DIAGNOSTICS
         self.extra: np.ndarray | None = None  # the small platforms' actuator lengths
+        # the last chunk's recorded legs, tip errors and scalars (`run`, read by `records`)
+        self._recorded = record_arrays(len(self.x0), 0)
 
     def pack(
         self, lane: int, scenario: Scenario, x: np.ndarray, target: np.ndarray
@@ -141,50 +152,59 @@ class HybridLanes:
         dt: float,
         diag: np.ndarray,
         faults: np.ndarray,
+        first: int = 1,
     ) -> None:
-        """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says): the
-        lanes of the compiled families through `run` for the whole chunk, the qp lanes step by
-        step through `twin.sim.kernels.qp.run_qp` (compiled unless `run` is the plain
-        `run_hybrid`, the interpreted engine)."""
+        """Run the kernel `run` over a chunk, then record its samples first … B (arrays as
+        `twin.sim.kernels.layout` says; targets (N, B + 1, 18), the last row the chunk's end,
+        `held_targets` with `end=True`): the lanes of the compiled families through `run` for
+        the whole chunk, the qp lanes step by step through `twin.sim.kernels.qp.run_qp`
+        (compiled unless `run` is the plain `run_hybrid`, the interpreted engine); then every
+        lane's record (`run_hybrid_records`), which `records` reads."""
+        from twin.sim.kernels.hybrid_runner import run_hybrid
+        from twin.sim.kernels.qp import run_qp
+
         qp = prm[:, layout.P_KIND] == layout.KIND_QP
         if not qp.any():
             run(xs, targets, prm, memory, self.const, dt, diag, faults)
-            return
-        from twin.sim.kernels.hybrid import run_hybrid
-        from twin.sim.kernels.qp import run_qp
-
-        compiled = run is not run_hybrid
-        if qp.all():
-            run_qp(xs, targets, prm, self.const, dt, diag, faults, compiled)
-            return
-        rest, lanes = np.flatnonzero(~qp), np.flatnonzero(qp)
-        x, d, bits, rows = xs[rest], diag[rest], faults[rest], memory[rest]
-        run(x, targets[rest], prm[rest], rows, self.const, dt, d, bits)
-        xs[rest], diag[rest], faults[rest], memory[rest] = x, d, bits, rows
-        x, d, bits = xs[lanes], diag[lanes], faults[lanes]
-        run_qp(x, targets[lanes], prm[lanes], self.const, dt, d, bits, compiled)
-        xs[lanes], diag[lanes], faults[lanes] = x, d, bits
+        elif qp.all():
+            run_qp(xs, targets, prm, self.const, dt, diag, faults, run is not run_hybrid)
+        else:
+            rest, lanes = np.flatnonzero(~qp), np.flatnonzero(qp)
+            x, d, bits, rows = xs[rest], diag[rest], faults[rest], memory[rest]
+            run(x, targets[rest], prm[rest], rows, self.const, dt, d, bits)
+            xs[rest], diag[rest], faults[rest], memory[rest] = x, d, bits, rows
+            x, d, bits = xs[lanes], diag[lanes], faults[lanes]
+            run_qp(x, targets[lanes], prm[lanes], self.const, dt, d, bits, run is not run_hybrid)
+            xs[lanes], diag[lanes], faults[lanes] = x, d, bits
+        self._recorded = record_arrays(*xs.shape[:2])
+        self._records(targets, xs, first, self.held, self.landing, self.gangway0, self.const,
+                      *self._recorded)  # fmt: skip
 
     def records(
         self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float, first: int = 1
     ) -> dict:
-        """Records (N, S − first, …) of the chunk just run: its states xs (N, S, 9) on base
-        poses (N, S, 6) with the steps' diagnostics (N, S, N_HYBRID_DIAGNOSTICS), the start in
-        row 0, samples first … S − 1 (first = 1: the start was recorded with the chunk before;
-        0: a run's first chunk recording its start too)."""
+        """Records (N, S − first, …) of the chunk just run (`run` computed them): its states
+        xs (N, S, 9) on base poses (N, S, 6) with the steps' diagnostics (N, S,
+        N_HYBRID_DIAGNOSTICS), the start in row 0, samples first … S − 1 (first = 1: the start
+        was recorded with the chunk before; 0: a run's first chunk recording its start too)."""
         del dt  # Unused: nothing recorded is a rate.
-        return self._record(poses, xs, diag, first)
+        return self._with_state(poses, xs, diag, record_views(*self._recorded, first), first)
 
     def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
         """Records (N, 1, …) at t = 0 (diagnostics zero: the engine repeats the first step's)."""
+        start = held_targets(self.held, poses, 1.0, self.compiled, end=True)  # no step: no dt
+        out = hybrid_records(start, x[:, None], self.held, self.landing, self.gangway0,
+                             self.const, self._records)  # fmt: skip
+        del out["xi"]
         diag = np.zeros((len(x), 1, self.n_diagnostics))
-        return self._record(poses, x[:, None], diag, 0)
+        return self._with_state(poses, x[:, None], diag, out, 0)
 
-    def _record(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, first: int) -> dict:
-        """`hybrid_records` of samples first … of xs on poses, with the diagnostics diag."""
-        out = hybrid_records(
-            poses, xs, self.held, self.landing, self.gangway0, self.const, self._records, first
-        )
+    def _with_state(
+        self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, out: dict, first: int
+    ) -> dict:
+        """The records `out` with the samples' base poses, states and diagnostics from
+        `first` on."""
+        out = {"base_pose": poses[:, first:], "xi": xs[:, first:], **out}
         diag = diag[:, first:]
         out["weights"] = diag[..., layout.D_WEIGHTS : layout.D_WEIGHTS + 9]
         out["null_space_share"] = diag[..., layout.D_SHARE]
@@ -286,8 +306,11 @@ class PlatformLanes:
         dt: float,
         diag: np.ndarray,
         faults: np.ndarray,
+        first: int = 1,
     ) -> None:
-        """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says)."""
+        """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says); the
+        states and actuator lengths are all `records` needs, so `first` changes nothing."""
+        del first  # Unused: `records` computes the record from the states.
         legs = np.empty((xs.shape[0], xs.shape[1], 4))
         legs[:, 0] = self.extra
         run(xs, legs, targets, prm, memory, self.const, dt, diag, faults)

@@ -46,8 +46,38 @@ def gangway_direction(
     return xi[..., 8:9] * R_IE[..., :, 2]
 
 
+def record_arrays(N: int, S: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Uninitialised arrays for the hybrid records of N lanes × S samples, as the compiled
+    record functions write them: legs (N, S, 6) [m], tip errors (N, S, 6) [m, rad] and the
+    scalars (N, S, N_SCALARS) (`twin.sim.kernels.records`)."""
+    from twin.sim.kernels.records import N_SCALARS
+
+    return np.empty((N, S, 6)), np.empty((N, S, 6)), np.empty((N, S, N_SCALARS))
+
+
+def record_views(
+    legs: np.ndarray, errors: np.ndarray, scalars: np.ndarray, first: int
+) -> dict[str, np.ndarray]:
+    """The recorded keys of `record_arrays`' arrays from sample `first` on (views):
+    legs, tip_error (tip pose error against ᴮT_d, [m, rad] in B), manipulability, phi_e,
+    theta_e (seed 004 §3.1 a: the gangway's azimuth and elevation change since t = 0 [rad]),
+    alpha_top (tilt of the tip's "up" axis from its held direction [rad]), alpha_bottom (the
+    base's tilt [rad]), each (N, S − first, ...)."""
+    from twin.sim.kernels import records as kernel
+
+    return {
+        "legs": legs[:, first:],
+        "tip_error": errors[:, first:],
+        "manipulability": scalars[:, first:, kernel.S_MANIPULABILITY],
+        "phi_e": scalars[:, first:, kernel.S_PHI_E],
+        "theta_e": scalars[:, first:, kernel.S_THETA_E],
+        "alpha_top": scalars[:, first:, kernel.S_ALPHA_TOP],
+        "alpha_bottom": scalars[:, first:, kernel.S_ALPHA_BOTTOM],
+    }
+
+
 def hybrid_records(
-    poses: np.ndarray,
+    targets: np.ndarray,
     xi: np.ndarray,
     held: np.ndarray,
     landing: np.ndarray,
@@ -56,44 +86,28 @@ def hybrid_records(
     runner: Callable,
     first: int = 0,
 ) -> dict[str, np.ndarray]:
-    """The hybrid system's record at T samples of N lanes, computed by the compiled records
-    runner (`twin.sim.kernels.records`, one pass over the chunk).
+    """The hybrid system's record at samples first … S − 1 of N lanes, computed on their own
+    by the compiled records runner (`twin.sim.kernels.records.run_hybrid_records`; the engine's
+    kernel records as it steps, with the same functions).
 
     Args:
-        poses: (N, S, 6) inertial base poses [m, rad].
+        targets: (N, S, 18) each sample's target row (`held_targets`, with `end=True` for a
+            chunk's end; ᴮR_d and ᴮp_d read).
         xi: (N, S, 9) virtual joints [m, rad].
         held: (N, 4, 4) ᴵT_E*, the held tip pose.
         landing, gangway0: (N, 3, 3) and (N, 3), `landing_frame` at t = 0.
         const: the hybrid constants (`twin.sim.kernels.hybrid.hybrid_constants`).
         runner: `compiled_records(...)` or the plain `run_hybrid_records`.
-        first: the first sample recorded: samples first … S − 1 are (T = S − first), so a
-            chunk's states with its start in row 0 go in as the kernel wrote them.
+        first: the first sample recorded.
 
     Returns:
-        base_pose, xi, legs, tip_error (tip pose error against ᴮT_d, [m, rad] in B),
-        manipulability, phi_e, theta_e (seed 004 §3.1 a: the gangway's azimuth and elevation
-        change since t = 0 [rad]), alpha_top (tilt of the tip's "up" axis from its held
-        direction [rad]), alpha_bottom (the base's tilt [rad]), each (N, T, ...).
+        xi and the keys of `record_views`, each (N, S − first, ...).
     """
-    from twin.sim.kernels import records as kernel
-
-    N, T = xi.shape[0], xi.shape[1] - first
-    legs, errors = np.empty((N, T, 6)), np.empty((N, T, 6))
-    scalars = np.empty((N, T, kernel.N_SCALARS))
-    runner(np.ascontiguousarray(poses), np.ascontiguousarray(xi), first,
+    legs, errors, scalars = record_arrays(*xi.shape[:2])
+    runner(np.ascontiguousarray(targets), np.ascontiguousarray(xi), first,
            np.ascontiguousarray(held), np.ascontiguousarray(landing),
            np.ascontiguousarray(gangway0), const, legs, errors, scalars)  # fmt: skip
-    return {
-        "base_pose": poses[:, first:],
-        "xi": xi[:, first:],
-        "legs": legs,
-        "tip_error": errors,
-        "manipulability": scalars[..., kernel.S_MANIPULABILITY],
-        "phi_e": scalars[..., kernel.S_PHI_E],
-        "theta_e": scalars[..., kernel.S_THETA_E],
-        "alpha_top": scalars[..., kernel.S_ALPHA_TOP],
-        "alpha_bottom": scalars[..., kernel.S_ALPHA_BOTTOM],
-    }
+    return {"xi": xi[:, first:], **record_views(legs, errors, scalars, first)}
 
 
 def platform_records(

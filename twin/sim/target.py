@@ -42,6 +42,7 @@ def held_targets(
     dt: float,
     compiled: bool = True,
     out: np.ndarray | None = None,
+    end: bool = False,
 ) -> np.ndarray:
     """`held_target` for a chunk of samples of N lanes at once, packed as the kernels read it
     (`twin.sim.kernels.target`, parallel over lanes when there are several).
@@ -52,19 +53,21 @@ def held_targets(
         dt: [s] sample period.
         compiled: run the numba-compiled function (else the same function interpreted: the
             engine without numba).
-        out: (N, B, 18) C-contiguous float64 to write into (e.g. `twin.sim.scratch.scratch`);
-            None: a new array.
+        out: (N, B + end, 18) C-contiguous float64 to write into (e.g.
+            `twin.sim.scratch.scratch`); None: a new array.
+        end: add a row for sample k + B, its desired pose only (its twist NaN): what is
+            recorded there (`twin.sim.kernels.records`).
 
     Returns:
-        (N, B, 18): ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ; ᴮω] [m/s, rad/s] at samples k … k + B − 1
-        (rows `twin.sim.kernels.layout.TARGET_*`).
+        (N, B + end, 18): ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ; ᴮω] [m/s, rad/s] at samples
+        k … k + B − 1 (+ end) (rows `twin.sim.kernels.layout.TARGET_*`).
     """
     from twin.sim.kernels.compile import pick_runner
     from twin.sim.kernels.target import compiled_targets, run_held_targets
 
     poses, held = np.ascontiguousarray(poses, dtype=float), np.ascontiguousarray(held, dtype=float)
     if out is None:
-        out = np.empty((poses.shape[0], poses.shape[1] - 1, N_TARGET))
+        out = np.empty((poses.shape[0], poses.shape[1] - 1 + end, N_TARGET))
     runner = pick_runner(compiled_targets, run_held_targets, compiled, len(poses))
     runner(poses, held, float(dt), out)
     return out

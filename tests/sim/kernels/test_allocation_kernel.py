@@ -188,10 +188,3 @@ def test_primitives_match_twin(rng: np.random.Generator) -> None:
         np.testing.assert_allclose(twist, se3_log(relative), atol=1e-12)
     ak.so3_exp_lane(1e-10, -2e-10, 3e-10, R)  # the small-angle branch
     np.testing.assert_allclose(R, so3_exp(np.array([1e-10, -2e-10, 3e-10])), atol=1e-15)
-
-
-def test_runner_is_bound_to_the_kernel() -> None:
-    """Whichever module was imported first, hybrid's runner calls allocation_velocity."""
-    from twin.sim.kernels import hybrid
-
-    assert hybrid.allocation_velocity is ak.allocation_velocity

@@ -34,7 +34,7 @@ from twin.planners.weights import BetaSplit
 from twin.sim.base_motion import BaseSamples
 from twin.sim.faults import Fault
 from twin.sim.kernels import hybrid as hk
-from twin.sim.kernels import layout
+from twin.sim.kernels import hybrid_runner, layout
 from twin.sim.target import held_target, held_targets
 from twin.spatial import matrix_to_rpy, pose_to_transform, rpy_to_matrix, so3_exp, so3_log
 
@@ -45,6 +45,14 @@ CONST = hk.hybrid_constants(H, HYBRID_RATE_LIMITS)
 DT = 0.01
 TOL = 1e-9
 PLANNERS = ("pi", "wpi", "mtmp")
+
+
+def step_chunk(
+    runner: object, xs: np.ndarray, targets: np.ndarray, prm: np.ndarray, memory: np.ndarray,
+    diag: np.ndarray, faults: np.ndarray,
+) -> None:  # fmt: skip
+    """`runner` (`run_hybrid`'s signature) over the chunk, with the test's constants."""
+    runner(xs, np.ascontiguousarray(targets), prm, memory, CONST, DT, diag, faults)
 
 
 def base_samples(n: int, amplitude: float = 1.0) -> BaseSamples:
@@ -133,8 +141,9 @@ def run_one(
     diag = np.zeros((1, 2, layout.N_HYBRID_DIAGNOSTICS))  # row 1: the step's
     faults = np.full((1, 1), -1, dtype=np.int64)
     memory = np.zeros((1, layout.N_MEMORY))
-    runner(xs, target[None, None], prm[None], memory, CONST, DT, diag, faults)
-    velocity = _differential_compiled.py_func if runner is hk.run_hybrid else _differential_compiled
+    step_chunk(runner, xs, target[None, None], prm[None], memory, diag, faults)
+    plain = runner is hybrid_runner.run_hybrid
+    velocity = _differential_compiled.py_func if plain else _differential_compiled
     v, d = np.empty(9), np.zeros(layout.N_HYBRID_DIAGNOSTICS)
     bits = velocity(x, target, prm, CONST, v, d)
     assert bits == faults[0, 0] & layout.FAULT_SINGULAR
@@ -154,7 +163,7 @@ def assert_step_matches(
         The plain runner's velocity (9,).
     """
     v, expected, x_next, scale, bits = oracle
-    for runner in (compiled, hk.run_hybrid):
+    for runner in (compiled, hybrid_runner.run_hybrid):
         got_x, diag, got_v, got_bits = run_one(runner, x, pack_target(target), prm)
         np.testing.assert_allclose(got_v, v, rtol=0, atol=TOL)
         assert_diagnostics(diag, expected)
@@ -167,7 +176,7 @@ def assert_step_matches(
 
 @pytest.fixture(scope="module")
 def compiled() -> object:
-    return hk.compiled_hybrid(False)
+    return hybrid_runner.compiled_hybrid(False)
 
 
 def assert_diagnostics(diag: np.ndarray, expected: dict) -> None:
@@ -236,13 +245,13 @@ def test_chunk_follows_the_rig(name: str, hold: bool, compiled: object) -> None:
     np.testing.assert_allclose(engine, targets, rtol=0, atol=1e-12)
     prm = hk.pack_differential(planner, hold)
     runs = {}
-    for label, runner in (("compiled", compiled), ("python", hk.run_hybrid)):
+    for label, runner in (("compiled", compiled), ("python", hybrid_runner.run_hybrid)):
         xs = np.empty((1, n + 1, 9))
         xs[0, 0] = start
         diag = np.zeros((1, n + 1, layout.N_HYBRID_DIAGNOSTICS))  # as the engine hands it in
         faults = np.empty((1, n), dtype=np.int64)
-        runner(xs, targets[None], prm[None], np.zeros((1, layout.N_MEMORY)), CONST, DT, diag,
-               faults)  # fmt: skip
+        step_chunk(runner, xs, targets[None], prm[None], np.zeros((1, layout.N_MEMORY)), diag,
+                   faults)  # fmt: skip
         runs[label] = xs[0], diag[0, 1:], faults[0]
     xs, diag, faults = runs["compiled"]
     x = start.copy()
@@ -297,11 +306,11 @@ def test_chunk_in_and_out_of_the_damped_branch(compiled: object) -> None:
         xs[0, 0] = x0
         diag = np.zeros((1, m + 1, layout.N_HYBRID_DIAGNOSTICS))
         faults = np.empty((1, m), dtype=np.int64)
-        runner(xs, np.ascontiguousarray(targets[:, k0 : k0 + m]), prm,
-               np.zeros((1, layout.N_MEMORY)), CONST, DT, diag, faults)  # fmt: skip
+        step_chunk(runner, xs, targets[:, k0 : k0 + m], prm, np.zeros((1, layout.N_MEMORY)),
+                   diag, faults)  # fmt: skip
         return xs[0, 1:], diag[0, 1:], faults[0]
 
-    for runner in (compiled, hk.run_hybrid):
+    for runner in (compiled, hybrid_runner.run_hybrid):
         xs, diag, faults = chunk(runner, start, 0, n)
         singular = (faults & layout.FAULT_SINGULAR) > 0
         assert singular[:8].all() and not singular[8:18].any() and singular[18:].all()
@@ -356,7 +365,7 @@ def test_nan_target_holds_the_state(name: str, row: int, compiled: object) -> No
     prm = hk.pack_differential(build(name, PlannerParameters(), x), True)
     oracle = build(name, PlannerParameters(), x).step(x, unpack_target(target), DT)
     assert not np.all(np.isfinite(oracle.velocity))
-    for runner in (compiled, hk.run_hybrid):
+    for runner in (compiled, hybrid_runner.run_hybrid):
         got_x, diag, got_v, bits = run_one(runner, x, target, prm)
         assert np.array_equal(got_x, x)
         assert bits & layout.FAULT_PLANNER
@@ -369,7 +378,7 @@ def test_nan_target_holds_the_state(name: str, row: int, compiled: object) -> No
 def test_lanes_are_independent_in_the_parallel_runner(compiled: object) -> None:
     """Six lanes (three planners × record/hold, different starts) in one parallel call equal
     each lane run alone by the serial runner."""
-    parallel = hk.compiled_hybrid(True)
+    parallel = hybrid_runner.compiled_hybrid(True)
     n, lanes = 25, [(name, hold) for name in PLANNERS for hold in (False, True)]
     base = base_samples(n + 1, amplitude=3.0)
     starts = list(STATES.values())
@@ -384,12 +393,12 @@ def test_lanes_are_independent_in_the_parallel_runner(compiled: object) -> None:
     memory = np.zeros((len(lanes), layout.N_MEMORY))
     diag = np.empty((len(lanes), n + 1, layout.N_HYBRID_DIAGNOSTICS))
     faults = np.empty((len(lanes), n), dtype=np.int64)
-    parallel(xs, targets, prm, memory, CONST, DT, diag, faults)
+    step_chunk(parallel, xs, targets, prm, memory, diag, faults)
     for i in range(len(lanes)):
         one_xs, one_diag = xs[i : i + 1].copy(), np.empty_like(diag[i : i + 1])
         one_faults = np.empty_like(faults[i : i + 1])
-        compiled(one_xs, targets[i : i + 1], prm[i : i + 1], memory[i : i + 1], CONST, DT,
-                 one_diag, one_faults)  # fmt: skip
+        step_chunk(compiled, one_xs, targets[i : i + 1], prm[i : i + 1], memory[i : i + 1],
+                   one_diag, one_faults)  # fmt: skip
         np.testing.assert_allclose(one_xs[0], xs[i], rtol=0, atol=TOL)
         np.testing.assert_allclose(one_diag[0, 1:, :12], diag[i, 1:, :12], rtol=0, atol=TOL)
         assert np.array_equal(one_faults[0], faults[i])

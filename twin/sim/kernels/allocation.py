@@ -1,9 +1,10 @@
 r"""The position-level planners of seed 004 (conv1, conv2, dwa) as a one-lane compiled kernel.
 
 `allocation_velocity` is `twin.planners.allocation.AllocationPlanner.step` written on one lane
-(floats and small arrays, `register_jitable`): the runner `twin.sim.kernels.hybrid.run_hybrid`
-calls it under numba, and without numba it runs as plain Python on the same numbers. The
-planner object stays the readable statement and the tests' oracle (to 1e-9, step after step).
+(floats and small arrays, `register_jitable`): the runner
+`twin.sim.kernels.hybrid_runner.run_hybrid` calls it under numba, and without numba it runs as
+plain Python on the same numbers. The planner object stays the readable statement and the
+tests' oracle (to 1e-9, step after step).
 
 Each step splits the compensating motion C = ᴮT_E,d(t + dt) · ᴮT_E(0)⁻¹ (seed 000 §5.1)
 between the Stewart platform and the gangway and solves the gangway's analytic inverse
@@ -23,10 +24,8 @@ come from the Stewart manipulability (seed 004 §3.1 b) and the closed-form reac
 
 `memory` rows: `M_SHARE` (3), DWA's position shares for the next step (seed 004's t − 1).
 
-Import order: this module imports the shared one-lane primitives from
-`twin.sim.kernels.hybrid` at its top; `hybrid` reaches `allocation_velocity` lazily
-(`hybrid.bind_allocation`, at the end of its import and before compiling), and this module
-calls `bind_allocation` again at its end, so either import order binds the runner.
+It imports the shared one-lane primitives from `twin.sim.kernels.hybrid`; the runner that
+calls it is `twin.sim.kernels.hybrid_runner.run_hybrid`.
 """
 
 from __future__ import annotations
@@ -36,7 +35,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-import twin.sim.kernels.hybrid as hybrid_kernel
 from twin.sim.kernels.compile import register_borrowing, register_jitable
 from twin.sim.kernels.hybrid import matrix_to_rpy_lane, rpy_to_matrix_lane, so3_log_lane
 from twin.sim.kernels.layout import (
@@ -442,10 +440,3 @@ def pack_allocation(planner: AllocationPlanner, hold: bool) -> tuple[np.ndarray,
     memory = np.zeros(N_MEMORY)
     memory[M_SHARE : M_SHARE + 3] = planner._share
     return prm, memory
-
-
-# `twin.sim.kernels.hybrid` binds its runner's `allocation_velocity` when it can import this
-# module; when this module is imported first, that import fails part-way (this module is still
-# initialising), so bind it now that `allocation_velocity` exists: either import order works,
-# compiled or plain.
-hybrid_kernel.bind_allocation()

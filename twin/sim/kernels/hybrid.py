@@ -7,18 +7,19 @@ nothing is allocated: the runner allocates each lane's scratch once (`*_work`) a
 ᴮR_P once for the planner, the guard and the step; functions that allocate nothing are
 `register_borrowing` (no reference counting of their array arguments).
 
-- Shared primitives (also used by `twin.sim.kernels.allocation`): ᴮR_P from roll-pitch-yaw,
-  the tip ᴮT_E, so(3) log, matrix → rpy, `HybridBoardingSystem.integrate`, leg lengths, limit
-  excess and the hold-mode step limit `limit_scale_lane` (the former `HybridRig`'s
-  `limit_scale`, restated in numpy as the oracle of tests/sim/kernels/test_hybrid_kernel.py).
+- Shared primitives (also used by `twin.sim.kernels.allocation` and `.records`): ᴮR_P from
+  roll-pitch-yaw, the tip ᴮT_E and its pose error, so(3) log, matrix → rpy,
+  `HybridBoardingSystem.integrate`, leg lengths, limit excess and the hold-mode step limit
+  `limit_scale_lane` (the former `HybridRig`'s `limit_scale`, restated in numpy as the oracle
+  of tests/sim/kernels/test_hybrid_kernel.py).
 - The differential planners PI, WPI and MTMP (`DifferentialPlanner.step`, seed 000 eqs
   (26)-(40), Algorithm 1, the rate limit): `pack_differential` writes a planner's knobs into a
   `prm` row, `differential_velocity` is one step, up to the damping test where that fails:
   `damped_differential_velocity`, the SVD branch below, then finishes it (the SVD allocates, so
   that branch and its `svd_pinv_apply` are not borrowing; the common step is).
-- `run_hybrid`: N lanes × B steps, dispatching on prm[P_KIND] and applying the guard of the
-  former `HybridRig.advance` (hold on a non-finite velocity, shorten a step at a limit in
-  `hold` mode).
+
+The runner that steps N lanes × B steps with these, the allocation planners and the record is
+`twin.sim.kernels.hybrid_runner.run_hybrid`.
 
 The solve runs in the platform frame P instead of the base frame B: with D = diag(ᴮR_P, ᴮR_P),
 the task Jacobian of seed 000 eq (24) is J = D K where
@@ -41,14 +42,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from functools import cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from twin.sim.kernels.compile import (
-    compile_runner,
-    prange,
     register_borrowing,
     register_jitable,
 )
@@ -63,14 +61,10 @@ from twin.sim.kernels.layout import (
     C_RATE,
     C_UPPER,
     D_DAMPING,
-    D_LIMIT_SCALE,
     D_SCALE,
     D_SHARE,
     D_WEIGHTS,
-    FAULT_JOINT_LIMIT,
-    FAULT_PLANNER,
     FAULT_SINGULAR,
-    KIND_ALLOCATION,
     KIND_DIFFERENTIAL,
     N_HYBRID_CONSTANTS,
     N_PARAMETERS,
@@ -615,6 +609,40 @@ def svd_pinv_apply(
 
 
 @register_borrowing
+def tip_error_lane(
+    x: np.ndarray,
+    R: np.ndarray,
+    target: np.ndarray,
+    const: np.ndarray,
+    frames: np.ndarray,
+    M: np.ndarray,
+    error_out: np.ndarray,
+) -> None:
+    """The tip of one lane and its pose error against the target: what the tip task plans on
+    (`tip_task_lane`) and what a run records (`twin.sim.kernels.records`), computed once.
+
+    Args:
+        x: (9,) xi [m, rad]; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
+        target: (18,) the target row (layout `TARGET_*`; ᴮR_d and ᴮp_d read).
+        const: hybrid constants.
+        frames: (2, 4, 4) written: ᴾT_E and ᴮT_E (`tip_transform`).
+        M: (3, 3) written: R_d R_Eᵀ.
+        error_out: (6,) written: e = [p_d − p_E; log(R_d R_Eᵀ)] [m, rad] in B (seed 000
+            eq (34), SPEC erratum 6).
+    """
+    E = frames[1]
+    tip_transform(x, R, const, frames[0], E)
+    for i in range(3):
+        for j in range(3):
+            M[i, j] = (
+                target[3 * i] * E[j, 0] + target[3 * i + 1] * E[j, 1] + target[3 * i + 2] * E[j, 2]
+            )
+    so3_log_lane(M, error_out[3:])
+    for i in range(3):
+        error_out[i] = target[9 + i] - E[i, 3]
+
+
+@register_borrowing
 def tip_task_lane(
     x: np.ndarray,
     R: np.ndarray,
@@ -638,18 +666,10 @@ def tip_task_lane(
         frames: (2, 4, 4) written: ᴾT_E and ᴮT_E (`tip_transform`).
         M: (3, 3) written: R_d R_Eᵀ.
     """
-    G, E = frames[0], frames[1]
-    tip_transform(x, R, const, G, E)
-    for i in range(3):
-        for j in range(3):
-            M[i, j] = (
-                target[3 * i] * E[j, 0] + target[3 * i + 1] * E[j, 1] + target[3 * i + 2] * E[j, 2]
-            )
-    log = demand[3:]  # log(R_d R_Eᵀ) first, made the rotation demand in place
-    so3_log_lane(M, log)
-    for i in range(3):
-        demand[i] = target[12 + i] + gain * (target[9 + i] - E[i, 3])
-        demand[3 + i] = target[15 + i] + gain * log[i]
+    G = frames[0]
+    tip_error_lane(x, R, target, const, frames, M, demand)  # e first, made the demand in place
+    for i in range(6):
+        demand[i] = target[12 + i] + gain * demand[i]
     for a in range(6):
         for j in range(9):
             K[a, j] = 1.0 if a == j else 0.0
@@ -901,144 +921,3 @@ def differential_finish(
     diag_out[D_DAMPING] = damping
     diag_out[D_SCALE] = scale
     return FAULT_SINGULAR if damping > 0.0 else 0
-
-
-# ---------------------------------------------------------------------------------------------
-# The runner: N lanes × B steps and the guard of the former HybridRig.advance.
-# ---------------------------------------------------------------------------------------------
-
-
-@register_jitable
-def allocation_work_missing() -> tuple[np.ndarray]:
-    """Stands in for `twin.sim.kernels.allocation.allocation_work` (`allocation_missing`)."""
-    return (np.empty(0),)
-
-
-@register_borrowing
-def allocation_missing(
-    x: np.ndarray,
-    R: np.ndarray,
-    target: np.ndarray,
-    prm: np.ndarray,
-    memory: np.ndarray,
-    const: np.ndarray,
-    dt: float,
-    work: tuple[np.ndarray],
-    v_out: np.ndarray,
-    diag_out: np.ndarray,
-) -> int:
-    """Stands in for `twin.sim.kernels.allocation.allocation_velocity` when that module cannot
-    be imported: a NaN velocity, which the runner's guard turns into a held state."""
-    for j in range(9):
-        v_out[j] = math.nan
-    return FAULT_PLANNER
-
-
-#: the allocation family's step and its scratch (`bind_allocation`)
-allocation_velocity, allocation_work = allocation_missing, allocation_work_missing
-
-
-def run_hybrid(
-    xs: np.ndarray,
-    targets: np.ndarray,
-    prm: np.ndarray,
-    memory: np.ndarray,
-    const: np.ndarray,
-    dt: float,
-    diag: np.ndarray,
-    faults: np.ndarray,
-) -> None:
-    """Step N lanes of the hybrid system through a chunk of B samples.
-
-    Per lane and step: the planner of prm[n, P_KIND] gives the velocity v (differential:
-    `differential_velocity`, finished by `damped_differential_velocity` where it returns
-    NEEDS_SVD; allocation: `twin.sim.kernels.allocation.allocation_velocity`);
-    a non-finite v holds the mechanism (FAULT_PLANNER, D_LIMIT_SCALE = 0); otherwise a lane
-    with prm[n, P_HOLD] > 0 shortens the step to s = `limit_scale_lane` (FAULT_JOINT_LIMIT when
-    s < 1), D_LIMIT_SCALE = s, and xi integrates s·v for dt (`integrate_hybrid`).
-
-    Args:
-        xs: (N, B + 1, 9) xi [m, rad]; row 0 the chunk's start, rows 1 … B written.
-        targets: (N, B, N_TARGET) the held target in B at each step (layout `TARGET_*`).
-        prm: (N, N_PARAMETERS) each lane's planner row.
-        memory: (N, N_MEMORY) each lane's planner state, read and written (allocation).
-        const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
-        dt: [s] control period.
-        diag: (N, B + 1, N_HYBRID_DIAGNOSTICS): rows 1 … B written (step k's in row k + 1).
-        faults: (N, B) int64 written: the step's fault bits (`twin.sim.faults.Fault`).
-    """
-    n_steps = targets.shape[1]
-    for n in prange(xs.shape[0]):
-        # scratch allocated once per lane (numba puts every array on the heap)
-        R, v = np.empty((3, 3)), np.empty(9)
-        differential, allocation, limit = differential_work(), allocation_work(), limit_work()
-        # the lane's rows taken once: a view made per step costs two atomic reference counts
-        row, lane_memory = prm[n], memory[n]
-        kind = row[P_KIND]
-        hold = row[P_HOLD] > 0.0
-        for k in range(n_steps):
-            x, x_next, d = xs[n, k], xs[n, k + 1], diag[n, k + 1]
-            rpy_to_matrix_lane(x[3], x[4], x[5], R)  # ᴮR_P: the planner's, the guard's, the step's
-            if kind == KIND_DIFFERENTIAL:
-                bits = differential_velocity(x, R, targets[n, k], row, const, differential, v, d)
-                if bits == NEEDS_SVD:  # rare (near a singularity): the SVD branch allocates
-                    bits = damped_differential_velocity(x, row, differential, v, d)
-            elif kind == KIND_ALLOCATION:
-                bits = allocation_velocity(x, R, targets[n, k], row, lane_memory, const, dt,
-                                           allocation, v, d)  # fmt: skip
-            else:  # not a hybrid planner: held, as a planner fault
-                for j in range(9):
-                    v[j] = math.nan
-                bits = FAULT_PLANNER
-            finite = True
-            for j in range(9):
-                finite = finite and math.isfinite(v[j])
-            if not finite:  # a planner fault holds the mechanism still
-                bits |= FAULT_PLANNER
-                d[D_LIMIT_SCALE] = 0.0
-                for j in range(9):
-                    x_next[j] = x[j]
-            else:
-                s = 1.0
-                if hold:
-                    s = limit_scale_lane(x, R, v, dt, const, limit)
-                    if s < 1.0:
-                        bits |= FAULT_JOINT_LIMIT
-                d[D_LIMIT_SCALE] = s
-                for j in range(9):
-                    v[j] = s * v[j]
-                integrate_hybrid(x, R, v, dt, x_next)
-            faults[n, k] = bits
-
-
-def bind_allocation() -> None:
-    """Point `run_hybrid` at `twin.sim.kernels.allocation.allocation_velocity` and its
-    `allocation_work` when they can be imported (at import of this module, and again before
-    compiling: the allocation module imports this one, so when it is imported first the
-    binding waits for `compiled_hybrid`)."""
-    global allocation_velocity, allocation_work
-    try:
-        from twin.sim.kernels.allocation import allocation_velocity as found
-        from twin.sim.kernels.allocation import allocation_work as found_work
-    except ImportError:
-        return
-    allocation_velocity, allocation_work = found, found_work
-
-
-#: modules whose register_jitable functions `run_hybrid` compiles in
-KERNEL_MODULES = (
-    "twin.sim.kernels.hybrid",
-    "twin.sim.kernels.layout",
-    "twin.sim.kernels.allocation",
-)
-
-
-@cache
-def compiled_hybrid(parallel: bool) -> Callable:
-    """`run_hybrid` compiled by numba, parallel over lanes or serial (one thread, e.g. one per
-    Dask worker), cached on disk (`compile_runner`); the plain `run_hybrid` without numba."""
-    bind_allocation()
-    return compile_runner(run_hybrid, parallel, KERNEL_MODULES)
-
-
-bind_allocation()

@@ -675,7 +675,8 @@ def run_platform(
         xs: (N, B + 1, 3) platform states [native, rad, rad]; row 0 the chunk's start, rows
             1 … B written.
         legs: (N, B + 1, 4) actuator lengths [native], the first n_legs used; rows as xs.
-        targets: (N, B, 18) the held target in B at each step (`layout.TARGET_*`).
+        targets: (N, B, 18) the held target in B at each step (`layout.TARGET_*`; a row B,
+            the chunk's end, is not read).
         prm: (N, N_PARAMETERS) per lane (`pack_platform`).
         memory: (N, N_MEMORY) per lane, read and written (`M_*` rows).
         const: (N_PLATFORM_CONSTANTS,) the mechanism (`platform_constants`).
@@ -687,7 +688,7 @@ def run_platform(
     for n in prange(xs.shape[0]):
         work = np.zeros((8, 18))
         R, J, M = np.zeros((3, 3)), np.zeros((4, 3)), np.zeros((3, 4))
-        for k in range(targets.shape[1]):
+        for k in range(xs.shape[1] - 1):
             faults[n, k] = step(
                 xs[n, k], legs[n, k], targets[n, k], prm[n], memory[n], const, dt,
                 xs[n, k + 1], legs[n, k + 1], diag[n, k + 1], work, R, J, M,

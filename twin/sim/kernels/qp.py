@@ -459,7 +459,7 @@ def run_qp(
     and integrate (compiled)."""
     from twin.planners.qp import SOLVERS, QPProblem, solve_levels
 
-    N, B = targets.shape[:2]
+    N, B = xs.shape[0], xs.shape[1] - 1  # targets may have the chunk's end row too
     H, f = np.empty((N, 9, 9)), np.empty((N, 9))
     A = np.empty((N, N_QP_ROWS, 9))
     lower, upper = np.empty((N, 9 + N_QP_ROWS)), np.empty((N, 9 + N_QP_ROWS))

@@ -1,9 +1,11 @@
 r"""What the hybrid system records at each sample, for a whole chunk, compiled.
 
 Nothing here feeds back into the stepping: the runner is called once per chunk, after the
-kernel has stepped it, over every lane and sample (`twin.sim.records.hybrid_records`). It uses
+kernel has stepped it, over every lane and sample (`twin.sim.lanes.HybridLanes.run`). It uses
 the kernels' one-lane primitives (`twin.sim.kernels.hybrid`, `twin.sim.kernels.allocation`), so
-the tip, the legs and the manipulability are computed as the planners see them.
+the tip, its error, the legs and the manipulability are computed as the planners see them. It
+reads the base from each sample's target row ᴮT_d = ᴵT_B⁻¹ ᴵT_E* (`twin.sim.target.held_targets`,
+which the chunk's kernel read too), not from its pose: no roll-pitch-yaw to turn into ᴵR_B again.
 
 Per sample, with ᴵT_B the base, ᴮT_E the tip (seed 000 eq (14)) and ᴵT_E* the held tip pose:
 
@@ -31,26 +33,36 @@ from twin.sim.kernels.compile import (
     register_borrowing,
     register_jitable,
 )
-from twin.sim.kernels.hybrid import rpy_to_matrix_lane, so3_log_lane, tip_transform
+from twin.sim.kernels.hybrid import rpy_to_matrix_lane, tip_error_lane
 
 #: Scalar record rows (`run_hybrid_records`' `scalars`).
 S_MANIPULABILITY, S_PHI_E, S_THETA_E, S_ALPHA_TOP, S_ALPHA_BOTTOM = 0, 1, 2, 3, 4
 N_SCALARS = 5
 
+#: `record_work()`'s arrays
+RecordWork = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
 
 @register_jitable
-def record_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Scratch of `hybrid_record_sample`, allocated once per lane (numba puts every array on the
-    heap, and a reshaped view costs as much; views along a leading axis are free): rotations
-    (4, 3, 3) ᴵR_B, ᴮR_P, the error rotation and ᴮR_d; transforms (2, 4, 4) ᴾT_E and ᴮT_E;
-    the tip's directions (2, 3); the leg vectors (6, 3); the leg Jacobian (6, 6)."""
-    return (np.empty((4, 3, 3)), np.empty((2, 4, 4)), np.empty((2, 3)), np.empty((6, 3)),
-            np.empty((6, 6)))  # fmt: skip
+def record_work() -> RecordWork:
+    """Scratch of a lane's records, allocated once per lane (numba puts every array on the
+    heap, and a reshaped view costs as much; views along a leading axis are free): ᴵR_B and
+    ᴮR_P (2, 3, 3); ᴾT_E and ᴮT_E (2, 4, 4); R_d R_Eᵀ (3, 3); the tip's directions (2, 3); the
+    leg vectors (6, 3); the leg Jacobian (6, 6)."""
+    return (np.empty((2, 3, 3)), np.empty((2, 4, 4)), np.empty((3, 3)), np.empty((2, 3)),
+            np.empty((6, 3)), np.empty((6, 6)))  # fmt: skip
+
+
+@register_borrowing
+def gangway_angles(g: np.ndarray) -> tuple[float, float]:
+    """(φ, θ) [rad]: the azimuth and elevation of the gangway vector g (3,) in the landing
+    frame, as `hybrid_record_sample` measures them (seed 004 §3.1 a)."""
+    return math.atan2(g[1], g[0]), math.atan2(g[2], g[0])
 
 
 @register_borrowing
 def hybrid_record_sample(
-    pose: np.ndarray,
+    target: np.ndarray,
     x: np.ndarray,
     held: np.ndarray,
     landing: np.ndarray,
@@ -60,41 +72,34 @@ def hybrid_record_sample(
     legs_out: np.ndarray,
     error_out: np.ndarray,
     scalars_out: np.ndarray,
-    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    work: RecordWork,
 ) -> None:
     """One sample's record (module docstring).
 
+    ᴵR_B is read from the target row: ᴮR_d = ᴵR_Bᵀ ᴵR_E*, so ᴵR_B = ᴵR_E* ᴮR_dᵀ.
+
     Args:
-        pose: (6,) ᴵT_B as [x, y, z, roll, pitch, yaw] [m, rad].
+        target: (18,) the sample's target row (ᴮR_d row-major and ᴮp_d read).
         x: (9,) xi [m, rad].
         held: (4, 4) ᴵT_E*.
         landing: (3, 3) inertial → landing frame; phi0, theta0: [rad] the gangway's azimuth
-            and elevation in it at t = 0 (`hybrid_record_lane`).
+            and elevation in it at t = 0 (`gangway_angles`).
         const: hybrid constants.
         legs_out: (6,) [m]; error_out: (6,) [m, rad] in B; scalars_out: (N_SCALARS,) written.
         work: `record_work()`, overwritten.
     """
-    rotations, frames, axes, vectors, J = work
-    R_IB, R_BP, R_err, R_d = rotations[0], rotations[1], rotations[2], rotations[3]
+    rotations, frames, M, axes, vectors, J = work
+    R_IB, R_BP, T_E = rotations[0], rotations[1], frames[1]
     up, g = axes[0], axes[1]
-    rpy_to_matrix_lane(pose[3], pose[4], pose[5], R_IB)
     rpy_to_matrix_lane(x[3], x[4], x[5], R_BP)
-    T_E = frames[1]
-    tip_transform(x, R_BP, const, frames[0], T_E)
-    # ᴮT_d = ᴵT_B⁻¹ ᴵT_E*; error against ᴮT_E, log of ᴮR_d ᴮR_Eᵀ
-    for i in range(3):
-        d = 0.0
-        for k in range(3):
-            d += R_IB[k, i] * (held[k, 3] - pose[k])
-            R_d[i, k] = R_IB[0, i] * held[0, k] + R_IB[1, i] * held[1, k] + R_IB[2, i] * held[2, k]
-        error_out[i] = d - T_E[i, 3]
+    # the tip and its error against ᴮT_d, as the tip task computes them
+    tip_error_lane(x, R_BP, target, const, frames, M, error_out)
     for i in range(3):
         for j in range(3):
-            s = 0.0
-            for k in range(3):
-                s += R_d[i, k] * T_E[j, k]
-            R_err[i, j] = s
-    so3_log_lane(R_err, error_out[3:])
+            R_IB[i, j] = (
+                held[i, 0] * target[3 * j] + held[i, 1] * target[3 * j + 1]
+                + held[i, 2] * target[3 * j + 2]
+            )  # fmt: skip
     # legs and manipulability
     leg_vectors_lane(R_BP, x[:3], const, vectors, legs_out)
     scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, const, J)
@@ -118,7 +123,7 @@ def hybrid_record_sample(
 
 @register_borrowing
 def hybrid_record_lane(
-    poses: np.ndarray,
+    targets: np.ndarray,
     xs: np.ndarray,
     first: int,
     held: np.ndarray,
@@ -128,28 +133,28 @@ def hybrid_record_lane(
     legs_out: np.ndarray,
     errors_out: np.ndarray,
     scalars_out: np.ndarray,
-    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    work: RecordWork,
 ) -> None:
     """One lane's records, sample by sample (`hybrid_record_sample`): the loop is here, not in
     the runner, because a borrowing function takes its per-sample views without reference
     counting (two atomic operations per view and sample in the runner).
 
     Args:
-        poses: (S, 6) ᴵT_B per sample; xs: (S, 9) xi per sample [m, rad].
-        first: the first sample recorded: samples first … S − 1 are (T = S − first).
+        targets: (S, 18) each sample's target row; xs: (S, 9) xi per sample [m, rad].
+        first: the first sample recorded: samples first … S − 1 are.
         landing: (3, 3) inertial → landing frame; g0: (3,) the gangway vector at t = 0 in it.
         held, const, work: as in `hybrid_record_sample`.
-        legs_out: (T, 6) [m]; errors_out: (T, 6) [m, rad]; scalars_out: (T, N_SCALARS) written.
+        legs_out: (S, 6) [m]; errors_out: (S, 6) [m, rad]; scalars_out: (S, N_SCALARS):
+            rows first … S − 1 written.
     """
-    phi0, theta0 = math.atan2(g0[1], g0[0]), math.atan2(g0[2], g0[0])  # once per lane
+    phi0, theta0 = gangway_angles(g0)  # once per lane
     for k in range(first, xs.shape[0]):
-        i = k - first
-        hybrid_record_sample(poses[k], xs[k], held, landing, phi0, theta0, const, legs_out[i],
-                             errors_out[i], scalars_out[i], work)  # fmt: skip
+        hybrid_record_sample(targets[k], xs[k], held, landing, phi0, theta0, const, legs_out[k],
+                             errors_out[k], scalars_out[k], work)  # fmt: skip
 
 
 def run_hybrid_records(
-    poses: np.ndarray,
+    targets: np.ndarray,
     xs: np.ndarray,
     first: int,
     held: np.ndarray,
@@ -160,16 +165,18 @@ def run_hybrid_records(
     errors: np.ndarray,
     scalars: np.ndarray,
 ) -> None:
-    """Records of N lanes × T samples: samples first … S − 1 of S (a chunk's states as the
-    kernel wrote them, its start in row 0, need no copy without it).
+    """Records of N lanes × samples first … S − 1 of S (a chunk's states as the kernel wrote
+    them, its start in row 0, need no copy without it).
 
     Args:
-        poses: (N, S, 6) base poses; xs: (N, S, 9) states; first: the first sample recorded;
-        held: (N, 4, 4); landing: (N, 3, 3); gangway0: (N, 3); const: hybrid constants.
-        legs: (N, T, 6), errors: (N, T, 6), scalars: (N, T, N_SCALARS), written (T = S − first).
+        targets: (N, S, 18) each sample's target row (`held_targets`; ᴮR_d and ᴮp_d read);
+        xs: (N, S, 9) states; first: the first sample recorded; held: (N, 4, 4); landing:
+        (N, 3, 3); gangway0: (N, 3); const: hybrid constants.
+        legs: (N, S, 6), errors: (N, S, 6), scalars: (N, S, N_SCALARS): rows first … S − 1
+            written.
     """
     for n in prange(xs.shape[0]):
-        hybrid_record_lane(poses[n], xs[n], first, held[n], landing[n], gangway0[n], const,
+        hybrid_record_lane(targets[n], xs[n], first, held[n], landing[n], gangway0[n], const,
                            legs[n], errors[n], scalars[n], record_work())  # fmt: skip
 
 

@@ -8,6 +8,7 @@ twist of sample k is [(ᴮp_d(k+1) − ᴮp_d(k)) / dt; log(ᴮR_d(k+1) ᴮR_d(k
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from functools import cache
 
@@ -57,11 +58,13 @@ def held_targets_lane(
 
     Args:
         poses: (B + 1, 6) ᴵT_B [m, rad]; held: (4, 4) ᴵT*; dt: [s].
-        out: (B, 18) written.
+        out: (B, 18) or (B + 1, 18) written: with B + 1 rows, the last is sample B's desired
+            pose, its twist NaN (the next sample's pose is not known).
         R_IB, R_step: (3, 3), now, nxt: (12,), w: (3,): scratch.
     """
     desired_lane(poses[0], held, R_IB, nxt)
-    for k in range(out.shape[0]):
+    steps = poses.shape[0] - 1
+    for k in range(steps):
         for i in range(12):
             now[i] = nxt[i]
         desired_lane(poses[k + 1], held, R_IB, nxt)
@@ -80,6 +83,12 @@ def held_targets_lane(
             row[TARGET_P + i] = now[9 + i]
             row[TARGET_V + i] = (nxt[9 + i] - now[9 + i]) / dt
             row[TARGET_W + i] = w[i] / dt
+    if out.shape[0] > steps:  # the end: its desired pose, for what is recorded there
+        row = out[steps]
+        for i in range(12):
+            row[i] = nxt[i]
+        for i in range(6):
+            row[TARGET_V + i] = math.nan
 
 
 def run_held_targets(poses: np.ndarray, held: np.ndarray, dt: float, out: np.ndarray) -> None:
@@ -89,7 +98,8 @@ def run_held_targets(poses: np.ndarray, held: np.ndarray, dt: float, out: np.nda
         poses: (N, B + 1, 6) ᴵT_B at samples k … k + B [m, rad].
         held: (N, 4, 4) ᴵT*.
         dt: [s] sample period.
-        out: (N, B, 18) written, rows `twin.sim.kernels.layout.TARGET_*`.
+        out: (N, B, 18) written, rows `twin.sim.kernels.layout.TARGET_*`; or (N, B + 1, 18),
+            the last row sample k + B's desired pose (`held_targets_lane`).
     """
     for n in prange(poses.shape[0]):
         held_targets_lane(poses[n], held[n], dt, out[n], np.empty((3, 3)), np.empty(12),

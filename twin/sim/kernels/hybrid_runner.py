@@ -1,0 +1,129 @@
+"""The hybrid system's chunk runner: N lanes × B steps of plan, guard and integrate.
+
+Per lane and step, with ᴮR_P computed once for all of them:
+
+1. the planner of prm[n, P_KIND] gives the velocity v (differential: `differential_velocity`,
+   finished by `damped_differential_velocity` where it returns NEEDS_SVD; allocation:
+   `allocation_velocity`);
+2. the guard of the former `HybridRig.advance`: a non-finite v holds the mechanism
+   (FAULT_PLANNER, D_LIMIT_SCALE = 0); otherwise a lane with prm[n, P_HOLD] > 0 shortens the
+   step to s = `limit_scale_lane` (FAULT_JOINT_LIMIT when s < 1), D_LIMIT_SCALE = s, and xi
+   integrates s·v for dt (`integrate_hybrid`).
+
+What is recorded at the samples is computed after the chunk, in a pass of its own
+(`twin.sim.kernels.records`): recording inside this loop, sharing ᴮR_P, the tip and its error
+with the planner, was measured slower than the two passes (docs/simulation.md).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from functools import cache
+
+import numpy as np
+
+from twin.sim.kernels.allocation import allocation_velocity, allocation_work
+from twin.sim.kernels.compile import compile_runner, prange
+from twin.sim.kernels.hybrid import (
+    NEEDS_SVD,
+    damped_differential_velocity,
+    differential_velocity,
+    differential_work,
+    integrate_hybrid,
+    limit_scale_lane,
+    limit_work,
+    rpy_to_matrix_lane,
+)
+from twin.sim.kernels.layout import (
+    D_LIMIT_SCALE,
+    FAULT_JOINT_LIMIT,
+    FAULT_PLANNER,
+    KIND_ALLOCATION,
+    KIND_DIFFERENTIAL,
+    P_HOLD,
+    P_KIND,
+)
+
+
+def run_hybrid(
+    xs: np.ndarray,
+    targets: np.ndarray,
+    prm: np.ndarray,
+    memory: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    diag: np.ndarray,
+    faults: np.ndarray,
+) -> None:
+    """Step N lanes of the hybrid system through a chunk of B steps (module doc).
+
+    Args:
+        xs: (N, B + 1, 9) xi [m, rad]; row 0 the chunk's start, rows 1 … B written.
+        targets: (N, B, N_TARGET) the held target in B at each step (layout `TARGET_*`); a row
+            B, the chunk's end (`held_targets` with `end=True`), is not read.
+        prm: (N, N_PARAMETERS) each lane's planner row.
+        memory: (N, N_MEMORY) each lane's planner state, read and written (allocation).
+        const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
+        dt: [s] control period.
+        diag: (N, B + 1, N_HYBRID_DIAGNOSTICS): rows 1 … B written (step k's in row k + 1).
+        faults: (N, B) int64 written: the step's fault bits (`twin.sim.faults.Fault`).
+    """
+    n_steps = xs.shape[1] - 1
+    for n in prange(xs.shape[0]):
+        # scratch allocated once per lane (numba puts every array on the heap)
+        R, v = np.empty((3, 3)), np.empty(9)
+        differential, allocation, limit = differential_work(), allocation_work(), limit_work()
+        # the lane's rows taken once: a view made per step costs two atomic reference counts
+        row, lane_memory = prm[n], memory[n]
+        kind = row[P_KIND]
+        hold = row[P_HOLD] > 0.0
+        for k in range(n_steps):
+            x, x_next, d, target = xs[n, k], xs[n, k + 1], diag[n, k + 1], targets[n, k]
+            rpy_to_matrix_lane(x[3], x[4], x[5], R)  # ᴮR_P: the planner's, the guard's, the step's
+            if kind == KIND_DIFFERENTIAL:
+                bits = differential_velocity(x, R, target, row, const, differential, v, d)
+                if bits == NEEDS_SVD:  # rare (near a singularity): the SVD branch allocates
+                    bits = damped_differential_velocity(x, row, differential, v, d)
+            elif kind == KIND_ALLOCATION:
+                bits = allocation_velocity(x, R, target, row, lane_memory, const, dt,
+                                           allocation, v, d)  # fmt: skip
+            else:  # not a hybrid planner: held, as a planner fault
+                for j in range(9):
+                    v[j] = math.nan
+                bits = FAULT_PLANNER
+            finite = True
+            for j in range(9):
+                finite = finite and math.isfinite(v[j])
+            if not finite:  # a planner fault holds the mechanism still
+                bits |= FAULT_PLANNER
+                d[D_LIMIT_SCALE] = 0.0
+                for j in range(9):
+                    x_next[j] = x[j]
+            else:
+                s = 1.0
+                if hold:
+                    s = limit_scale_lane(x, R, v, dt, const, limit)
+                    if s < 1.0:
+                        bits |= FAULT_JOINT_LIMIT
+                d[D_LIMIT_SCALE] = s
+                for j in range(9):
+                    v[j] = s * v[j]
+                integrate_hybrid(x, R, v, dt, x_next)
+            faults[n, k] = bits
+
+
+#: modules whose register_jitable functions `run_hybrid` compiles in
+KERNEL_MODULES = (
+    "twin.sim.kernels.hybrid_runner",
+    "twin.sim.kernels.hybrid",
+    "twin.sim.kernels.layout",
+    "twin.sim.kernels.allocation",
+)
+
+
+@cache
+def compiled_hybrid(parallel: bool) -> Callable:
+    """`run_hybrid` compiled by numba, parallel over lanes or serial (one thread, e.g. one per
+    Dask worker), cached on disk (`compile_runner`); the plain `run_hybrid` without numba."""
+    return compile_runner(run_hybrid, parallel, KERNEL_MODULES)
