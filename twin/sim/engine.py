@@ -311,9 +311,8 @@ class Simulation:
         held = hold_nonfinite(records, self.history.newest())
         faults |= np.where(held[:, -m:], layout.FAULT_PLANNER, 0)  # not the start's
         t = (self.k + np.arange(first, m + 1)) * self.dt  # exact multiples, chunk-independent
-        if whole:
-            records["t"] = np.repeat(t[None], N, axis=0)
-            self.history.adopt(records)
+        if whole:  # "t" first, as the history's keys have been since sample 0
+            self.history.adopt({"t": np.repeat(t[None], N, axis=0), **records})
         else:
             records["t"] = np.broadcast_to(t, (N, m))
             if self._keep_all:

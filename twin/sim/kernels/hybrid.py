@@ -771,12 +771,16 @@ def differential_velocity(
         else:
             w[i] = prm[P_SPLIT + i]
 
-    # A = K W Kᵀ; the damping test of weighted_pinv as a Cholesky factorisation (module doc)
+    # A = K W Kᵀ; the damping test of weighted_pinv as a Cholesky factorisation (module doc).
+    # Row a of K W once per row (in `back`, free until the solve), not once per entry: the
+    # same products, (K_aj w_j) K_cj, in the same order.
     for a in range(6):
+        for j in range(9):
+            back[j] = K[a, j] * w[j]
         for c in range(a + 1):
             s = 0.0
             for j in range(9):
-                s += K[a, j] * w[j] * K[c, j]
+                s += back[j] * K[c, j]
             A[a, c] = s
             A[c, a] = s
     posture = int(prm[P_POSTURE_INDEX])
