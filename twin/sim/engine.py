@@ -297,7 +297,8 @@ class Simulation:
         xs[:, 0] = self.x
         diag = np.zeros((N, m + 1, self.lanes.n_diagnostics))
         faults = np.zeros((N, m), dtype=np.int64)
-        targets = self.targets(block, local, m, scratch((N, m + 1, layout.N_TARGET)), end=True)
+        out = scratch("targets", (N, m + 1, layout.N_TARGET))
+        targets = self.targets(block, local, m, out, end=True)
         self.lanes.run(self._run, xs, targets, self.prm, self.memory, self.dt, diag, faults, first)
         if self.k == 0:  # no step has been taken at t = 0: the first step's diagnostics repeat
             diag[:, 0] = diag[:, 1]

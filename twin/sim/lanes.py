@@ -39,6 +39,7 @@ from twin.sim.records import (
     record_views,
 )
 from twin.sim.scenario import Scenario
+from twin.sim.scratch import scratch
 from twin.sim.target import held_targets
 from twin.spatial import pose_to_transform
 
@@ -157,28 +158,37 @@ class HybridLanes:
         """Run the kernel `run` over a chunk, then record its samples first … B (arrays as
         `twin.sim.kernels.layout` says; targets (N, B + 1, 18), the last row the chunk's end,
         `held_targets` with `end=True`): the lanes of the compiled families through `run` for
-        the whole chunk, the qp lanes step by step through `twin.sim.kernels.qp.run_qp`
-        (compiled unless `run` is the plain `run_hybrid`, the interpreted engine); then every
-        lane's record (`run_hybrid_records`), which `records` reads."""
+        the whole chunk, a differential lane handing over the tips and errors of its steps'
+        samples (`twin.sim.kernels.hybrid_runner`); the qp lanes step by step through
+        `twin.sim.kernels.qp.run_qp` (compiled unless `run` is the plain `run_hybrid`, the
+        interpreted engine); then every lane's record (`run_hybrid_records`), which `records`
+        reads."""
         from twin.sim.kernels.hybrid_runner import run_hybrid
         from twin.sim.kernels.qp import run_qp
+        from twin.sim.kernels.records import N_TIP
 
-        qp = prm[:, layout.P_KIND] == layout.KIND_QP
+        N, S = xs.shape[:2]
+        legs, errors, scalars = self._recorded = record_arrays(N, S)
+        tips = scratch("tips", (N, S, N_TIP))  # dies with the chunk
+        kinds = prm[:, layout.P_KIND]
+        handed = np.where(kinds == layout.KIND_DIFFERENTIAL, S - 1, 0)
+        qp = kinds == layout.KIND_QP
         if not qp.any():
-            run(xs, targets, prm, memory, self.const, dt, diag, faults)
+            run(xs, targets, prm, memory, self.const, dt, diag, faults, first, errors, tips)
         elif qp.all():
             run_qp(xs, targets, prm, self.const, dt, diag, faults, run is not run_hybrid)
         else:
             rest, lanes = np.flatnonzero(~qp), np.flatnonzero(qp)
             x, d, bits, rows = xs[rest], diag[rest], faults[rest], memory[rest]
-            run(x, targets[rest], prm[rest], rows, self.const, dt, d, bits)
+            e, tip = errors[rest], tips[rest]
+            run(x, targets[rest], prm[rest], rows, self.const, dt, d, bits, first, e, tip)
             xs[rest], diag[rest], faults[rest], memory[rest] = x, d, bits, rows
+            errors[rest], tips[rest] = e, tip
             x, d, bits = xs[lanes], diag[lanes], faults[lanes]
             run_qp(x, targets[lanes], prm[lanes], self.const, dt, d, bits, run is not run_hybrid)
             xs[lanes], diag[lanes], faults[lanes] = x, d, bits
-        self._recorded = record_arrays(*xs.shape[:2])
-        self._records(targets, xs, first, self.held, self.landing, self.gangway0, self.const,
-                      *self._recorded)  # fmt: skip
+        self._records(targets, xs, first, handed, self.held, self.landing, self.gangway0,
+                      self.const, legs, errors, scalars, tips)  # fmt: skip
 
     def records(
         self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float, first: int = 1

@@ -103,10 +103,15 @@ def hybrid_records(
     Returns:
         xi and the keys of `record_views`, each (N, S − first, ...).
     """
-    legs, errors, scalars = record_arrays(*xi.shape[:2])
-    runner(np.ascontiguousarray(targets), np.ascontiguousarray(xi), first,
+    from twin.sim.kernels.records import N_TIP
+
+    N, S = xi.shape[:2]
+    legs, errors, scalars = record_arrays(N, S)
+    none = np.zeros(N, dtype=np.int64)  # no tip handed over: each computed here
+    runner(np.ascontiguousarray(targets), np.ascontiguousarray(xi), first, none,
            np.ascontiguousarray(held), np.ascontiguousarray(landing),
-           np.ascontiguousarray(gangway0), const, legs, errors, scalars)  # fmt: skip
+           np.ascontiguousarray(gangway0), const, legs, errors, scalars,
+           np.empty((N, 0, N_TIP)))  # fmt: skip
     return {"xi": xi[:, first:], **record_views(legs, errors, scalars, first)}
 
 

@@ -35,6 +35,7 @@ from twin.sim.base_motion import BaseSamples
 from twin.sim.faults import Fault
 from twin.sim.kernels import hybrid as hk
 from twin.sim.kernels import hybrid_runner, layout
+from twin.sim.kernels.records import N_TIP
 from twin.sim.target import held_target, held_targets
 from twin.spatial import matrix_to_rpy, pose_to_transform, rpy_to_matrix, so3_exp, so3_log
 
@@ -51,8 +52,11 @@ def step_chunk(
     runner: object, xs: np.ndarray, targets: np.ndarray, prm: np.ndarray, memory: np.ndarray,
     diag: np.ndarray, faults: np.ndarray,
 ) -> None:  # fmt: skip
-    """`runner` (`run_hybrid`'s signature) over the chunk, with the test's constants."""
-    runner(xs, np.ascontiguousarray(targets), prm, memory, CONST, DT, diag, faults)
+    """`runner` (`run_hybrid`'s signature) over the chunk, with the test's constants (the tips
+    and errors it hands to the records are checked in tests/sim/kernels/test_hybrid_runner.py)."""
+    N, S = xs.shape[:2]
+    runner(xs, np.ascontiguousarray(targets), prm, memory, CONST, DT, diag, faults, 1,
+           np.empty((N, S, 6)), np.empty((N, S, N_TIP)))  # fmt: skip
 
 
 def base_samples(n: int, amplitude: float = 1.0) -> BaseSamples:

@@ -653,6 +653,7 @@ def tip_task_lane(
     M: np.ndarray,
     K: np.ndarray,
     demand: np.ndarray,
+    error: np.ndarray,
 ) -> None:
     """The tip task of one lane (`TipPoseTask`): the task Jacobian in P,
     K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]] (seed 000 eq (24) with D = diag(ᴮR_P, ᴮR_P)
@@ -665,11 +666,12 @@ def tip_task_lane(
         const: hybrid constants.
         frames: (2, 4, 4) written: ᴾT_E and ᴮT_E (`tip_transform`).
         M: (3, 3) written: R_d R_Eᵀ.
+        error: (6,) written: e (`tip_error_lane`), kept for what is recorded.
     """
     G = frames[0]
-    tip_error_lane(x, R, target, const, frames, M, demand)  # e first, made the demand in place
+    tip_error_lane(x, R, target, const, frames, M, error)
     for i in range(6):
-        demand[i] = target[12 + i] + gain * demand[i]
+        demand[i] = target[12 + i] + gain * error[i]
     for a in range(6):
         for j in range(9):
             K[a, j] = 1.0 if a == j else 0.0
@@ -685,8 +687,9 @@ def tip_task_lane(
 
 
 #: rows of `differential_work`'s vectors (9 wide; the 6-vectors use the first 6): diag(W⁻¹),
-#: the demand (turned into P), the posture column, its back-projection, the solve's scratch
-W_WEIGHTS, W_DEMAND, W_COLUMN, W_BACK, W_SOLVE = 0, 1, 2, 3, 4
+#: the demand (turned into P), the posture column, its back-projection, the solve's scratch,
+#: the tip's pose error e in B (`tip_error_lane`; the runner hands it to the record)
+W_WEIGHTS, W_DEMAND, W_COLUMN, W_BACK, W_SOLVE, W_ERROR = 0, 1, 2, 3, 4, 5
 
 
 @register_jitable
@@ -695,9 +698,9 @@ def differential_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
     """Scratch of `differential_velocity`, allocated once per lane (numba puts every array on
     the heap: a malloc per step would cost more than the arithmetic; and leading-axis views
     are free where a reshape is not): K (6, 9), A = K W Kᵀ and its factor L (6, 6), ᴾT_E and
-    ᴮT_E (2, 4, 4), R_d R_Eᵀ (3, 3), the vectors (5, 9) (rows `W_*`)."""
+    ᴮT_E (2, 4, 4), R_d R_Eᵀ (3, 3), the vectors (6, 9) (rows `W_*`)."""
     return (np.empty((6, 9)), np.empty((6, 6)), np.empty((6, 6)), np.empty((2, 4, 4)),
-            np.empty((3, 3)), np.empty((5, 9)))  # fmt: skip
+            np.empty((3, 3)), np.empty((6, 9)))  # fmt: skip
 
 
 @register_borrowing
@@ -737,7 +740,8 @@ def differential_velocity(
         prm: (N_PARAMETERS,) the lane's row (`pack_differential`).
         const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
         work: `differential_work()`, overwritten: K, K W Kᵀ, diag(W⁻¹), the demand and the
-            posture column in P, which `damped_differential_velocity` goes on from.
+            posture column in P, which `damped_differential_velocity` goes on from; the tip
+            ᴮT_E (frames[1]) and its error (row W_ERROR), which the runner hands to the record.
         v_out: (9,) written: the velocity [ᴾṖ [m/s]; ω_P [rad/s] in P; q̇1, q̇2 [rad/s];
             ḋ3 [m/s]], exactly `DifferentialPlanner.step(...).velocity` (to rounding).
         diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written (weights, null-space
@@ -752,7 +756,7 @@ def differential_velocity(
     w, b, column = vectors[W_WEIGHTS], vectors[W_DEMAND, :6], vectors[W_COLUMN, :6]
     back, y = vectors[W_BACK], vectors[W_SOLVE, :6]
     # the tip task: K and the demand ẋ_d + k_e e in B (eqs (14), (24), (34))
-    tip_task_lane(x, R, target, prm[P_GAIN], const, frames, M, K, b)
+    tip_task_lane(x, R, target, prm[P_GAIN], const, frames, M, K, b, vectors[W_ERROR, :6])
     # turned into P in place: b = Dᵀ (ẋ_d + k_e e)
     for half in (0, 3):
         d0, d1, d2 = b[half], b[half + 1], b[half + 2]

@@ -11,8 +11,10 @@ Per lane and step, with ᴮR_P computed once for all of them:
    integrates s·v for dt (`integrate_hybrid`).
 
 What is recorded at the samples is computed after the chunk, in a pass of its own
-(`twin.sim.kernels.records`): recording inside this loop, sharing ᴮR_P, the tip and its error
-with the planner, was measured slower than the two passes (docs/simulation.md).
+(`twin.sim.kernels.records`): recording inside this loop was measured slower than the two
+passes (docs/simulation.md). A differential planner's step hands the record what it has
+computed for its start anyway — ᴮR_P, the tip's axes and its pose error (`hand_over`) — so
+the record does not compute them again.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from twin.sim.kernels.allocation import allocation_velocity, allocation_work
 from twin.sim.kernels.compile import compile_runner, prange
 from twin.sim.kernels.hybrid import (
     NEEDS_SVD,
+    W_ERROR,
     damped_differential_velocity,
     differential_velocity,
     differential_work,
@@ -44,6 +47,7 @@ from twin.sim.kernels.layout import (
     P_HOLD,
     P_KIND,
 )
+from twin.sim.kernels.records import hand_over
 
 
 def run_hybrid(
@@ -55,6 +59,9 @@ def run_hybrid(
     dt: float,
     diag: np.ndarray,
     faults: np.ndarray,
+    first: int,
+    errors: np.ndarray,
+    tips: np.ndarray,
 ) -> None:
     """Step N lanes of the hybrid system through a chunk of B steps (module doc).
 
@@ -68,6 +75,11 @@ def run_hybrid(
         dt: [s] control period.
         diag: (N, B + 1, N_HYBRID_DIAGNOSTICS): rows 1 … B written (step k's in row k + 1).
         faults: (N, B) int64 written: the step's fault bits (`twin.sim.faults.Fault`).
+        first: the first sample the chunk records (0 or 1).
+        errors: (N, B + 1, 6), tips: (N, B + 1, N_TIP): a differential planner's lane hands
+            over the tip and its pose error of samples first … B − 1, which its steps computed
+            (`twin.sim.kernels.records.hand_over`), in rows first … B − 1; other lanes' rows
+            are left alone.
     """
     n_steps = xs.shape[1] - 1
     for n in prange(xs.shape[0]):
@@ -85,6 +97,9 @@ def run_hybrid(
                 bits = differential_velocity(x, R, target, row, const, differential, v, d)
                 if bits == NEEDS_SVD:  # rare (near a singularity): the SVD branch allocates
                     bits = damped_differential_velocity(x, row, differential, v, d)
+                if k >= first:  # what the record would compute again
+                    hand_over(R, differential[3][1], differential[5][W_ERROR], tips[n, k],
+                              errors[n, k])  # fmt: skip
             elif kind == KIND_ALLOCATION:
                 bits = allocation_velocity(x, R, target, row, lane_memory, const, dt,
                                            allocation, v, d)  # fmt: skip
@@ -119,6 +134,7 @@ KERNEL_MODULES = (
     "twin.sim.kernels.hybrid",
     "twin.sim.kernels.layout",
     "twin.sim.kernels.allocation",
+    "twin.sim.kernels.records",
 )
 
 

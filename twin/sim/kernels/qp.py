@@ -219,7 +219,7 @@ def qp_problem_lane(
     R, K, b = np.empty((3, 3)), np.empty((6, 9)), np.empty(6)
     rpy_to_matrix_lane(x[3], x[4], x[5], R)
     tip_task_lane(x, R, target, prm[P_QP_GAIN], const, np.empty((2, 4, 4)), np.empty((3, 3)), K,
-                  b)  # fmt: skip
+                  b, np.empty(6))  # fmt: skip
 
     # H, f: orientation (w_o, in P), posture and yaw terms (w_s), μ diag(1 / w_β)
     w_o, w_s, mu = prm[P_QP_ORIENTATION], prm[P_QP_SECONDARY], prm[P_QP_DAMPING]

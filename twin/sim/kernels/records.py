@@ -39,8 +39,14 @@ from twin.sim.kernels.hybrid import rpy_to_matrix_lane, tip_error_lane
 S_MANIPULABILITY, S_PHI_E, S_THETA_E, S_ALPHA_TOP, S_ALPHA_BOTTOM = 0, 1, 2, 3, 4
 N_SCALARS = 5
 
+#: A sample's tip as the record reads it (a `tips` row, N_TIP wide): ᴮR_P row-major (9), then
+#: the tip's x and z axes in B, ᴮR_E e_x (3) and ᴮR_E e_z (3). The hybrid runner hands it over
+#: for a differential planner's steps, which computed it (`hand_over`).
+TIP_R, TIP_X, TIP_Z, N_TIP = 0, 9, 12, 15
+
 #: `record_work()`'s arrays
-RecordWork = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+RecordWork = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                   np.ndarray]  # fmt: skip
 
 
 @register_jitable
@@ -48,16 +54,94 @@ def record_work() -> RecordWork:
     """Scratch of a lane's records, allocated once per lane (numba puts every array on the
     heap, and a reshaped view costs as much; views along a leading axis are free): ᴵR_B and
     ᴮR_P (2, 3, 3); ᴾT_E and ᴮT_E (2, 4, 4); R_d R_Eᵀ (3, 3); the tip's directions (2, 3); the
-    leg vectors (6, 3); the leg Jacobian (6, 6)."""
+    leg vectors (6, 3); the leg Jacobian (6, 6); a tip row (N_TIP,)."""
     return (np.empty((2, 3, 3)), np.empty((2, 4, 4)), np.empty((3, 3)), np.empty((2, 3)),
-            np.empty((6, 3)), np.empty((6, 6)))  # fmt: skip
+            np.empty((6, 3)), np.empty((6, 6)), np.empty(N_TIP))  # fmt: skip
 
 
 @register_borrowing
 def gangway_angles(g: np.ndarray) -> tuple[float, float]:
     """(φ, θ) [rad]: the azimuth and elevation of the gangway vector g (3,) in the landing
-    frame, as `hybrid_record_sample` measures them (seed 004 §3.1 a)."""
+    frame, as `record_from_tip` measures them (seed 004 §3.1 a)."""
     return math.atan2(g[1], g[0]), math.atan2(g[2], g[0])
+
+
+@register_borrowing
+def hand_over(
+    R_BP: np.ndarray, T_E: np.ndarray, error: np.ndarray, tip_out: np.ndarray,
+    error_out: np.ndarray,
+) -> None:  # fmt: skip
+    """A sample's ᴮR_P (3, 3), the tip ᴮT_E (4, 4) and its pose error (6,) as the record reads
+    them: into tip_out (N_TIP,) (`TIP_*`) and error_out (6,)."""
+    for i in range(3):
+        for j in range(3):
+            tip_out[TIP_R + 3 * i + j] = R_BP[i, j]
+        tip_out[TIP_X + i] = T_E[i, 0]
+        tip_out[TIP_Z + i] = T_E[i, 2]
+    for i in range(6):
+        error_out[i] = error[i]
+
+
+@register_borrowing
+def record_from_tip(
+    target: np.ndarray,
+    x: np.ndarray,
+    tip: np.ndarray,
+    held: np.ndarray,
+    landing: np.ndarray,
+    phi0: float,
+    theta0: float,
+    const: np.ndarray,
+    legs_out: np.ndarray,
+    scalars_out: np.ndarray,
+    work: RecordWork,
+) -> None:
+    """One sample's record (module docstring) but its tip error, from its tip (`hand_over`).
+
+    ᴵR_B is read from the target row: ᴮR_d = ᴵR_Bᵀ ᴵR_E*, so ᴵR_B = ᴵR_E* ᴮR_dᵀ.
+
+    Args:
+        target: (18,) the sample's target row (ᴮR_d row-major read).
+        x: (9,) xi [m, rad].
+        tip: (N_TIP,) ᴮR_P and the tip's axes (`TIP_*`).
+        held: (4, 4) ᴵT_E*.
+        landing: (3, 3) inertial → landing frame; phi0, theta0: [rad] the gangway's azimuth
+            and elevation in it at t = 0 (`gangway_angles`).
+        const: hybrid constants.
+        legs_out: (6,) [m]; scalars_out: (N_SCALARS,) written.
+        work: `record_work()`, overwritten (ᴵR_B, ᴮR_P, directions, legs, Jacobian).
+    """
+    rotations, axes, vectors, J = work[0], work[3], work[4], work[5]
+    R_IB, R_BP = rotations[0], rotations[1]
+    up, g = axes[0], axes[1]
+    for i in range(3):
+        for j in range(3):
+            R_BP[i, j] = tip[TIP_R + 3 * i + j]
+            R_IB[i, j] = (
+                held[i, 0] * target[3 * j] + held[i, 1] * target[3 * j + 1]
+                + held[i, 2] * target[3 * j + 2]
+            )  # fmt: skip
+    # legs and manipulability
+    leg_vectors_lane(R_BP, x[:3], const, vectors, legs_out)
+    scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, const, J)
+    # inertial directions of the tip's axes: ᴵR_B ᴮR_E e_x (up) and d3 ᴵR_B ᴮR_E e_z (gangway)
+    for i in range(3):
+        up[i] = R_IB[i, 0] * tip[TIP_X] + R_IB[i, 1] * tip[TIP_X + 1] + R_IB[i, 2] * tip[TIP_X + 2]
+        g[i] = x[8] * (
+            R_IB[i, 0] * tip[TIP_Z] + R_IB[i, 1] * tip[TIP_Z + 1] + R_IB[i, 2] * tip[TIP_Z + 2]
+        )
+    gl0 = landing[0, 0] * g[0] + landing[0, 1] * g[1] + landing[0, 2] * g[2]
+    gl1 = landing[1, 0] * g[0] + landing[1, 1] * g[1] + landing[1, 2] * g[2]
+    gl2 = landing[2, 0] * g[0] + landing[2, 1] * g[1] + landing[2, 2] * g[2]
+    scalars_out[S_PHI_E] = math.atan2(gl1, gl0) - phi0
+    scalars_out[S_THETA_E] = math.atan2(gl2, gl0) - theta0
+    u0, u1, u2 = held[0, 0], held[1, 0], held[2, 0]
+    c0 = up[1] * u2 - up[2] * u1
+    c1 = up[2] * u0 - up[0] * u2
+    c2 = up[0] * u1 - up[1] * u0
+    dot = up[0] * u0 + up[1] * u1 + up[2] * u2
+    scalars_out[S_ALPHA_TOP] = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot)
+    scalars_out[S_ALPHA_BOTTOM] = math.atan2(math.hypot(R_IB[0, 2], R_IB[1, 2]), R_IB[2, 2])
 
 
 @register_borrowing
@@ -74,51 +158,17 @@ def hybrid_record_sample(
     scalars_out: np.ndarray,
     work: RecordWork,
 ) -> None:
-    """One sample's record (module docstring).
-
-    ᴵR_B is read from the target row: ᴮR_d = ᴵR_Bᵀ ᴵR_E*, so ᴵR_B = ᴵR_E* ᴮR_dᵀ.
-
-    Args:
-        target: (18,) the sample's target row (ᴮR_d row-major and ᴮp_d read).
-        x: (9,) xi [m, rad].
-        held: (4, 4) ᴵT_E*.
-        landing: (3, 3) inertial → landing frame; phi0, theta0: [rad] the gangway's azimuth
-            and elevation in it at t = 0 (`gangway_angles`).
-        const: hybrid constants.
-        legs_out: (6,) [m]; error_out: (6,) [m, rad] in B; scalars_out: (N_SCALARS,) written.
-        work: `record_work()`, overwritten.
-    """
-    rotations, frames, M, axes, vectors, J = work
-    R_IB, R_BP, T_E = rotations[0], rotations[1], frames[1]
-    up, g = axes[0], axes[1]
+    """One sample's record from its state alone: ᴮR_P (`rpy_to_matrix_lane`), the tip and its
+    error against ᴮT_d as the tip task computes them (`tip_error_lane`), handed over as the
+    runner hands a differential step's (`hand_over`), then `record_from_tip`; arguments as
+    `record_from_tip`'s, error_out (6,) [m, rad] in B written too."""
+    rotations, frames, tip = work[0], work[1], work[6]
+    R_BP = rotations[1]
     rpy_to_matrix_lane(x[3], x[4], x[5], R_BP)
-    # the tip and its error against ᴮT_d, as the tip task computes them
-    tip_error_lane(x, R_BP, target, const, frames, M, error_out)
-    for i in range(3):
-        for j in range(3):
-            R_IB[i, j] = (
-                held[i, 0] * target[3 * j] + held[i, 1] * target[3 * j + 1]
-                + held[i, 2] * target[3 * j + 2]
-            )  # fmt: skip
-    # legs and manipulability
-    leg_vectors_lane(R_BP, x[:3], const, vectors, legs_out)
-    scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, const, J)
-    # inertial directions of the tip's axes: ᴵR_B ᴮR_E e_x (up) and d3 ᴵR_B ᴮR_E e_z (gangway)
-    for i in range(3):
-        up[i] = R_IB[i, 0] * T_E[0, 0] + R_IB[i, 1] * T_E[1, 0] + R_IB[i, 2] * T_E[2, 0]
-        g[i] = x[8] * (R_IB[i, 0] * T_E[0, 2] + R_IB[i, 1] * T_E[1, 2] + R_IB[i, 2] * T_E[2, 2])
-    gl0 = landing[0, 0] * g[0] + landing[0, 1] * g[1] + landing[0, 2] * g[2]
-    gl1 = landing[1, 0] * g[0] + landing[1, 1] * g[1] + landing[1, 2] * g[2]
-    gl2 = landing[2, 0] * g[0] + landing[2, 1] * g[1] + landing[2, 2] * g[2]
-    scalars_out[S_PHI_E] = math.atan2(gl1, gl0) - phi0
-    scalars_out[S_THETA_E] = math.atan2(gl2, gl0) - theta0
-    u0, u1, u2 = held[0, 0], held[1, 0], held[2, 0]
-    c0 = up[1] * u2 - up[2] * u1
-    c1 = up[2] * u0 - up[0] * u2
-    c2 = up[0] * u1 - up[1] * u0
-    dot = up[0] * u0 + up[1] * u1 + up[2] * u2
-    scalars_out[S_ALPHA_TOP] = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot)
-    scalars_out[S_ALPHA_BOTTOM] = math.atan2(math.hypot(R_IB[0, 2], R_IB[1, 2]), R_IB[2, 2])
+    tip_error_lane(x, R_BP, target, const, frames, work[2], error_out)
+    hand_over(R_BP, frames[1], error_out, tip, error_out)
+    record_from_tip(target, x, tip, held, landing, phi0, theta0, const, legs_out, scalars_out,
+                    work)  # fmt: skip
 
 
 @register_borrowing
@@ -126,6 +176,7 @@ def hybrid_record_lane(
     targets: np.ndarray,
     xs: np.ndarray,
     first: int,
+    handed: int,
     held: np.ndarray,
     landing: np.ndarray,
     g0: np.ndarray,
@@ -133,30 +184,38 @@ def hybrid_record_lane(
     legs_out: np.ndarray,
     errors_out: np.ndarray,
     scalars_out: np.ndarray,
+    tips: np.ndarray,
     work: RecordWork,
 ) -> None:
-    """One lane's records, sample by sample (`hybrid_record_sample`): the loop is here, not in
-    the runner, because a borrowing function takes its per-sample views without reference
-    counting (two atomic operations per view and sample in the runner).
+    """One lane's records, sample by sample: the loop is here, not in the runner, because a
+    borrowing function takes its per-sample views without reference counting (two atomic
+    operations per view and sample in the runner).
 
     Args:
         targets: (S, 18) each sample's target row; xs: (S, 9) xi per sample [m, rad].
         first: the first sample recorded: samples first … S − 1 are.
+        handed: samples before it have their tip in `tips` and their error in errors_out
+            (`hand_over`, by the kernel): `record_from_tip`; the others `hybrid_record_sample`.
         landing: (3, 3) inertial → landing frame; g0: (3,) the gangway vector at t = 0 in it.
-        held, const, work: as in `hybrid_record_sample`.
+        held, const, work: as in `record_from_tip`.
         legs_out: (S, 6) [m]; errors_out: (S, 6) [m, rad]; scalars_out: (S, N_SCALARS):
-            rows first … S − 1 written.
+            rows first … S − 1 written. tips: (S, N_TIP) or (0, N_TIP) when handed ≤ first.
     """
     phi0, theta0 = gangway_angles(g0)  # once per lane
     for k in range(first, xs.shape[0]):
-        hybrid_record_sample(targets[k], xs[k], held, landing, phi0, theta0, const, legs_out[k],
-                             errors_out[k], scalars_out[k], work)  # fmt: skip
+        if k < handed:
+            record_from_tip(targets[k], xs[k], tips[k], held, landing, phi0, theta0, const,
+                            legs_out[k], scalars_out[k], work)  # fmt: skip
+        else:
+            hybrid_record_sample(targets[k], xs[k], held, landing, phi0, theta0, const,
+                                 legs_out[k], errors_out[k], scalars_out[k], work)  # fmt: skip
 
 
 def run_hybrid_records(
     targets: np.ndarray,
     xs: np.ndarray,
     first: int,
+    handed: np.ndarray,
     held: np.ndarray,
     landing: np.ndarray,
     gangway0: np.ndarray,
@@ -164,20 +223,25 @@ def run_hybrid_records(
     legs: np.ndarray,
     errors: np.ndarray,
     scalars: np.ndarray,
+    tips: np.ndarray,
 ) -> None:
     """Records of N lanes × samples first … S − 1 of S (a chunk's states as the kernel wrote
     them, its start in row 0, need no copy without it).
 
     Args:
         targets: (N, S, 18) each sample's target row (`held_targets`; ᴮR_d and ᴮp_d read);
-        xs: (N, S, 9) states; first: the first sample recorded; held: (N, 4, 4); landing:
-        (N, 3, 3); gangway0: (N, 3); const: hybrid constants.
+        xs: (N, S, 9) states; first: the first sample recorded.
+        handed: (N,) int64: lane n's samples before handed[n] have their tip and error from
+            the kernel (`tips`, `errors`; `hybrid_record_lane`); 0 for none.
+        held: (N, 4, 4); landing: (N, 3, 3); gangway0: (N, 3); const: hybrid constants.
         legs: (N, S, 6), errors: (N, S, 6), scalars: (N, S, N_SCALARS): rows first … S − 1
-            written.
+            written (errors: those at or after handed[n]).
+        tips: (N, S, N_TIP) the handed tips (any rows when no lane has one).
     """
     for n in prange(xs.shape[0]):
-        hybrid_record_lane(targets[n], xs[n], first, held[n], landing[n], gangway0[n], const,
-                           legs[n], errors[n], scalars[n], record_work())  # fmt: skip
+        hybrid_record_lane(targets[n], xs[n], first, handed[n], held[n], landing[n],
+                           gangway0[n], const, legs[n], errors[n], scalars[n], tips[n],
+                           record_work())  # fmt: skip
 
 
 @cache
