@@ -118,8 +118,10 @@ class HybridLanes:
         self.const = hybrid_constants(mechanism, HYBRID_RATE_LIMITS)
         self.n_diagnostics = layout.N_HYBRID_DIAGNOSTICS
         self.extra: np.ndarray | None = None  # the small platforms' actuator lengths
-        # the last chunk's recorded legs, tip errors and scalars (`run`, read by `records`)
+        # the chunk's arrays for legs, tip errors and scalars, and its targets and what the
+        # kernel handed over (made by `run`, filled by `records`)
         self._recorded = record_arrays(len(self.x0), 0)
+        self._handed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def pack(
         self, lane: int, scenario: Scenario, x: np.ndarray, target: np.ndarray
@@ -161,14 +163,14 @@ class HybridLanes:
         the whole chunk, a differential lane handing over the tips and errors of its steps'
         samples (`twin.sim.kernels.hybrid_runner`); the qp lanes step by step through
         `twin.sim.kernels.qp.run_qp` (compiled unless `run` is the plain `run_hybrid`, the
-        interpreted engine); then every lane's record (`run_hybrid_records`), which `records`
-        reads."""
+        interpreted engine). `records`, called next, records every lane."""
         from twin.sim.kernels.hybrid_runner import run_hybrid
         from twin.sim.kernels.qp import run_qp
         from twin.sim.kernels.records import N_TIP
 
         N, S = xs.shape[:2]
-        legs, errors, scalars = self._recorded = record_arrays(N, S)
+        self._recorded = record_arrays(N, S)
+        errors = self._recorded[1]  # the kernel hands differential lanes' errors over into it
         tips = scratch("tips", (N, S, N_TIP))  # dies with the chunk
         kinds = prm[:, layout.P_KIND]
         handed = np.where(kinds == layout.KIND_DIFFERENTIAL, S - 1, 0)
@@ -187,17 +189,22 @@ class HybridLanes:
             x, d, bits = xs[lanes], diag[lanes], faults[lanes]
             run_qp(x, targets[lanes], prm[lanes], self.const, dt, d, bits, run is not run_hybrid)
             xs[lanes], diag[lanes], faults[lanes] = x, d, bits
-        self._records(targets, xs, first, handed, self.held, self.landing, self.gangway0,
-                      self.const, legs, errors, scalars, tips)  # fmt: skip
+        self._handed = (targets, handed, tips)
 
     def records(
         self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float, first: int = 1
     ) -> dict:
-        """Records (N, S − first, …) of the chunk just run (`run` computed them): its states
-        xs (N, S, 9) on base poses (N, S, 6) with the steps' diagnostics (N, S,
-        N_HYBRID_DIAGNOSTICS), the start in row 0, samples first … S − 1 (first = 1: the start
-        was recorded with the chunk before; 0: a run's first chunk recording its start too)."""
+        """Records (N, S − first, …) of the chunk `run` just stepped (`run_hybrid_records`, with
+        its targets and what its differential lanes handed over): its states xs (N, S, 9) on
+        base poses (N, S, 6) with the steps' diagnostics (N, S, N_HYBRID_DIAGNOSTICS), the start
+        in row 0, samples first … S − 1 (first = 1: the start was recorded with the chunk
+        before; 0: a run's first chunk recording its start too)."""
         del dt  # Unused: nothing recorded is a rate.
+        targets, handed, tips = self._handed
+        self._handed = None  # the scratch rows die with the chunk
+        legs, errors, scalars = self._recorded
+        self._records(targets, xs, first, handed, self.held, self.landing, self.gangway0,
+                      self.const, legs, errors, scalars, tips)  # fmt: skip
         return self._with_state(poses, xs, diag, record_views(*self._recorded, first), first)
 
     def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
