@@ -23,6 +23,7 @@ from twin.planners import (
     HYBRID_RATE_LIMITS,
     AllocationPlanner,
     DifferentialPlanner,
+    PlannerParameters,
     PlatformModel,
     PlatformPlanner,
     TipTarget,
@@ -43,6 +44,8 @@ from twin.sim.scratch import scratch
 from twin.sim.target import held_targets
 from twin.spatial import pose_to_transform
 
+#: the Scenario fields that are planner knobs (`Scenario.parameters`)
+PLANNER_KNOBS = frozenset(PlannerParameters.model_fields)
 #: the engines: "numba" (compiled), "python" (the same kernels interpreted, lane by lane: for
 #: machines where numba cannot import; the same numbers), "auto" (numba when it imports)
 ENGINES = ("auto", "numba", "python")
@@ -122,23 +125,33 @@ class HybridLanes:
         # kernel handed over (made by `run`, filled by `records`)
         self._recorded = record_arrays(len(self.x0), 0)
         self._handed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._rows: dict[tuple, np.ndarray] = {}  # packed differential planners (`pack`)
 
     def pack(
         self, lane: int, scenario: Scenario, x: np.ndarray, target: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Build the lane's planner from the registry, reset it at state x and target row
-        (18,), and pack it: (prm row, memory row)."""
+        (18,), and pack it: (prm row, memory row).
+
+        A differential planner keeps no state (its reset does nothing), so its row depends
+        only on its name, knobs, hold mode and the lane's start x0: lanes alike (a batch of
+        seeds) share one build, kept by this object (`_rows`)."""
         from twin.planners.qp import QPPlanner
         from twin.sim.kernels.allocation import pack_allocation
         from twin.sim.kernels.hybrid import pack_differential
         from twin.sim.kernels.qp import pack_qp
 
-        spec = get_planner(scenario.planner, "hybrid")
-        planner = spec.build(self.mechanism, scenario.parameters(), self.x0[lane])
-        planner.reset(x, tip_target(target))
         hold = scenario.joint_limits == "hold"
+        knobs = scenario.model_dump(include=PLANNER_KNOBS)
+        key = (scenario.planner, repr(sorted(knobs.items())), hold, self.x0[lane].tobytes())
+        if key in self._rows:
+            return self._rows[key].copy(), np.zeros(layout.N_MEMORY)
+        spec = get_planner(scenario.planner, "hybrid")
+        planner = spec.build(self.mechanism, PlannerParameters(**knobs), self.x0[lane])
+        planner.reset(x, tip_target(target))
         if isinstance(planner, DifferentialPlanner):
-            return pack_differential(planner, hold), np.zeros(layout.N_MEMORY)
+            self._rows[key] = pack_differential(planner, hold)
+            return self._rows[key].copy(), np.zeros(layout.N_MEMORY)
         if isinstance(planner, AllocationPlanner):
             return pack_allocation(planner, hold)
         if isinstance(planner, QPPlanner):
