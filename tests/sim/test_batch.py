@@ -228,6 +228,26 @@ def test_lane_parts(size: int, sizes: list[int]) -> None:
     assert [i for p in parts for i in p] == list(range(size))
 
 
+@pytest.mark.parametrize(
+    ("size", "threads", "sizes"),
+    [
+        (256, 2, [16] * 15 + [8, 4, 2, 2]),
+        (40, 2, [16, 12, 6, 3, 2, 1]),
+        (3, 2, [2, 1]),
+        (100, 4, [16, 16, 16, 13, 10, 8, 6, 4, 3, 2, 2, 2, 2]),
+    ],
+)
+def test_guided_lane_parts(size: int, threads: int, sizes: list[int]) -> None:
+    """On several threads the parts shrink towards the end (guided self-scheduling): each
+    takes the remaining lanes over the threads, within [MIN_LANES, MAX_LANES]; every lane
+    once, in order."""
+    from twin.sim.engine import lane_parts
+
+    parts = lane_parts(list(range(size)), threads)
+    assert [len(p) for p in parts] == sizes
+    assert [i for p in parts for i in p] == list(range(size))
+
+
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_one_thread_picks_the_serial_runners() -> None:
     """Under `limit_threads(1)` a many-lane runner is the serial one, and the count returns."""

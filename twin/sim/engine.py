@@ -474,8 +474,11 @@ def simulate_many(
     groups: dict[tuple, list[int]] = {}
     for i, s in enumerate(scenarios):
         groups.setdefault((s.mechanism, s.dt, round(s.duration / s.dt)), []).append(i)
-    parts = sorted((part for members in groups.values() for part in lane_parts(members)),
-                   key=len, reverse=True)  # fmt: skip
+    parts = sorted(
+        (part for members in groups.values() for part in lane_parts(members, threads)),
+        key=len,
+        reverse=True,
+    )
     results: list[SimulationResult | None] = [None] * len(scenarios)
     total = sum(round(s.duration / s.dt) for s in scenarios)
     lock = threading.Lock()
@@ -506,10 +509,30 @@ def simulate_many(
     return results  # type: ignore[return-value]
 
 
-def lane_parts(members: list[int]) -> list[list[int]]:
-    """A group's lanes as near-equal parts of at most MAX_LANES lanes, in order."""
-    n = -(-len(members) // MAX_LANES)
-    return [part.tolist() for part in np.array_split(np.array(members), n)]
+#: fewest lanes in a part of the guided schedule (`lane_parts`)
+MIN_LANES = 2
+
+
+def lane_parts(members: list[int], threads: int = 1) -> list[list[int]]:
+    """A group's lanes as parts of at most MAX_LANES lanes, in order.
+
+    On one thread, near-equal parts. On several, guided self-scheduling (Polychronopoulos and
+    Kuck 1987, OpenMP's `guided` schedule): each part takes the remaining lanes over the
+    threads, within [MIN_LANES, MAX_LANES], so the last parts shrink (256 lanes on 2 threads:
+    fifteen of 16, then 8, 4, 2, 2) and the threads finish together, where the last of
+    sixteen equal parts kept one thread busy for a whole part while the other waited: 1.86 of
+    2 cores busy. Measured on 2 cores, 256 reference lanes, paired runs: 0.96× the time of
+    equal parts (median of 16 pairs; a minimum of 1 lane, 1.00×; of 4, 0.99×)."""
+    if threads <= 1:
+        n = -(-len(members) // MAX_LANES)
+        return [part.tolist() for part in np.array_split(np.array(members), n)]
+    parts, start = [], 0
+    while start < len(members):
+        size = -(-(len(members) - start) // threads)
+        size = max(MIN_LANES, min(MAX_LANES, size))
+        parts.append(members[start : start + size])
+        start += size
+    return parts
 
 
 def warm(engine: str = "auto") -> float:
