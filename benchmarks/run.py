@@ -647,7 +647,11 @@ What is measured:
   of 4, each after a measurement of the peer: these rows divide by the peer measured beside
   them (the machine's speed drifts over the minutes between the first rows and these).
   `simulate_many` runs the batch as parts of at most 16 lanes, one `Simulation` each, on as
-  many threads of its own as numba has, with serial runners. Where the time goes is CPU time
+  many threads of its own as numba has, with serial runners, the last parts smaller (guided
+  scheduling). The ratio moves with the machine's state more than either time does, because
+  the two do not slow alike: the peer (the Python interpreter) slowed from 16 to 26 µs a step
+  within an hour on our VM while the batch slowed by a fifth, so three runs of this table in
+  that hour gave 19.1×, 17.8× and 24.7× (2026-12-02). Where the time goes is CPU time
   [core-s] per phase, summed over those threads (`time.thread_time`), against the process's
   CPU time over the run; the kernel alone is the CPU time inside the compiled runner, as steps
   per core-second against the peer's on its one core. Kernel and records together are the
