@@ -23,7 +23,6 @@ from twin.planners import (
     HYBRID_RATE_LIMITS,
     AllocationPlanner,
     DifferentialPlanner,
-    PlannerParameters,
     PlatformModel,
     PlatformPlanner,
     TipTarget,
@@ -44,8 +43,6 @@ from twin.sim.scratch import scratch
 from twin.sim.target import held_targets
 from twin.spatial import pose_to_transform
 
-#: the Scenario fields that are planner knobs (`Scenario.parameters`)
-PLANNER_KNOBS = frozenset(PlannerParameters.model_fields)
 #: the engines: "numba" (compiled), "python" (the same kernels interpreted, lane by lane: for
 #: machines where numba cannot import; the same numbers), "auto" (numba when it imports)
 ENGINES = ("auto", "numba", "python")
@@ -142,12 +139,12 @@ class HybridLanes:
         from twin.sim.kernels.qp import pack_qp
 
         hold = scenario.joint_limits == "hold"
-        knobs = scenario.model_dump(include=PLANNER_KNOBS)
-        key = (scenario.planner, repr(sorted(knobs.items())), hold, self.x0[lane].tobytes())
+        knobs = scenario.parameters()
+        key = (scenario.planner, knobs.model_dump_json(), hold, self.x0[lane].tobytes())
         if key in self._rows:
             return self._rows[key].copy(), np.zeros(layout.N_MEMORY)
         spec = get_planner(scenario.planner, "hybrid")
-        planner = spec.build(self.mechanism, PlannerParameters(**knobs), self.x0[lane])
+        planner = spec.build(self.mechanism, knobs, self.x0[lane])
         planner.reset(x, tip_target(target))
         if isinstance(planner, DifferentialPlanner):
             self._rows[key] = pack_differential(planner, hold)
@@ -170,13 +167,13 @@ class HybridLanes:
         faults: np.ndarray,
         first: int = 1,
     ) -> None:
-        """Run the kernel `run` over a chunk, then record its samples first … B (arrays as
-        `twin.sim.kernels.layout` says; targets (N, B + 1, 18), the last row the chunk's end,
-        `held_targets` with `end=True`): the lanes of the compiled families through `run` for
-        the whole chunk, a differential lane handing over the tips and errors of its steps'
-        samples (`twin.sim.kernels.hybrid_runner`); the qp lanes step by step through
+        """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says; targets
+        (N, B + 1, 18), the last row the chunk's end, `held_targets` with `end=True`): the
+        lanes of the compiled families through `run` for the whole chunk, a differential lane
+        handing over the tips and errors of samples first … B − 1
+        (`twin.sim.kernels.hybrid_runner`); the qp lanes step by step through
         `twin.sim.kernels.qp.run_qp` (compiled unless `run` is the plain `run_hybrid`, the
-        interpreted engine). `records`, called next, records every lane."""
+        interpreted engine). `records`, called next, records every lane's samples first … B."""
         from twin.sim.kernels.hybrid_runner import run_hybrid
         from twin.sim.kernels.qp import run_qp
         from twin.sim.kernels.records import N_TIP

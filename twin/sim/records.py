@@ -86,9 +86,9 @@ def hybrid_records(
     runner: Callable,
     first: int = 0,
 ) -> dict[str, np.ndarray]:
-    """The hybrid system's record at samples first … S − 1 of N lanes, computed on their own
-    by the compiled records runner (`twin.sim.kernels.records.run_hybrid_records`; the engine's
-    kernel records as it steps, with the same functions).
+    """The hybrid system's record at samples first … S − 1 of N lanes, computed from their
+    states alone by the compiled records runner (`twin.sim.kernels.records.run_hybrid_records`,
+    no tip handed over by a kernel: a run's start, and the tests).
 
     Args:
         targets: (N, S, 18) each sample's target row (`held_targets`, with `end=True` for a

@@ -18,7 +18,8 @@ nothing is allocated: the runner allocates each lane's scratch once (`*_work`) a
   `damped_differential_velocity`, the SVD branch below, then finishes it (the SVD allocates, so
   that branch and its `svd_pinv_apply` are not borrowing; the common step is).
 
-The runner that steps N lanes × B steps with these, the allocation planners and the record is
+The runner that steps N lanes × B steps with these and the allocation planners, handing the
+records pass what a differential step computed for its start, is
 `twin.sim.kernels.hybrid_runner.run_hybrid`.
 
 The solve runs in the platform frame P instead of the base frame B: with D = diag(ᴮR_P, ᴮR_P),
