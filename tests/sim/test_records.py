@@ -64,3 +64,17 @@ def test_targets_with_the_end_row(rng: np.random.Generator) -> None:
     np.testing.assert_allclose(with_end[:, 8, :9].reshape(2, 3, 3), desired[:, :3, :3], atol=1e-14)
     np.testing.assert_allclose(with_end[:, 8, 9:12], desired[:, :3, 3], atol=1e-14)
     assert np.isnan(with_end[:, 8, 12:]).all()
+
+
+@pytest.mark.parametrize("runner", ["compiled", "python"])
+def test_records_refuse_targets_without_the_end_row(rng: np.random.Generator, runner: str) -> None:
+    """A chunk's targets without the end row (one short of the states) are refused, not read
+    past."""
+    xi = random_hybrid_states(rng, 5, shrink=0.8)[None]
+    poses = rng.normal(scale=0.1, size=(1, 5, 6))
+    held = pose_to_transform(poses[:, 0]) @ H.end_effector(xi[:, 0])
+    landing, g0 = landing_frame(pose_to_transform(poses[:, 0]), xi[:, 0], H)
+    run = compiled_records(False) if runner == "compiled" else run_hybrid_records
+    short = held_targets(held, poses, 0.05)  # 4 rows for 5 samples
+    with pytest.raises(ValueError, match="row per sample"):
+        hybrid_records(short, xi, held, landing, g0, hybrid_constants(H, HYBRID_RATE_LIMITS), run)

@@ -237,7 +237,13 @@ def run_hybrid_records(
         legs: (N, S, 6), errors: (N, S, 6), scalars: (N, S, N_SCALARS): rows first … S − 1
             written (errors: those at or after handed[n]).
         tips: (N, S, N_TIP) the handed tips (any rows when no lane has one).
+
+    Raises:
+        ValueError: fewer target rows than samples (a chunk's targets without its end row),
+            which the compiled loop would read past.
     """
+    if targets.shape[1] < xs.shape[1]:
+        raise ValueError("run_hybrid_records: targets needs a row per sample, the end's too")
     for n in prange(xs.shape[0]):
         hybrid_record_lane(targets[n], xs[n], first, handed[n], held[n], landing[n],
                            gangway0[n], const, legs[n], errors[n], scalars[n], tips[n],
