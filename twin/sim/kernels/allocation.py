@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from twin.sim.kernels.compile import register_borrowing, register_jitable
+from twin.sim.kernels.compile import register_borrowing, register_inline, register_jitable
 from twin.sim.kernels.hybrid import matrix_to_rpy_lane, rpy_to_matrix_lane, so3_log_lane
 from twin.sim.kernels.layout import (
     C_A1,
@@ -137,7 +137,7 @@ def gangway_inverse_lane(
     q_out[2] = math.hypot(rho, height)
 
 
-@register_borrowing
+@register_inline
 def leg_vectors_lane(
     R: np.ndarray,
     p: np.ndarray,
@@ -161,7 +161,7 @@ def leg_vectors_lane(
         lengths_out[i] = math.sqrt(s)
 
 
-@register_borrowing
+@register_inline
 def manipulability_lane(
     R: np.ndarray, vectors: np.ndarray, lengths: np.ndarray, const: np.ndarray, J: np.ndarray
 ) -> float:

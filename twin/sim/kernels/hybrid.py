@@ -49,6 +49,7 @@ import numpy as np
 
 from twin.sim.kernels.compile import (
     register_borrowing,
+    register_inline,
     register_jitable,
 )
 from twin.sim.kernels.layout import (
@@ -118,7 +119,7 @@ def hybrid_constants(mechanism: HybridBoardingSystem, rate_limit: np.ndarray) ->
 # ---------------------------------------------------------------------------------------------
 
 
-@register_borrowing
+@register_inline
 def rpy_to_matrix_lane(roll: float, pitch: float, yaw: float, R_out: np.ndarray) -> None:
     """ᴮR_P = Rz(yaw) Ry(pitch) Rx(roll) (seed 000 eq (3), `twin.spatial.rpy_to_matrix`).
 
@@ -139,7 +140,7 @@ def rpy_to_matrix_lane(roll: float, pitch: float, yaw: float, R_out: np.ndarray)
     R_out[2, 2] = ct * cf
 
 
-@register_borrowing
+@register_inline
 def gangway_tip_lane(q1: float, q2: float, d3: float, const: np.ndarray, G_out: np.ndarray) -> None:
     """ᴾT_E, the gangway tip in the platform frame (Table 2 with θ2 = q2 + 90°, SPEC erratum 3;
     seed 000 eq (10), `Gangway.forward`) in closed form.
@@ -158,7 +159,7 @@ def gangway_tip_lane(q1: float, q2: float, d3: float, const: np.ndarray, G_out: 
     G_out[3, 0], G_out[3, 1], G_out[3, 2], G_out[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@register_borrowing
+@register_inline
 def tip_transform(
     x: np.ndarray, R: np.ndarray, const: np.ndarray, G: np.ndarray, T_out: np.ndarray
 ) -> None:
@@ -180,7 +181,7 @@ def tip_transform(
     T_out[3, 0], T_out[3, 1], T_out[3, 2], T_out[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@register_borrowing
+@register_inline
 def so3_log_lane(R: np.ndarray, w_out: np.ndarray) -> None:
     """Rotation vector [rad] of the rotation matrix R (3, 3), angle in [0, π]
     (`twin.spatial.so3_log`, including its near-π branch); written to w_out (3,)."""
@@ -218,7 +219,7 @@ def matrix_to_rpy_lane(R: np.ndarray, out: np.ndarray) -> None:
     out[2] = math.atan2(R[1, 0], R[0, 0])
 
 
-@register_borrowing
+@register_inline
 def integrate_hybrid(
     x: np.ndarray, R: np.ndarray, v: np.ndarray, dt: float, x_out: np.ndarray
 ) -> None:
@@ -288,7 +289,7 @@ def leg_lengths_lane(x: np.ndarray, R: np.ndarray, const: np.ndarray, out: np.nd
         out[i] = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
 
 
-@register_borrowing
+@register_inline
 def positive_part(d: float) -> float:
     """max(d, 0) that keeps a NaN (as `np.maximum`)."""
     return 0.0 if d <= 0.0 else d
@@ -516,7 +517,7 @@ def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
     return prm
 
 
-@register_borrowing
+@register_inline
 def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
     """Lower Cholesky factor of A − shift·I (A (6, 6) symmetric; its lower triangle is read)
     into L's lower triangle (L (6, 6), the strict upper one left as it was; L may be A itself),
@@ -542,7 +543,7 @@ def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
     return True
 
 
-@register_borrowing
+@register_inline
 def smallest_eigenvalue_bound(L: np.ndarray) -> float:
     """1 / ‖L⁻¹‖_F², a lower bound on the smallest eigenvalue of A = L Lᵀ (λ_min(A) =
     1 / ‖L⁻¹‖₂² and ‖·‖₂ ≤ ‖·‖_F), from its Cholesky factor L (6, 6) with the diagonal stored
@@ -565,7 +566,7 @@ def smallest_eigenvalue_bound(L: np.ndarray) -> float:
     return 1.0 / total
 
 
-@register_borrowing
+@register_inline
 def cholesky_pinv_apply(
     K: np.ndarray, w: np.ndarray, L: np.ndarray, c: np.ndarray, y: np.ndarray, out: np.ndarray
 ) -> None:
@@ -609,7 +610,7 @@ def svd_pinv_apply(
         out[j] = sqrt_w[j] * s
 
 
-@register_borrowing
+@register_inline
 def tip_error_lane(
     x: np.ndarray,
     R: np.ndarray,
@@ -643,7 +644,7 @@ def tip_error_lane(
         error_out[i] = target[9 + i] - E[i, 3]
 
 
-@register_borrowing
+@register_inline
 def tip_task_lane(
     x: np.ndarray,
     R: np.ndarray,
@@ -704,7 +705,7 @@ def differential_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
             np.empty((3, 3)), np.empty((6, 9)))  # fmt: skip
 
 
-@register_borrowing
+@register_inline
 def posture_rate(x: np.ndarray, prm: np.ndarray, posture: int) -> float:
     """ζ̇_a = k_a (q̃ − q_i) [rad/s or m/s], the posture task's joint rate (eqs (39)-(40)), of
     joint `posture` (prm[P_POSTURE_INDEX] ≥ 0) of xi x (9,)."""
@@ -716,7 +717,7 @@ def posture_rate(x: np.ndarray, prm: np.ndarray, posture: int) -> float:
 NEEDS_SVD = -1
 
 
-@register_borrowing
+@register_inline
 def differential_velocity(
     x: np.ndarray,
     R: np.ndarray,
@@ -851,7 +852,7 @@ def damped_differential_velocity(
     return differential_finish(x, prm, work, lam2, v_out, diag_out)
 
 
-@register_borrowing
+@register_inline
 def differential_finish(
     x: np.ndarray,
     prm: np.ndarray,

@@ -187,8 +187,35 @@ KERNEL_MODULES = (
 )
 
 
+def run_hybrid_lanes(
+    xs: np.ndarray,
+    targets: np.ndarray,
+    prm: np.ndarray,
+    memory: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    diag: np.ndarray,
+    faults: np.ndarray,
+    first: int,
+    errors: np.ndarray,
+    tips: np.ndarray,
+) -> None:
+    """`run_hybrid` with its lanes in parallel (numba's prange), each lane a one-lane call of
+    the compiled serial runner (`serial_hybrid`, a global `compiled_hybrid` gives it): numba
+    compiles a function called inside a parallel loop again, and the step, inlined into
+    `hybrid_lane`, is the costliest code to compile. Arguments as `run_hybrid`'s."""
+    for n in prange(xs.shape[0]):
+        lane = slice(n, n + 1)
+        serial_hybrid(xs[lane], targets[lane], prm[lane], memory[lane], const, dt, diag[lane],  # noqa: F821
+                      faults[lane], first, errors[lane], tips[lane])  # fmt: skip
+
+
 @cache
 def compiled_hybrid(parallel: bool) -> Callable:
-    """`run_hybrid` compiled by numba, parallel over lanes or serial (one thread, e.g. one per
-    Dask worker), cached on disk (`compile_runner`); the plain `run_hybrid` without numba."""
-    return compile_runner(run_hybrid, parallel, KERNEL_MODULES)
+    """`run_hybrid` compiled by numba, parallel over lanes (`run_hybrid_lanes`) or serial (one
+    thread, e.g. one per Dask worker), cached on disk (`compile_runner`); the plain
+    `run_hybrid` without numba."""
+    serial = compile_runner(run_hybrid, False, KERNEL_MODULES)
+    if not parallel or serial is run_hybrid:
+        return serial
+    return compile_runner(run_hybrid_lanes, True, KERNEL_MODULES, {"serial_hybrid": serial})

@@ -31,6 +31,7 @@ from twin.sim.kernels.compile import (
     compile_runner,
     prange,
     register_borrowing,
+    register_inline,
     register_jitable,
 )
 from twin.sim.kernels.hybrid import rpy_to_matrix_lane, tip_error_lane
@@ -66,7 +67,7 @@ def gangway_angles(g: np.ndarray) -> tuple[float, float]:
     return math.atan2(g[1], g[0]), math.atan2(g[2], g[0])
 
 
-@register_borrowing
+@register_inline
 def hand_over(
     R_BP: np.ndarray, T_E: np.ndarray, error: np.ndarray, tip_out: np.ndarray,
     error_out: np.ndarray,
@@ -82,7 +83,7 @@ def hand_over(
         error_out[i] = error[i]
 
 
-@register_borrowing
+@register_inline
 def record_from_tip(
     target: np.ndarray,
     x: np.ndarray,
@@ -145,30 +146,19 @@ def record_from_tip(
 
 
 @register_borrowing
-def hybrid_record_sample(
-    target: np.ndarray,
-    x: np.ndarray,
-    held: np.ndarray,
-    landing: np.ndarray,
-    phi0: float,
-    theta0: float,
-    const: np.ndarray,
-    legs_out: np.ndarray,
-    error_out: np.ndarray,
-    scalars_out: np.ndarray,
-    work: RecordWork,
+def sample_tip(
+    target: np.ndarray, x: np.ndarray, const: np.ndarray, error_out: np.ndarray, work: RecordWork
 ) -> None:
-    """One sample's record from its state alone: ᴮR_P (`rpy_to_matrix_lane`), the tip and its
-    error against ᴮT_d as the tip task computes them (`tip_error_lane`), handed over as the
-    runner hands a differential step's (`hand_over`), then `record_from_tip`; arguments as
-    `record_from_tip`'s, error_out (6,) [m, rad] in B written too."""
+    """One sample's tip from its state alone, where no differential step handed it over:
+    ᴮR_P (`rpy_to_matrix_lane`), the tip and its error against ᴮT_d as the tip task computes
+    them (`tip_error_lane`), put as the runner hands a step's over (`hand_over`) into work's
+    tip row; target, x, const as in `record_from_tip`, error_out (6,) [m, rad] in B written.
+    """
     rotations, frames, tip = work[0], work[1], work[6]
     R_BP = rotations[1]
     rpy_to_matrix_lane(x[3], x[4], x[5], R_BP)
     tip_error_lane(x, R_BP, target, const, frames, work[2], error_out)
     hand_over(R_BP, frames[1], error_out, tip, error_out)
-    record_from_tip(target, x, tip, held, landing, phi0, theta0, const, legs_out, scalars_out,
-                    work)  # fmt: skip
 
 
 @register_borrowing
@@ -195,7 +185,7 @@ def hybrid_record_lane(
         targets: (S, 18) each sample's target row; xs: (S, 9) xi per sample [m, rad].
         first: the first sample recorded: samples first … S − 1 are.
         handed: samples before it have their tip in `tips` and their error in errors_out
-            (`hand_over`, by the kernel): `record_from_tip`; the others `hybrid_record_sample`.
+            (`hand_over`, by the kernel); the others' are computed here (`sample_tip`).
         landing: (3, 3) inertial → landing frame; g0: (3,) the gangway vector at t = 0 in it.
         held, const, work: as in `record_from_tip`.
         legs_out: (S, 6) [m]; errors_out: (S, 6) [m, rad]; scalars_out: (S, N_SCALARS):
@@ -204,11 +194,13 @@ def hybrid_record_lane(
     phi0, theta0 = gangway_angles(g0)  # once per lane
     for k in range(first, xs.shape[0]):
         if k < handed:
-            record_from_tip(targets[k], xs[k], tips[k], held, landing, phi0, theta0, const,
-                            legs_out[k], scalars_out[k], work)  # fmt: skip
+            tip = tips[k]
         else:
-            hybrid_record_sample(targets[k], xs[k], held, landing, phi0, theta0, const,
-                                 legs_out[k], errors_out[k], scalars_out[k], work)  # fmt: skip
+            sample_tip(targets[k], xs[k], const, errors_out[k], work)
+            tip = work[6]
+        # one call site: record_from_tip is inlined (`register_inline`)
+        record_from_tip(targets[k], xs[k], tip, held, landing, phi0, theta0, const, legs_out[k],
+                        scalars_out[k], work)  # fmt: skip
 
 
 def run_hybrid_records(
@@ -250,16 +242,46 @@ def run_hybrid_records(
                            record_work())  # fmt: skip
 
 
+def run_hybrid_records_lanes(
+    targets: np.ndarray,
+    xs: np.ndarray,
+    first: int,
+    handed: np.ndarray,
+    held: np.ndarray,
+    landing: np.ndarray,
+    gangway0: np.ndarray,
+    const: np.ndarray,
+    legs: np.ndarray,
+    errors: np.ndarray,
+    scalars: np.ndarray,
+    tips: np.ndarray,
+) -> None:
+    """`run_hybrid_records` with its lanes in parallel, each a one-lane call of the compiled
+    serial runner (`serial_records`, a global `compiled_records` gives it), so the inlined
+    record is compiled once (`twin.sim.kernels.hybrid_runner.run_hybrid_lanes`). Arguments
+    and errors as `run_hybrid_records`'."""
+    for n in prange(xs.shape[0]):
+        lane = slice(n, n + 1)
+        serial_records(targets[lane], xs[lane], first, handed[lane], held[lane], landing[lane],  # noqa: F821
+                       gangway0[lane], const, legs[lane], errors[lane], scalars[lane],
+                       tips[lane])  # fmt: skip
+
+
+#: modules whose register_jitable functions the records runners compile in
+RECORD_MODULES = (
+    "twin.sim.kernels.records",
+    "twin.sim.kernels.hybrid",
+    "twin.sim.kernels.allocation",
+    "twin.sim.kernels.layout",
+)
+
+
 @cache
 def compiled_records(parallel: bool) -> Callable:
-    """`run_hybrid_records` compiled (`compile_runner`); plain Python without numba."""
-    return compile_runner(
-        run_hybrid_records,
-        parallel,
-        (
-            "twin.sim.kernels.records",
-            "twin.sim.kernels.hybrid",
-            "twin.sim.kernels.allocation",
-            "twin.sim.kernels.layout",
-        ),
-    )
+    """`run_hybrid_records` compiled (`compile_runner`), lanes in parallel
+    (`run_hybrid_records_lanes`) or serial; plain Python without numba."""
+    serial = compile_runner(run_hybrid_records, False, RECORD_MODULES)
+    if not parallel or serial is run_hybrid_records:
+        return serial
+    return compile_runner(run_hybrid_records_lanes, True, RECORD_MODULES,
+                          {"serial_records": serial})  # fmt: skip
