@@ -5,7 +5,9 @@ compiles (`register_jitable`) and plain Python runs unchanged (the fallback when
 missing; the same arithmetic, so the same numbers to the last ulp or so of `math`). Per step
 nothing is allocated: the runner allocates each lane's scratch once (`*_work`) and computes
 ᴮR_P once for the planner, the guard and the step; functions that allocate nothing are
-`register_borrowing` (no reference counting of their array arguments).
+`register_borrowing` (no reference counting of their array arguments), and those on the
+differential step's path `register_inline` too (inlined into their callers: a call between
+compiled functions cost more than some of them compute; docs/simulation.md).
 
 - Shared primitives (also used by `twin.sim.kernels.allocation` and `.records`): ᴮR_P from
   roll-pitch-yaw, the tip ᴮT_E and its pose error, so(3) log, matrix → rpy,
