@@ -38,6 +38,8 @@ serve: $(SERVE_STAMP)
 ## test: install, lint and run the whole test suite (what CI runs)
 test: $(STAMP) /usr/bin/chromium
 	$(BIN)/ruff check .
+	# the kernels compiled once, in two processes, before two test workers would each compile them
+	$(BIN)/python -m twin.cli warm --processes 2
 	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not serial"
 	$(BIN)/python -m pytest -m serial
 

@@ -1,5 +1,5 @@
 """The `twin` command: `twin serve` runs the live twin, `twin run` one scenario to a file,
-`twin sweep` an operability sweep to a folder."""
+`twin sweep` an operability sweep to a folder, `twin warm` compiles the kernels ahead."""
 
 from __future__ import annotations
 
@@ -169,6 +169,20 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--workers", type=workers, help="workers of the local cluster")
     sweep.add_argument("--out", type=Path, default=Path("sweep"), help="folder of the outputs")
     sweep.set_defaults(handler=_sweep)
+
+    warm = commands.add_parser(
+        "warm",
+        help="compile every kernel into numba's disk cache (or load it from there)",
+        description="Compile every kernel runner into numba's disk cache, or load it if it is "
+        "there, so that a server, worker or test run that follows starts without compiling. "
+        "On a first start this takes minutes; --processes splits it over processes that "
+        "compile at once.",
+    )
+    warm.add_argument(
+        "--processes", type=int, default=1, metavar="N",
+        help="processes to compile in, 1-2 (one per share of twin.sim.engine.WARM_SHARES)",
+    )  # fmt: skip
+    warm.set_defaults(handler=_warm)
     return parser
 
 
@@ -256,6 +270,17 @@ def _sweep(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return 0
 
 
+def _warm(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from twin.sim.engine import warm_in_processes
+
+    try:
+        took = warm_in_processes(args.processes)
+    except ValueError as exc:
+        parser.error(str(exc))
+    print(f"twin: compiled kernels ready in {took:.1f} s", flush=True)
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `twin` command."""
     parser = build_parser()
@@ -265,3 +290,4 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+

@@ -162,3 +162,21 @@ def test_engine_follows_the_planner_objects(fields: dict) -> None:
         q1 = np.degrees(sim.series()["xi"][:, 6])
         assert q1.min() < 25.0 < q1.max()  # both of Algorithm 1's branches ran
     assert dict(sim.faults[0].counts) == oracle.fault_counts()
+
+
+def test_warm_refuses_unknown_shares_and_process_counts(capsys: pytest.CaptureFixture) -> None:
+    """`warm` names the shares it knows, `warm_in_processes` and `twin warm` the process counts
+    they take, before compiling anything."""
+    from twin.cli import main
+    from twin.sim.engine import WARM_SHARES, warm, warm_in_processes
+
+    last = len(WARM_SHARES) - 1
+    with pytest.raises(ValueError, match=rf"shares \[{last + 1}\] unknown; they are 0-{last}"):
+        warm(shares=[0, last + 1])
+    for processes in (0, last + 2):
+        with pytest.raises(ValueError, match=rf"{processes} processes; 1-{last + 1}"):
+            warm_in_processes(processes)
+    with pytest.raises(SystemExit) as exited:
+        main(["warm", "--processes", "0"])
+    assert exited.value.code == 2
+    assert f"1-{last + 1} (one per share)" in capsys.readouterr().err

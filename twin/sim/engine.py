@@ -535,24 +535,71 @@ def lane_parts(members: list[int], threads: int = 1) -> list[list[int]]:
     return parts
 
 
-def warm(engine: str = "auto") -> float:
+#: the lanes of the Simulations `warm` steps (0.1 s each), in shares that compile different
+#: runners: the hybrid system's differential and allocation kernel (the costliest to compile),
+#: then the qp kernel and the platforms' (sea, targets, records and metrics come with both)
+WARM_SHARES: tuple[tuple[tuple[dict[str, str], ...], ...], ...] = (
+    (({"planner": "mtmp"},), ({"planner": "mtmp"}, {"planner": "dwa"})),
+    (
+        ({"planner": "qp"},),
+        ({"mechanism": "upr4"},),
+        ({"mechanism": "upr4"}, {"mechanism": "upr4", "planner": "ik"}),
+    ),
+)
+
+
+def warm(engine: str = "auto", shares: Sequence[int] | None = None) -> float:
     """Compile every kernel runner, serial and parallel, or load it from numba's disk cache
-    (seconds on a first start, a fraction of one after): a few steps of every planner family
-    of every kind of mechanism. A server calls it before serving, a worker before its first run.
+    (minutes on a first start, a fraction of a second after): a few steps of every planner
+    family of every kind of mechanism. A server calls it before serving, a worker before its
+    first run; `warm_in_processes` splits it over processes.
+
+    Args:
+        engine: as `Simulation`'s.
+        shares: indices into `WARM_SHARES` to step; None: all.
 
     Returns:
         [s] the wall time it took.
+
+    Raises:
+        ValueError: a share index outside 0 … len(WARM_SHARES) − 1.
     """
+    chosen = range(len(WARM_SHARES)) if shares is None else list(shares)
+    wrong = [i for i in chosen if not 0 <= i < len(WARM_SHARES)]
+    if wrong:
+        raise ValueError(f"warm: shares {wrong} unknown; they are 0-{len(WARM_SHARES) - 1}")
     start = time.perf_counter()
-    short = {"duration": 0.1}
-    for lanes in (
-        [{**short, "planner": "mtmp"}],
-        [{**short, "planner": "mtmp"}, {**short, "planner": "dwa"}],
-        [{**short, "planner": "qp"}],
-        [{**short, "mechanism": "upr4"}],
-        [{**short, "mechanism": "upr4"}, {**short, "mechanism": "upr4", "planner": "ik"}],
-    ):
-        simulation = Simulation(lanes, engine=engine)
-        simulation.run()  # lane 0's result: the one-lane (serial) metrics runner
-        simulation.results()  # every lane's: the parallel one where there are several lanes
+    for i in chosen:
+        for lanes in WARM_SHARES[i]:
+            simulation = Simulation([{"duration": 0.1, **lane} for lane in lanes], engine=engine)
+            simulation.run()  # lane 0's result: the one-lane (serial) metrics runner
+            simulation.results()  # every lane's: the parallel one where there are several
+    return time.perf_counter() - start
+
+
+def warm_in_processes(processes: int) -> float:
+    """`warm` with its shares spread over new processes that compile at once (numba writes
+    what each compiles to its disk cache, where later processes load it): on a first start with
+    2 cores, the time of the costliest share instead of the sum.
+
+    Args:
+        processes: 1 … len(WARM_SHARES) processes (1: `warm` in this process).
+
+    Returns:
+        [s] the wall time it took.
+
+    Raises:
+        ValueError: processes outside 1 … len(WARM_SHARES).
+    """
+    if not 1 <= processes <= len(WARM_SHARES):
+        raise ValueError(f"warm: {processes} processes; 1-{len(WARM_SHARES)} (one per share)")
+    if processes == 1:
+        return warm()
+    import multiprocessing
+
+    start = time.perf_counter()
+    groups = [list(range(len(WARM_SHARES)))[i::processes] for i in range(processes)]
+    # spawned, not forked: a fork would copy this process's numba and thread state
+    with multiprocessing.get_context("spawn").Pool(processes) as pool:
+        pool.starmap(warm, [("auto", group) for group in groups])
     return time.perf_counter() - start
