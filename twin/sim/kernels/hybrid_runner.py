@@ -177,6 +177,7 @@ def run_hybrid(
                 bits = damped_differential_velocity(xs[n, k], prm[n], differential, v,
                                                     diag[n, k + 1])  # fmt: skip
 
+
 #: modules whose register_jitable functions `run_hybrid` compiles in
 KERNEL_MODULES = (
     "twin.sim.kernels.hybrid_runner",
