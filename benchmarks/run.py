@@ -651,7 +651,9 @@ What is measured:
   scheduling). The ratio moves with the machine's state more than either time does, because
   the two do not slow alike: the peer (the Python interpreter) slowed from 16 to 26 µs a step
   within an hour on our VM while the batch slowed by a fifth, so three runs of this table in
-  that hour gave 19.1×, 17.8× and 24.7× (2026-12-02). Where the time goes is CPU time
+  that hour gave 19.1×, 17.8× and 24.7× (2026-12-02). After the step's functions were
+  inlined (docs/simulation.md) two runs gave 18.4× beside a 16.3 µs/step peer and 28.6×
+  beside a 24.7 µs/step one, the batch taking 0.90 s and 0.88 s. Where the time goes is CPU time
   [core-s] per phase, summed over those threads (`time.thread_time`), against the process's
   CPU time over the run; the kernel alone is the CPU time inside the compiled runner, as steps
   per core-second against the peer's on its one core. Kernel and records together are the
