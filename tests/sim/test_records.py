@@ -66,15 +66,16 @@ def test_targets_with_the_end_row(rng: np.random.Generator) -> None:
     assert np.isnan(with_end[:, 8, 12:]).all()
 
 
-@pytest.mark.parametrize("runner", ["compiled", "python"])
+@pytest.mark.parametrize("runner", ["serial", "parallel", "python"])
 def test_records_refuse_targets_without_the_end_row(rng: np.random.Generator, runner: str) -> None:
     """A chunk's targets without the end row (one short of the states) are refused, not read
-    past."""
-    xi = random_hybrid_states(rng, 5, shrink=0.8)[None]
-    poses = rng.normal(scale=0.1, size=(1, 5, 6))
+    past, by every runner (two lanes, so the parallel one runs its parallel loop)."""
+    xi = random_hybrid_states(rng, 5, shrink=0.8)[None].repeat(2, axis=0)
+    poses = rng.normal(scale=0.1, size=(2, 5, 6))
     held = pose_to_transform(poses[:, 0]) @ H.end_effector(xi[:, 0])
     landing, g0 = landing_frame(pose_to_transform(poses[:, 0]), xi[:, 0], H)
-    run = compiled_records(False) if runner == "compiled" else run_hybrid_records
+    run = {"serial": compiled_records(False), "parallel": compiled_records(True),
+           "python": run_hybrid_records}[runner]  # fmt: skip
     short = held_targets(held, poses, 0.05)  # 4 rows for 5 samples
     with pytest.raises(ValueError, match="row per sample"):
         hybrid_records(short, xi, held, landing, g0, hybrid_constants(H, HYBRID_RATE_LIMITS), run)

@@ -203,6 +203,18 @@ def hybrid_record_lane(
                         scalars_out[k], work)  # fmt: skip
 
 
+@register_jitable
+def require_target_rows(targets: np.ndarray, xs: np.ndarray) -> None:
+    """Refuse targets (N, T, 18) with fewer rows than the states xs (N, S, 9) have samples (a
+    chunk's targets without its end row), which the compiled loop would read past.
+
+    Raises:
+        ValueError: T < S.
+    """
+    if targets.shape[1] < xs.shape[1]:
+        raise ValueError("run_hybrid_records: targets needs a row per sample, the end's too")
+
+
 def run_hybrid_records(
     targets: np.ndarray,
     xs: np.ndarray,
@@ -234,8 +246,7 @@ def run_hybrid_records(
         ValueError: fewer target rows than samples (a chunk's targets without its end row),
             which the compiled loop would read past.
     """
-    if targets.shape[1] < xs.shape[1]:
-        raise ValueError("run_hybrid_records: targets needs a row per sample, the end's too")
+    require_target_rows(targets, xs)
     for n in prange(xs.shape[0]):
         hybrid_record_lane(targets[n], xs[n], first, handed[n], held[n], landing[n],
                            gangway0[n], const, legs[n], errors[n], scalars[n], tips[n],
@@ -259,7 +270,9 @@ def run_hybrid_records_lanes(
     """`run_hybrid_records` with its lanes in parallel, each a one-lane call of the compiled
     serial runner (`serial_records`, a global `compiled_records` gives it), so the inlined
     record is compiled once (`twin.sim.kernels.hybrid_runner.run_hybrid_lanes`). Arguments
-    and errors as `run_hybrid_records`'."""
+    and errors as `run_hybrid_records`' (refused before the parallel loop: an exception
+    raised inside it reaches Python as a SystemError)."""
+    require_target_rows(targets, xs)
     for n in prange(xs.shape[0]):
         lane = slice(n, n + 1)
         serial_records(targets[lane], xs[lane], first, handed[lane], held[lane], landing[lane],  # noqa: F821
