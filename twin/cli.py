@@ -127,6 +127,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--viser-port always is",
     )  # fmt: skip
     serve.add_argument(
+        "--graphics", default="full",
+        help="what the 3D viewer's browsers render: full, or light (no environment map and no "
+        "shadows: for a browser without a GPU, on a remote desktop or a virtual machine)",
+    )  # fmt: skip
+    serve.add_argument(
         "--run-budget", type=seconds, metavar="SECONDS",
         help="wall-clock budget of one run; over it the run fails with a message (default: "
         "twin.sim.executor.RUN_BUDGET, 60 s)",
@@ -202,6 +207,7 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             workers=args.workers,
             allow_hosts=tuple(args.allow_host),
             allow_origins=tuple(args.allow_origin),
+            graphics=args.graphics,
             **({} if args.run_budget is None else {"run_budget": args.run_budget}),
         )
     except (KeyboardInterrupt, Terminated):  # how a server is stopped; serve has cleaned up

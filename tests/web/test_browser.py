@@ -6,6 +6,11 @@ Never a downloaded browser: the test uses /usr/bin/chromium (`.ci/run` installs 
 Software WebGL keeps a rendering page busy on a small machine: each Playwright action on
 it takes a second or more, so the tests act through the session where REST would, and use
 the page for what only a browser shows (its scene tree, its camera, its panel, its console).
+Every page is drawn at half the resolution per side (viser's `fixedDpr` address parameter).
+The first test renders the twin as served by default; the others, which look at the panel
+and the scene tree rather than at pixels, use the viewer's "light" graphics (no environment
+map: measured, the page then answers a Playwright call in 0.5 s instead of 5-8 s while the
+session runs).
 """
 
 from __future__ import annotations
@@ -38,6 +43,9 @@ from twin.web.scene import FRAMING, Viewer, start_viewer
 from twin.web.store import RunStore
 
 CHROMIUM = Path("/usr/bin/chromium")
+#: the page drawn at half the resolution per side (viser's development parameter): a paused
+#: session's page then idles between frames instead of drawing the environment map again
+HALF_RESOLUTION = "/?fixedDpr=0.5"
 ARGS = [
     "--headless",
     "--no-sandbox",
@@ -72,7 +80,7 @@ def test_browser_shows_the_twin_and_controls_the_session(
             # Software WebGL (SwiftShader) renders on the CPU: a modest viewport keeps the
             # page responsive on a 2-core machine.
             page = browser.new_page(viewport={"width": 1200, "height": 760})
-            page.goto(f"http://127.0.0.1:{viewer.port}", timeout=30_000)
+            page.goto(f"http://127.0.0.1:{viewer.port}{HALF_RESOLUTION}", timeout=30_000)
             page.wait_for_selector("canvas", timeout=30_000)
             page.get_by_text("Planner", exact=True).wait_for(timeout=30_000)
             page.get_by_text("β", exact=True).wait_for()
@@ -131,7 +139,7 @@ def test_a_browser_unlocks_the_viewer_with_the_token(tmp_path: Path) -> None:
     another origin in the same browser cannot even open the viewer's websocket."""
     session = LiveSession({"sea_state": 3})
     session.start()
-    viewer = start_viewer(session, port=free_port(), access=Access(token=TOKEN))
+    viewer = start_viewer(session, port=free_port(), access=Access(token=TOKEN), graphics="light")
     (tmp_path / "index.html").write_text("<!doctype html><title>another site</title>")
     site, site_port = _serve_folder(tmp_path)
     try:
@@ -146,7 +154,7 @@ def test_a_browser_unlocks_the_viewer_with_the_token(tmp_path: Path) -> None:
                 assert session.controls.playing and not viewer.gui.panels
 
                 page = browser.new_page(viewport={"width": 1200, "height": 760})
-                page.goto(f"http://127.0.0.1:{viewer.port}", timeout=30_000)
+                page.goto(f"http://127.0.0.1:{viewer.port}{HALF_RESOLUTION}", timeout=30_000)
                 page.get_by_role("button", name="Unlock controls").wait_for(timeout=30_000)
                 pause = page.get_by_role("button", name="Pause")
                 assert wait_for(pause.is_disabled, timeout=10.0)  # read-only until unlocked
@@ -209,7 +217,7 @@ def test_browser_ghost_replay_heatmap_and_a_clean_console_through_switches(
     session = LiveSession({"sea_state": 3})
     session.start()
     viewer = start_viewer(session, port=free_port(), store=store, sweeps=sweeps,
-                          api_url="http://127.0.0.1:8000")  # fmt: skip
+                          api_url="http://127.0.0.1:8000", graphics="light")  # fmt: skip
     errors: list[str] = []
     try:
         with sync_playwright() as p:
@@ -218,7 +226,7 @@ def test_browser_ghost_replay_heatmap_and_a_clean_console_through_switches(
                 page = browser.new_page(viewport={"width": 1000, "height": 640})
                 page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
                 page.on("pageerror", lambda e: errors.append(str(e)))
-                page.goto(f"http://127.0.0.1:{viewer.port}", timeout=30_000)
+                page.goto(f"http://127.0.0.1:{viewer.port}{HALF_RESOLUTION}", timeout=30_000)
                 page.get_by_text("Compare with", exact=True).wait_for(timeout=30_000)
                 (client,) = viewer.server.get_clients().values()
 

@@ -54,7 +54,7 @@ def test_help_lists_the_commands_and_serve_defaults() -> None:
     assert result.returncode == 0 and "serve" in result.stdout and "run" in result.stdout
     result = twin("serve", "--help")
     assert result.returncode == 0
-    for default in ("127.0.0.1", "8000", "8080", "data", "TWIN_TOKEN"):
+    for default in ("127.0.0.1", "8000", "8080", "data", "TWIN_TOKEN", "--graphics"):
         assert default in result.stdout
     args = build_parser().parse_args(["serve"])
     assert (args.host, args.port, args.viser_port, str(args.data_dir)) == (
@@ -228,6 +228,14 @@ def test_a_port_in_use_exits_2_naming_it_before_starting(tmp_path: Path) -> None
     second.send_signal(signal.SIGINT)
     second.communicate(timeout=20)
     assert second.returncode == 0
+
+
+def test_unknown_graphics_exit_2_naming_the_choices_before_starting(tmp_path: Path) -> None:
+    result = twin("serve", "--graphics", "fancy", "--data-dir", "data", cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert "graphics 'fancy' unknown; one of: full, light" in result.stderr
+    assert "compiled kernels ready" not in result.stdout
+    assert not (tmp_path / "data").exists()  # not even the data directory was taken
 
 
 #: the longest run a scenario may be (200 000 steps on the finest sea): seconds on a worker

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import http.client
+import socket
 import time
 from collections.abc import Callable, Iterator
 
@@ -18,6 +19,7 @@ from tests.figures import record
 from tests.web.support import TOKEN, free_port, wait_for
 from tests.web.viser_client import ViserClient
 from twin.assets import asset_path
+from twin.errors import TwinError
 from twin.mechanisms.urdf import joint_configuration
 from twin.planners import PlannerParameters
 from twin.sim.kernels.layout import P_HOLD
@@ -26,7 +28,14 @@ from twin.spatial import matrix_to_wxyz, pose_to_transform
 from twin.web.access import Access
 from twin.web.frame import read_frame
 from twin.web.gui import PLANNER_KNOBS, SWEEP_SETTINGS, ClientPanel, knob, limit_violations
-from twin.web.scene import VIEWS, Viewer, margin_colours, mount_transform, start_viewer
+from twin.web.scene import (
+    GRAPHICS,
+    VIEWS,
+    Viewer,
+    margin_colours,
+    mount_transform,
+    start_viewer,
+)
 
 
 @pytest.fixture
@@ -78,6 +87,39 @@ def test_scene_has_its_nodes(viewer: Viewer) -> None:
                  "/trail_label"):  # fmt: skip
         assert scene.get_handle_by_name(name) is not None, name
     assert viewer.port == viewer.server.get_port()
+
+
+@pytest.mark.parametrize("graphics", GRAPHICS)
+def test_graphics_reach_a_browser(session: LiveSession, graphics: str) -> None:
+    """A browser of a "light" viewer is told to drop the environment map and the key light's
+    shadows and gets the sky's ambient light; a "full" viewer sends none of that (viser's
+    client then lights with its default map and shadows)."""
+    viewer = start_viewer(session, port=free_port(), graphics=graphics)
+    try:
+        with ViserClient(viewer.port) as client:
+            client.hello()
+            client.wait_widget("Reset")
+            with client._lock:
+                received = list(client.received)
+    finally:
+        viewer.stop()
+    maps = [m for m in received if m["type"] == "EnvironmentMapMessage"]
+    lights = [m for m in received if m["type"] == "EnableLightsMessage"]
+    ambient = [m for m in received if m["type"] == "AmbientLightMessage"]
+    if graphics == "light":
+        assert [m["hdri_data"] for m in maps] == [None]
+        assert [(m["enabled"], m["cast_shadow"]) for m in lights] == [(True, False)]
+        assert [m["name"] for m in ambient] == ["/sky_light"]
+    else:
+        assert maps == lights == ambient == []
+
+
+def test_unknown_graphics_are_refused_before_anything_starts(session: LiveSession) -> None:
+    port = free_port()
+    with pytest.raises(TwinError, match="graphics 'fancy' unknown; one of: full, light"):
+        start_viewer(session, port=port, graphics="fancy")
+    with socket.socket() as probe:  # the port was never bound
+        probe.bind(("127.0.0.1", port))
 
 
 def test_urdf_frames_follow_the_session(viewer: Viewer, session: LiveSession) -> None:

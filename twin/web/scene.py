@@ -73,6 +73,13 @@ logger = logging.getLogger(__name__)
 
 #: [Hz] render-loop rate; issue 6 asks for ≥ 30 fps, the margin absorbs slow frames
 FPS = 40.0
+#: what the browsers render: "full" lights the scene with an environment map (image-based
+#: reflections) and casts the key light's shadows (three cascaded shadow maps, each drawing
+#: the scene again); "light" drops both, for a browser without a GPU (a remote desktop, a
+#: virtual machine: WebGL on the CPU), where they cost most of each frame
+GRAPHICS = ("full", "light")
+#: [-] the ambient light of "light" graphics, in place of the environment map
+AMBIENT = 1.2
 #: vertices per side of the waves' square of the sea mesh, and rings of ever wider cells
 #: around it out to the horizon ((40 + 2 × 8)² × 12 B ≈ 38 kB per frame)
 OCEAN_RESOLUTION = 40
@@ -858,6 +865,12 @@ def _checked_handshake(check: Handshake) -> Iterator[list[bool]]:
             ws_server.serve = original  # type: ignore[misc]
 
 
+def check_graphics(graphics: str) -> None:
+    """Raises TwinError (a ValueError) unless `graphics` is one of `GRAPHICS`."""
+    if graphics not in GRAPHICS:
+        raise TwinError(f"graphics {graphics!r} unknown; one of: {', '.join(GRAPHICS)}")
+
+
 def start_viewer(
     session: LiveSession,
     host: str = "127.0.0.1",
@@ -867,6 +880,7 @@ def start_viewer(
     store: Any = None,
     sweeps: Any = None,
     api_url: str | None = None,
+    graphics: str = "full",
 ) -> Viewer:
     """Serve the live twin in viser: build scene and GUI and start the render thread.
 
@@ -886,14 +900,20 @@ def start_viewer(
         sweeps: the runner of sweeps (`twin.web.jobs.SweepRunner`, the REST app's): with a
             store, the Operability folder runs sweeps around the current sea.
         api_url: the REST API's address, for links to stored sweeps.
+        graphics: one of `GRAPHICS`: "light" renders without the environment map and
+            shadows (measured in headless Chromium's software WebGL: frames of the running
+            twin 2-4× as often, with `?fixedDpr=0.5` in the page's address).
 
     Returns:
         The running viewer: `.port`, `.stop()`.
 
     Raises:
+        TwinError: `graphics` is not one of `GRAPHICS` (`check_graphics`); nothing is
+            started.
         TwinError: the handshake check could not be added to viser's server (a viser that
             starts its websocket server another way): nothing is left running.
     """
+    check_graphics(graphics)
     access = access if access is not None else Access()
     bound: list[int] = []
 
@@ -936,6 +956,12 @@ def start_viewer(
         if message is not None and message in websock._incoming_handlers:
             websock.unregister_handler(message)
     server.gui.configure_theme(control_width="large", show_share_button=False)
+    if graphics == "light":
+        server.scene.configure_environment_map(None)
+        server.scene.configure_default_lights(cast_shadow=False)
+        # the environment map lit the sides the key light misses: the sky's colour stands in
+        # for it, at no cost per pixel
+        server.scene.add_light_ambient("/sky_light", color=SKY, intensity=AMBIENT)
     try:
         return Viewer(session, server, access, store=store, sweeps=sweeps, api_url=api_url)
     except Exception:

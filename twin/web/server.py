@@ -106,6 +106,7 @@ def serve(
     allow_hosts: tuple[str, ...] = (),
     allow_origins: tuple[str, ...] = (),
     run_budget: float = RUN_BUDGET,
+    graphics: str = "full",
 ) -> None:
     """Run the twin until interrupted (Ctrl-C: KeyboardInterrupt; SIGTERM: `Terminated`, each
     raised once all is stopped).
@@ -131,13 +132,20 @@ def serve(
         allow_origins: more browser origins trusted as the server's own
             (scheme://host:port, e.g. a TLS proxy's).
         run_budget: [s] wall-clock budget of one run.
+        graphics: what the viewer's browsers render (`twin.web.scene.GRAPHICS`): "light"
+            without environment map and shadows, for browsers without a GPU.
 
     Raises:
         TwinError: `host` is not loopback and there is no token, a short token, a bad
-            allowed host or origin, the data directory is held by another server
-            (`DataDirBusy`, naming its pid), or the REST port cannot be bound (`listen`);
-            nothing is started.
+            allowed host or origin, unknown `graphics`, the data directory is held by another
+            server (`DataDirBusy`, naming its pid), or the REST port cannot be bound
+            (`listen`); nothing is started.
     """
+    if viewer:
+        # Imported here: the scene pulls in viser and the meshes, which REST-only needs not.
+        from twin.web.scene import check_graphics, start_viewer
+
+        check_graphics(graphics)
     if not is_loopback(host) and not token:
         raise TwinError(
             f"refusing to bind {host} without a token: anyone who can reach it could drive the "
@@ -171,12 +179,9 @@ def serve(
         session.start()
         sweeps = SweepRunner(store)  # the REST app's, and the viewer's Operability folder's
         if viewer:
-            # Imported here: the scene pulls in viser and the meshes, which REST-only needs not.
-            from twin.web.scene import start_viewer
-
             handle = start_viewer(
                 session, host, viser_port, access=access, store=store, sweeps=sweeps,
-                api_url=url(host, port),
+                api_url=url(host, port), graphics=graphics,
             )  # fmt: skip
             viser_port = handle.port  # viser moves to the next free port if this one is taken
             access = dataclasses.replace(access, ports=frozenset({port, viser_port}))
