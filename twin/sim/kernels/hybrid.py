@@ -719,7 +719,10 @@ def posture_rate(x: np.ndarray, prm: np.ndarray, posture: int) -> float:
 NEEDS_SVD = -1
 
 
-@register_inline
+# Called, not inlined, from its lane (`hybrid_lane`): inlining it there too made numba type
+# the whole step twice, 40 s more of a first compile, for 5 % of the kernel's time per step
+# (one call with its arguments' structs; docs/simulation.md)
+@register_borrowing
 def differential_velocity(
     x: np.ndarray,
     R: np.ndarray,
