@@ -40,8 +40,8 @@ test: $(STAMP) /usr/bin/chromium
 	$(BIN)/ruff check .
 	# the kernels compiled once, in two processes, before two test workers would each compile them
 	$(BIN)/python -m twin.cli warm --processes 2
-	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not serial"
-	$(BIN)/python -m pytest -m serial
+	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not serial" --durations=15
+	$(BIN)/python -m pytest -m serial --durations=15
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
