@@ -653,8 +653,11 @@ What is measured:
   within an hour on our VM while the batch slowed by a fifth, so three runs of this table in
   that hour gave 19.1×, 17.8× and 24.7× (2026-12-02). After the step's functions were
   inlined (docs/simulation.md) two runs gave 18.4× beside a 16.3 µs/step peer and 28.6×
-  beside a 24.7 µs/step one, the batch taking 0.90 s and 0.88 s. Where the time goes is CPU time
-  [core-s] per phase, summed over those threads (`time.thread_time`), against the process's
+  beside a 24.7 µs/step one, the batch taking 0.90 s and 0.88 s. With the differential step
+  called from its lane again (1.05× the kernel's time), five paired rounds on a quiet machine
+  gave 21.7-29.2× (median 26.4×) beside an 18.5-19.1 µs/step peer, the batch taking 0.65-0.88 s
+  (2026-12-02, afternoon); the lowest reading of any day stays 17.8×. Where the time goes is
+  CPU time [core-s] per phase, summed over those threads (`time.thread_time`), against the process's
   CPU time over the run; the kernel alone is the CPU time inside the compiled runner, as steps
   per core-second against the peer's on its one core. Kernel and records together are the
   compute every sample of a result needs (plan, guard, integrate; legs, tip error,
