@@ -50,9 +50,11 @@ def nan_sea(monkeypatch: pytest.MonkeyPatch) -> Callable[[float, float], None]:
             out[inside(t)] = np.nan
             return out
 
-        def uniform_poses(motions: list, t0: float, dt: float, n: int, *args: object) -> np.ndarray:
-            out = uniform(motions, t0, dt, n, *args).copy()
-            out[:, inside(t0 + np.arange(n) * dt)] = np.nan
+        def uniform_poses(
+            motions: list, t0: float, dt: float, n: int, *args: object, first: int = 0
+        ) -> np.ndarray:
+            out = uniform(motions, t0, dt, n, *args, first=first).copy()
+            out[:, inside(t0 + (first + np.arange(n)) * dt)] = np.nan
             return out
 
         monkeypatch.setattr(BaseMotion, "poses", poses)

@@ -11,15 +11,19 @@ import pyarrow.parquet as pq
 import pytest
 
 from twin.sim import MAX_DURATION, Scenario, Simulation, simulate
+from twin.sim.engine import LIVE_BLOCK
 
 SHORT = {"mechanism": "hybrid", "planner": "mtmp", "sea_state": 3, "duration": 5.0}
 
 
 def test_step_equals_simulate() -> None:
-    """The live server's stepping gives the same numbers as a batch run (across a chunk edge)."""
-    scenario = {**SHORT, "duration": 15.0}  # 300 steps: crosses the 256-step chunk boundary
+    """The live server's stepping gives the same numbers as a batch run, across the live
+    session's base-motion block (`LIVE_BLOCK` steps sampled at a time, where a batch run
+    samples all 300 at once)."""
+    scenario = {**SHORT, "duration": 15.0}  # 300 steps
     batch = simulate(scenario)
-    live = Simulation(scenario)
+    live = Simulation(scenario, history_limit=400)  # sampled as a live session samples
+    assert live.n_steps > LIVE_BLOCK
     records = [live.step() for _ in range(live.n_steps)]
     assert live.done
     for key in ("xi", "legs", "tip_error", "base_pose"):

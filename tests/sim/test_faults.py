@@ -54,7 +54,7 @@ def test_a_sea_that_raises_is_held_like_nan(monkeypatch: pytest.MonkeyPatch) -> 
     # a live session's history: base motion is sampled 256 steps (12.8 s) ahead
     sim = Simulation({"sea_state": 3, "duration": 20.0}, history_limit=1000)
 
-    def broken(*args: object) -> np.ndarray:
+    def broken(*args: object, **kwargs: object) -> np.ndarray:
         raise FloatingPointError("overflow in the RAO interpolation")
 
     monkeypatch.setattr(BaseMotion, "poses", broken)

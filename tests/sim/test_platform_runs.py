@@ -12,6 +12,7 @@ from twin.mechanisms import Upr4, Upu3Up
 from twin.sea.regular import REGULAR_PRESETS
 from twin.sim import PAPER_PRESETS, Scenario, Simulation, SimulationResult, simulate, simulate_many
 from twin.sim.base_motion import BaseMotion, mount_for
+from twin.sim.engine import LIVE_BLOCK
 
 #: [%] seed 002 Table 2: η of the 4-UPR platform for regular-wave states 1-3
 PAPER_ETA = {"state1": 98.23, "state2": 97.16, "state3": 94.84}
@@ -129,13 +130,14 @@ def test_calm_sea_nothing_moves(mechanism: str) -> None:
 
 def test_step_equals_simulate() -> None:
     """`Simulation.step()` one by one gives exactly `simulate`'s series and metrics, across
-    a chunk boundary of the base motion (256 samples)."""
+    the live session's base-motion block (`LIVE_BLOCK` samples at a time, where a batch run
+    samples all 300 at once)."""
     scenario = dict(mechanism="upu3up", planner="pid", sea_state=3, duration=60, dt=0.2)
-    sim = Simulation(scenario)
+    sim = Simulation(scenario, history_limit=400)  # sampled as a live session samples
     while not sim.done:
         sim.step()
     stepped, batch = sim.result(), simulate(scenario)
-    assert sim.n_steps > 256
+    assert sim.n_steps > LIVE_BLOCK
     assert stepped.series.keys() == batch.series.keys()
     for key in batch.series:
         np.testing.assert_array_equal(stepped.series[key], batch.series[key], err_msg=key)

@@ -8,11 +8,12 @@ from functools import cache
 
 import numpy as np
 
+from twin.errors import TwinError
 from twin.sea.components import WaveComponents
 from twin.sim.scenario import Scenario
 from twin.spatial import pose_to_transform
 from twin.vessel import MOUNTS, Mount, RaoTable, load_raos
-from twin.vessel.motion import response_amplitudes
+from twin.vessel.motion import response_amplitudes, superpose
 
 
 @dataclass(frozen=True)
@@ -97,21 +98,30 @@ class BaseMotion:
         t = np.asarray(t, dtype=float)
         if t.size > 2 and np.allclose(np.diff(t), t[1] - t[0], rtol=0.0, atol=1e-12):
             return self.uniform_poses([self], t[0], t[1] - t[0], t.size)[0]
-        motion = (np.exp(-1j * np.outer(t, self.omega_e)) @ self.amplitude).real
-        return self.mount.pose(motion)
+        return self.mount.pose(superpose(t, self.omega_e, self.amplitude))
 
     @staticmethod
     def uniform_poses(
-        motions: Sequence[BaseMotion], t0: float, dt: float, n: int, compiled: bool = True
+        motions: Sequence[BaseMotion],
+        t0: float,
+        dt: float,
+        n: int,
+        compiled: bool = True,
+        first: int = 0,
     ) -> np.ndarray:
-        """(N, n, 6) base poses [m, rad] of N base motions at t = t0 + k dt, k = 0 … n − 1,
-        in one compiled pass over the lanes (`twin.sim.kernels.sea`: each vessel motion put
-        on its mount). A non-finite response gives NaN poses, not an error.
+        """(N, n, 6) base poses [m, rad] of N base motions at t = t0 + k dt, k = first …
+        first + n − 1, in one compiled pass over the lanes (`twin.sim.kernels.sea`: each
+        vessel motion put on its mount). A sample's numbers depend on t0, dt and k alone, not
+        on `first` or `n`: a run sampled in pieces gets the bits of one call. A non-finite
+        response gives NaN poses, not an error.
 
         Args:
             motions: base motions; t0, dt: [s]; n: samples.
             compiled: run the numba-compiled function (else the same function interpreted).
+            first: [-] the first sample's index k, ≥ 0.
         """
+        if first < 0:
+            raise TwinError(f"first: got {first}; allowed a sample index ≥ 0")
         from twin.sim.kernels.compile import pick_runner
         from twin.sim.kernels.sea import compiled_base_poses, run_base_poses
 
@@ -127,7 +137,7 @@ class BaseMotion:
         out = np.empty((len(motions), n, 6))
         runner = pick_runner(compiled_base_poses, run_base_poses, compiled, len(motions))
         runner(omega_e, np.ascontiguousarray(response.real), np.ascontiguousarray(response.imag),
-               lever_arm, yaw, float(t0), float(dt), out)  # fmt: skip
+               lever_arm, yaw, float(t0), float(dt), int(first), out)  # fmt: skip
         return out
 
     def sample(self, t: np.ndarray) -> BaseSamples:

@@ -410,7 +410,7 @@ class Simulation:
         steps = max(1, min(self._block_size, end - start))
         try:
             sampled = BaseMotion.uniform_poses(
-                base_motions, start * self.dt, self.dt, steps + 1, self.compiled
+                base_motions, 0.0, self.dt, steps + 1, self.compiled, first=start
             )
         except NUMERICAL:
             sampled = np.full((len(base_motions), steps + 1, 6), np.nan)

@@ -101,7 +101,13 @@ def vessel_motion(
     if t.ndim != 1:
         raise TwinError(f"t must be 1-D (N,) [s], got shape {t.shape}")
     omega_e, amplitude = response_amplitudes(components, raos, heading, speed)
-    rows = max(1, _BLOCK // max(1, omega_e.size))
+    return superpose(t, omega_e, amplitude)
+
+
+def superpose(t: np.ndarray, omega_e: np.ndarray, amplitude: np.ndarray) -> np.ndarray:
+    """x_d(t) = Re Σ_j H_jd e^{−iω_j t} (`vessel_motion`), (N, 6) [m, rad], from the response
+    terms of `response_amplitudes`: t (N,) [s], omega_e (K,) [rad/s], amplitude (K, 6)."""
+    rows = max(1, _BLOCK // max(1, omega_e.size))  # bounds the (rows, K) phasor table
     blocks = [
         (np.exp(-1j * np.outer(t[s : s + rows], omega_e)) @ amplitude).real
         for s in range(0, t.size, rows)

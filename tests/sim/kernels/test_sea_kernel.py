@@ -7,9 +7,12 @@ numba's cache); its error against an extended-precision sum no larger than the d
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
+from twin.errors import TwinError
 from twin.sim.base_motion import BaseMotion
 from twin.sim.kernels import sea
 from twin.sim.lanes import numba_available
@@ -79,6 +82,27 @@ def test_many_spans_equal_the_direct_sum(motions: list[BaseMotion], t0: float) -
         np.testing.assert_allclose(poses[lane], expected, rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_a_run_sampled_in_pieces_gets_the_bits_of_one_call(
+    motions: list[BaseMotion], compiled: bool
+) -> None:
+    """Pieces that start anywhere (mid-block, on a block, mid-span; a live session's 256
+    samples at a time, or after a sea change at any step) give one call's bits: blocks and
+    spans count from sample 0, not from a call's first sample."""
+    n = 2 * sea.SPAN * sea.BLOCK + 40
+    whole = BaseMotion.uniform_poses(motions, 1.5, DT, n, compiled)
+    cuts = [0, 37, sea.BLOCK, 256, 300, sea.SPAN * sea.BLOCK - 1, sea.SPAN * sea.BLOCK + 1, n]
+    pieces = [BaseMotion.uniform_poses(motions, 1.5, DT, b - a, compiled, first=a)
+              for a, b in itertools.pairwise(cuts)]  # fmt: skip
+    assert np.concatenate(pieces, axis=1).tobytes() == whole.tobytes()
+    # the same samples from a t0 moved by `first` steps are other numbers (they would need the
+    # span's phasor at another time), which is why the engine keeps t0 = 0 and moves `first`
+    moved = BaseMotion.uniform_poses(motions, 1.5 + 300 * DT, DT, n - 300, compiled)
+    np.testing.assert_allclose(moved, whole[:, 300:], rtol=0, atol=1e-12)
+    with pytest.raises(TwinError, match="first"):
+        BaseMotion.uniform_poses(motions, 1.5, DT, 3, compiled, first=-1)
+
+
 def test_interpreted_equals_compiled(motions: list[BaseMotion]) -> None:
     """The plain function (the engine without numba) gives the compiled numbers, across a
     span boundary."""
@@ -99,18 +123,18 @@ def test_a_lane_gets_the_same_bits_however_it_runs(motions: list[BaseMotion]) ->
     many = motions * 3  # enough lanes for both threads
     arrays = kernel_arrays(many)
     reference = np.empty((len(many), n, 6))
-    sea.compiled_base_poses(True)(*arrays, 2.0, DT, reference)  # cached on disk
+    sea.compiled_base_poses(True)(*arrays, 2.0, DT, 0, reference)  # cached on disk
     for lane, motion in enumerate(motions):
         alone = np.empty((1, n, 6))
-        sea.compiled_base_poses(False)(*kernel_arrays([motion]), 2.0, DT, alone)
+        sea.compiled_base_poses(False)(*kernel_arrays([motion]), 2.0, DT, 0, alone)
         assert alone.tobytes() == reference[lane].tobytes()
     reordered = [many[i] for i in (4, 2, 0, 1, 3, 5, 7, 8, 6)]
     out = np.empty((len(many), n, 6))
-    sea.compiled_base_poses(True)(*kernel_arrays(reordered), 2.0, DT, out)
+    sea.compiled_base_poses(True)(*kernel_arrays(reordered), 2.0, DT, 0, out)
     assert out[2].tobytes() == reference[0].tobytes()
     for parallel in (False, True):  # compiled afresh here, never from the cache
         fresh = numba.njit(parallel=parallel, error_model="numpy")(sea.run_base_poses)
-        fresh(*arrays, 2.0, DT, out)
+        fresh(*arrays, 2.0, DT, 0, out)
         assert out.tobytes() == reference.tobytes()
 
 
@@ -126,7 +150,7 @@ def test_error_is_that_of_the_direct_sum(motions: list[BaseMotion]) -> None:
         arrays = list(kernel_arrays([motion]))
         arrays[3], arrays[4] = np.zeros((1, 3)), np.zeros(1)  # the vessel's origin: x, y, z
         out = np.empty((1, n, 6))
-        sea.compiled_base_poses(False)(*arrays, t0, DT, out)
+        sea.compiled_base_poses(False)(*arrays, t0, DT, 0, out)
         long_t = np.longdouble(t0) + np.arange(n, dtype=np.longdouble) * np.longdouble(DT)
         angle = np.outer(long_t, motion.omega_e.astype(np.longdouble))
         H = motion.amplitude[:, :3]

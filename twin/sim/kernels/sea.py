@@ -3,7 +3,11 @@ r"""The base's inertial pose at uniform samples for N lanes, compiled: the vesse
 on the mount (`base_pose`).
 
 Phasors. The samples go in blocks of `BLOCK` and the blocks in spans of `SPAN` (1024 samples,
-51.2 s at dt = 0.05 s). At a span's first sample t_s each component's phasor e^{−iω_j t_s} is
+51.2 s at dt = 0.05 s), both counted from the sample k = 0 at t0, whatever sample a call starts
+at (`first`): a sample's bits do not depend on how a run cuts its samples into calls, so a live
+session sampling 256 steps at a time gets the numbers of a batch run sampling 8192 (a call
+that starts mid-block computes the block's earlier samples and drops them). At a span's first
+sample t_s each component's phasor e^{−iω_j t_s} is
 an exact exponential (cos and sin of the rounded angle ω_j t_s); block b < SPAN of the span
 starts from z_j = e^{−iω_j t_s} · Q_jb, Q_jb = e^{−iω_j b BLOCK dt}, and sample m < BLOCK of the
 block is z_j · P_jm, P_jm = e^{−iω_j m dt}. Both tables are built once per lane by repeated
@@ -143,20 +147,24 @@ def run_base_poses(
     mount_yaw: np.ndarray,
     t0: float,
     dt: float,
+    first: int,
     out: np.ndarray,
 ) -> None:
-    """Base poses of N lanes at n uniform samples, lanes in parallel.
+    """Base poses of N lanes at the n uniform samples t0 + k dt, k = first … first + n − 1,
+    lanes in parallel.
 
     Args:
         omega_e: (N, K) [rad/s] each lane's encounter frequencies.
         response_re, response_im: (N, 6, K) the complex responses H_jd [m, rad]
             (`response_amplitudes`), split and transposed so K is contiguous.
         lever_arm: (N, 3) [m], mount_yaw: (N,) [rad] each lane's mount (`Mount`).
-        t0: [s] the first sample; dt: [s] the sample period.
+        t0: [s] the time of sample 0, from which blocks and spans count; dt: [s] the sample
+            period; first: [-] the first sample wanted, ≥ 0.
         out: (N, n, 6) written: the base poses [x, y, z, roll, pitch, yaw] [m, rad] in the
             equilibrium frame.
     """
     K, n = omega_e.shape[1], out.shape[1]
+    start = first - first % BLOCK  # the block holding the first sample
     for lane in prange(omega_e.shape[0]):
         w, H_re, H_im = omega_e[lane], response_re[lane], response_im[lane]
         P_re, P_im = np.empty((K, BLOCK)), np.empty((K, BLOCK))
@@ -167,11 +175,12 @@ def run_base_poses(
         B_re, B_im = np.empty((6, K)), np.empty((6, K))
         block, R = np.empty((6, BLOCK)), np.empty((3, 3))
         cos_yaw, sin_yaw = math.cos(mount_yaw[lane]), math.sin(mount_yaw[lane])
-        for k0 in range(0, n, BLOCK):
+        for k0 in range(start, first + n, BLOCK):
             b = (k0 // BLOCK) % SPAN
-            if b == 0:  # a span's start: the exact phasor
+            if b == 0 or k0 == start:  # the exact phasor at the start of the block's span
+                span = k0 - b * BLOCK
                 for j in range(K):
-                    phase = w[j] * (t0 + k0 * dt)
+                    phase = w[j] * (t0 + span * dt)
                     E_re[j], E_im[j] = math.cos(phase), -math.sin(phase)
             for j in range(K):
                 z_re = E_re[j] * Q_re[j, b] - E_im[j] * Q_im[j, b]
@@ -181,8 +190,8 @@ def run_base_poses(
                     B_im[d, j] = z_re * H_im[d, j] + z_im * H_re[d, j]
             block[:] = 0.0
             add_components(B_re, B_im, P_re, P_im, block)
-            for m in range(min(BLOCK, n - k0)):
-                pose = out[lane, k0 + m]
+            for m in range(max(0, first - k0), min(BLOCK, first + n - k0)):
+                pose = out[lane, k0 + m - first]
                 for d in range(6):
                     pose[d] = block[d, m]
                 mount_lane(pose, lever_arm[lane], cos_yaw, sin_yaw, R, pose)
