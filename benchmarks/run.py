@@ -203,7 +203,7 @@ def split_text(cpu: float, spent: dict[str, float]) -> str:
 
 
 def variants(duration: float) -> list[tuple[str, Scenario]]:
-    """Every other planner of the registry on its mechanisms and the `hold` joint-limit mode,
+    """Every other planner of the registry on its mechanisms, in both joint-limit modes,
     `duration` s at WMO 4: the hybrid ones on the reference scenario, the small platforms'
     on their standard mounts."""
     reference = PAPER_PRESETS[REFERENCE].model_copy(update={"duration": duration})
@@ -212,20 +212,16 @@ def variants(duration: float) -> list[tuple[str, Scenario]]:
     updates = [(f"hybrid {name(p)}", {"planner": p}) for p in hybrid if p != reference.planner]
     updates += [
         (f"hybrid {name(p)}, joint_limits=hold", {"planner": p, "joint_limits": "hold"})
-        for p in ("mtmp", "pi", "dwa")
-        if p in hybrid
+        for p in hybrid
     ]
     out = [(label, reference.model_copy(update=update)) for label, update in updates]
     for mechanism in ("upu3up", "upr4"):
         for planner in [p for p, spec in PLANNERS.items() if mechanism in spec.mechanisms]:
-            scenario = Scenario(
-                mechanism=mechanism, planner=planner, sea_state=4, duration=duration
-            )
-            out.append((f"{mechanism} {name(planner)}", scenario))
-    hold = Scenario(
-        mechanism="upr4", planner="pid", sea_state=4, duration=duration, joint_limits="hold"
-    )
-    out.append(("upr4 PID, joint_limits=hold", hold))
+            for mode in ("record", "hold"):
+                scenario = Scenario(mechanism=mechanism, planner=planner, sea_state=4,
+                                    duration=duration, joint_limits=mode)  # fmt: skip
+                suffix = ", joint_limits=hold" if mode == "hold" else ""
+                out.append((f"{mechanism} {name(planner)}{suffix}", scenario))
     return out
 
 

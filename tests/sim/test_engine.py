@@ -37,6 +37,24 @@ def test_step_equals_simulate() -> None:
     assert live.result().metrics == batch.metrics
 
 
+def test_metrics_later_count_the_faults_of_the_series_taken_with_them(
+    nan_target: typing.Callable[..., None],
+) -> None:
+    """`metrics_later` (what `LiveSession.snapshot` takes under its lock) gives the metrics of
+    the series taken with it, fault counts included, however far the run steps before it is
+    called; `metrics` of the same series now would count the later faults too."""
+    nan_target(*range(30, 40))  # a planner fault on steps 30-39
+    sim = Simulation({**SHORT, "duration": 5.0}, history_limit=200)
+    sim.advance(20)
+    series, later = sim.series(), sim.metrics_later()
+    sim.advance(40)  # through the faults
+    assert sim.faults[0].counts["planner"] == 10
+    metrics = later(series)
+    assert metrics["fault_counts"]["planner"] == 0 and metrics["faults"] == 0
+    assert sim.metrics(series)["fault_counts"]["planner"] == 10
+    assert later(sim.series())["fault_counts"]["planner"] == 0  # the counts were copied
+
+
 def test_series_has_the_contract_keys_and_shapes() -> None:
     result = simulate(SHORT)
     n = 5.0 / 0.05 + 1

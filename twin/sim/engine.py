@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -208,22 +208,21 @@ class Simulation:
 
     def metrics(self, series: dict[str, np.ndarray], lane: int = 0) -> dict[str, Any]:
         """A lane's metrics over a series of it (`series(lane)`), its fault counts included."""
-        metrics = self.lanes.metrics(series, lane, self.scenarios[lane].joint_limits)
-        return self._with_faults(metrics, series, lane)
+        return self.metrics_later(lane)(series)
 
-    def _with_faults(
-        self, metrics: dict[str, Any], series: dict[str, np.ndarray], lane: int
-    ) -> dict[str, Any]:
-        """A lane's metrics with its fault counts added: held steps from its fault log, limited
-        and damped samples from its series (`series_faults`)."""
+    def metrics_later(self, lane: int = 0) -> Callable[[dict[str, np.ndarray]], dict[str, Any]]:
+        """`metrics` as of now, to call later on a series taken now: the lane's joint-limit
+        mode and fault counts are copied here, so a reader that copies the series under its
+        lock (`LiveSession.snapshot`) computes the metrics after releasing it with counts
+        that match that series, however far the loop has stepped meanwhile."""
         log = self.faults[lane]
-        metrics["faults"] = log.holds
-        metrics["fault_counts"] = {
-            **{f.name.lower(): log.counts[f.name.lower()] for f in Fault if f in HOLDS},
-            **series_faults(series),
-            "infeasible": log.counts["infeasible"],
-        }
-        return metrics
+        counts, holds = {f.name.lower(): log.counts[f.name.lower()] for f in Fault}, log.holds
+        lanes, joint_limits = self.lanes, self.scenarios[lane].joint_limits
+
+        def compute(series: dict[str, np.ndarray]) -> dict[str, Any]:
+            return with_faults(lanes.metrics(series, lane, joint_limits), series, counts, holds)
+
+        return compute
 
     def result(self, lane: int = 0) -> SimulationResult:
         """A lane's result: its scenario, its series up to its own duration, its metrics."""
@@ -253,7 +252,7 @@ class Simulation:
         modes = [s.joint_limits for s in self.scenarios]
         reduced = self.lanes.metrics_lanes(self.history.data, ends, modes)
         return [
-            SimulationResult(s, x, self._with_faults(m, x, i))
+            SimulationResult(s, x, with_faults(m, x, self.faults[i].counts, self.faults[i].holds))
             for i, (s, x, m) in enumerate(zip(self.scenarios, series, reduced, strict=True))
         ]
 
@@ -425,6 +424,22 @@ class Simulation:
         target depends only on its step's pose and the next), into `out` when given."""
         poses = block.poses[:, local : local + m + 1]
         return held_targets(self.lanes.held, poses, self.dt, self.compiled, out, end)
+
+
+
+def with_faults(
+    metrics: dict[str, Any], series: dict[str, np.ndarray], counts: Mapping[str, int], holds: int
+) -> dict[str, Any]:
+    """A lane's metrics with its fault counts added: held steps and their kinds from its
+    fault log (`counts` per kind name, `holds` steps held), limited and damped samples from
+    its series (`series_faults`)."""
+    metrics["faults"] = holds
+    metrics["fault_counts"] = {
+        **{f.name.lower(): counts[f.name.lower()] for f in Fault if f in HOLDS},
+        **series_faults(series),
+        "infeasible": counts["infeasible"],
+    }
+    return metrics
 
 
 def simulate(

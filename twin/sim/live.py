@@ -250,14 +250,16 @@ class LiveSession:
     def snapshot(self) -> dict[str, Any]:
         """Flat scenario fields, sim time, speed, playing and the metrics over the buffer.
 
-        Under the lock only copies are taken (the ring's slices, the fault log); the metrics
-        are computed after it is released, so a reader never holds up the loop.
+        Under the lock only copies are taken (the ring's slices, the fault counts and the
+        joint-limit mode, `Simulation.metrics_later`); the metrics are computed after it is
+        released, so a reader never holds up the loop, and from what was copied, so their
+        fault counts are the series'.
         """
         with self._lock:
             if self._replay is not None:
                 return self._replay_snapshot()
             sim, compare = self._sim, self._compare
-            series = sim.series()
+            series, metrics = sim.series(), sim.metrics_later()
             head = {
                 **sim.scenario.model_dump(exclude={"duration"}),
                 "t": sim.t,
@@ -266,11 +268,11 @@ class LiveSession:
                 "replay": None,
             }
             if compare is not None:
-                other = sim.series(1)
+                other, other_metrics = sim.series(1), sim.metrics_later(1)
                 faults = {**sim.faults[1].summary(), "loop_errors": self.loop_errors}
-        out = {**head, "metrics": sim.metrics(series), "compare": None}
+        out = {**head, "metrics": metrics(series), "compare": None}
         if compare is not None:
-            out["compare"] = {"planner": compare, "metrics": sim.metrics(other, 1),
+            out["compare"] = {"planner": compare, "metrics": other_metrics(other),
                               "faults": faults}  # fmt: skip
         return out
 
