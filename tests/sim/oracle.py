@@ -4,8 +4,9 @@ deleted per-step rigs stepped them.
 `twin.sim.hybrid_rig.HybridRig` and `twin.sim.platform_rig.PlatformRig` (removed with the
 one engine, `git show 3a6bc9a~1:twin/sim/hybrid_rig.py`) were the readable statement of a
 simulation step: ask the planner object, hold on a non-finite answer, stop at the limits,
-integrate (hybrid) or move the actuators and fit the state (small platforms). Their step is
-restated here once, in numpy, for the kernel tests (`tests/sim/kernels`) and the engine test
+integrate (hybrid) or move the actuators and fit the state (small platforms); the former
+engine around them flagged a step whose base motion failed. Their step is restated here once,
+in numpy, for the kernel tests (`tests/sim/kernels`) and the engine test
 (`tests/sim/test_engine_oracle.py`):
 
 - `pack_target` / `unpack_target`: a `TipTarget` as the kernels' (18,) row and back;
@@ -23,6 +24,7 @@ import numpy as np
 from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners import PlatformModel, PlatformPlanner, TipTarget, get_planner
+from twin.sim.base_motion import BaseMotion
 from twin.sim.engine import Simulation
 from twin.sim.faults import Fault
 from twin.sim.kernels.layout import N_TARGET, TARGET_P, TARGET_R, TARGET_V
@@ -32,8 +34,9 @@ from twin.sim.scenario import Scenario
 LIMIT_BISECTIONS = 12
 #: [m, rad] how much further past its limit a joint or leg may be after a step (round-off)
 LIMIT_SLACK = 1e-12
-#: what the former engine caught around a rig's step and held as a fault (`twin.sim.engine`
-#: before the one engine: ValueError covers TwinError and numpy's LinAlgError)
+#: what the former engine caught around a rig's step or the base motion's evaluation and held
+#: as a fault (`twin.sim.engine` before the one engine: ValueError covers TwinError and
+#: numpy's LinAlgError)
 NUMERICAL = (ArithmeticError, ValueError)
 
 
@@ -192,7 +195,9 @@ class OracleRun:
     the held targets of each step (`sim.targets` of its current block, so a sea change or an
     injected fault reaches both). Planners are built from the registry as `twin.sim.lanes`
     builds them: the hybrid's with the lane's x0 (MTMP's q2 set-point, seed 000 eq (40)), a
-    platform's at the current state; each reset at the current state and target.
+    platform's at the current state; each reset at the current state and target. What the
+    oracle judges itself: whether the base motion failed, from its own `BaseMotion.of` the
+    scenario at the step's start and end (`base_fault`), not from the engine's block.
 
     Use: build it on a fresh Simulation; after the Simulation advanced, `follow()` steps the
     oracle up to it (the steps must still be in the engine's current block); after
@@ -225,10 +230,22 @@ class OracleRun:
             self.leg = np.array(sim.lanes.extra[lane, : self.model.n_legs], dtype=float)
             self.legs = [self.leg.copy()]
         self.planner = self._build(self.scenario)
+        self.base = BaseMotion.of(self.scenario)
 
     @property
     def hold(self) -> bool:
         return self.scenario.joint_limits == "hold"
+
+    def base_fault(self) -> int:
+        """BASE_MOTION if the base pose at the start or the end of step `self.k` is not finite
+        or cannot be evaluated (the former engine's flag; the target it holds meanwhile is the
+        engine's row, checked on its own by the engine test), else 0."""
+        t = np.array([self.k, self.k + 1]) * self.scenario.dt
+        try:
+            poses = self.base.poses(t)
+        except NUMERICAL:
+            return int(Fault.BASE_MOTION)
+        return 0 if np.all(np.isfinite(poses)) else int(Fault.BASE_MOTION)
 
     def _row(self) -> np.ndarray:
         """The engine's held target row (18,) for step `self.k`, from its current block."""
@@ -271,7 +288,7 @@ class OracleRun:
             self.x, self.leg = out.state, out.legs
             self.legs.append(self.leg.copy())
         self.states.append(self.x.copy())
-        self.faults.append(out.faults)
+        self.faults.append(out.faults | self.base_fault())
         self.diagnostics.append(out.diagnostics)
         self.targets.append(row)
         self.k += 1
@@ -284,13 +301,14 @@ class OracleRun:
     def update(self, changes: dict) -> None:
         """The engine's `update(changes)` as the oracle sees it, at the engine's step: a planner
         or a knob changed rebuilds the planner (reset at the current state and the engine's
-        target, a new sea's if the sea changed too); `joint_limits` switches hold mode."""
+        target, a new sea's if the sea changed too); `joint_limits` switches hold mode; the
+        base motion is the new scenario's (the same sea unless a sea field changed)."""
         if self.k != self.sim.k:
             raise ValueError(f"update at step {self.sim.k}: the oracle is at {self.k}; follow")
         new = Scenario(**{**self.scenario.model_dump(), **changes})
         if (new.planner, new.parameters()) != (self.scenario.planner, self.scenario.parameters()):
             self.planner = self._build(new)
-        self.scenario = new
+        self.scenario, self.base = new, BaseMotion.of(new)
 
     def fault_counts(self) -> dict[str, int]:
         """Steps flagged per kind, as `FaultLog.counts` names them."""

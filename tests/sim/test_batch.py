@@ -273,18 +273,52 @@ def test_bad_requests_name_the_field(kwargs: dict, message: str) -> None:
         simulate_many([{"beta": 2.0}] if not kwargs else [{}], **kwargs)
 
 
+H = HybridBoardingSystem()
+#: the platform yaw, q1 and q2 60 % of the way from the working state to their upper limits
+#: (tests/sim/test_engine_oracle.py's start): in sea state 7 a run meets a limit within 2 s
+NEAR_LIMITS = (
+    H.working_state + 0.6 * np.r_[np.zeros(5), 1, 1, 1, 0] * (H.upper - H.working_state)
+).tolist()
+#: every hybrid planner and both platform laws, ≤ 2 s each (the interpreted engine is slow);
+#: those started near the limits pass them (`record`), stop on them (`hold`: the step's
+#: bisection) or keep them (qp: its active set), so the metrics they count are not all zero
 NO_NUMBA = [
     {"planner": "mtmp", "sea_state": 5, "duration": 1.0, "joint_limits": "hold"},
     {"planner": "dwa", "sea_state": 5, "duration": 1.0},
     {"mechanism": "upr4", "duration": 1.0},
     {"mechanism": "upu3up", "planner": "ik", "duration": 1.0},
-]
+    {"planner": "pi", "sea_state": 7, "duration": 2.0, "initial_state": NEAR_LIMITS,
+     "joint_limits": "hold"},
+    {"planner": "wpi", "sea_state": 7, "duration": 2.0, "initial_state": NEAR_LIMITS},
+    {"planner": "conv1", "sea_state": 6, "seed": 2, "duration": 2.0},
+    {"planner": "conv2", "sea_state": 5, "seed": 1, "duration": 2.0, "joint_limits": "hold"},
+    {"planner": "qp", "sea_state": 7, "duration": 2.0, "initial_state": NEAR_LIMITS},
+]  # fmt: skip
+
+
+def assert_same_metrics(actual: object, expected: object, where: str = "metrics") -> None:
+    """Metrics as JSON gives them back: the same keys, lengths and types throughout; floats to
+    1e-9 (relative, or absolute near zero), everything else (counts, flags, names) exactly."""
+    assert type(actual) is type(expected), f"{where}: {actual!r}, expected {expected!r}"
+    if isinstance(expected, dict):
+        assert actual.keys() == expected.keys(), where
+        for key, value in expected.items():
+            assert_same_metrics(actual[key], value, f"{where}/{key}")
+    elif isinstance(expected, list):
+        assert len(actual) == len(expected), where
+        for j, (got, want) in enumerate(zip(actual, expected, strict=True)):
+            assert_same_metrics(got, want, f"{where}/{j}")
+    elif isinstance(expected, float):
+        np.testing.assert_allclose(actual, expected, rtol=1e-9, atol=1e-9, err_msg=where)
+    else:
+        assert actual == expected, where
 
 
 def test_where_numba_cannot_import_the_engine_gives_the_same_numbers(tmp_path) -> None:
-    """A Python in which `import numba` fails runs the same kernels interpreted: every
-    recorded series equals the compiled engine's to 1e-9."""
-    out = tmp_path / "runs.npz"
+    """A Python in which `import numba` fails runs the same kernels interpreted: every run
+    records the compiled engine's series, each to 1e-9, and its metrics (`assert_same_metrics`,
+    both through JSON, as they are served); the runs pass, stop on or keep their limits."""
+    out, metrics = tmp_path / "runs.npz", tmp_path / "metrics.json"
     code = (
         "import sys, json, numpy as np; sys.modules['numba'] = None\n"
         "from twin.sim import simulate\n"
@@ -293,12 +327,24 @@ def test_where_numba_cannot_import_the_engine_gives_the_same_numbers(tmp_path) -
         f"runs = [simulate(s) for s in json.loads({json.dumps(json.dumps(NO_NUMBA))})]\n"
         "np.savez(sys.argv[1], **{f'{i}/{k}': v for i, r in enumerate(runs)"
         " for k, v in r.series.items()})\n"
+        "open(sys.argv[2], 'w').write(json.dumps([r.metrics for r in runs]))\n"
     )
-    subprocess.run([sys.executable, "-c", code, str(out)], check=True, timeout=300)
+    subprocess.run([sys.executable, "-c", code, str(out), str(metrics)], check=True, timeout=300)
     interpreted = np.load(out)
-    for i, scenario in enumerate(NO_NUMBA):
-        compiled = simulate(scenario, engine="numba" if numba_available() else "python")
-        for key, value in compiled.series.items():
+    interpreted_metrics = json.loads(metrics.read_text())
+    engine = "numba" if numba_available() else "python"
+    compiled = [simulate(scenario, engine=engine) for scenario in NO_NUMBA]
+    for i, run in enumerate(compiled):
+        assert sorted(k for k in interpreted.files if k.startswith(f"{i}/")) == sorted(
+            f"{i}/{key}" for key in run.series
+        )
+        for key, value in run.series.items():
             np.testing.assert_allclose(
                 interpreted[f"{i}/{key}"], value, rtol=1e-9, atol=1e-9, err_msg=f"{i}/{key}"
             )
+        expected = json.loads(json.dumps(run.metrics))
+        assert_same_metrics(interpreted_metrics[i], expected, f"{i}/metrics")
+    hybrid = [run for run in compiled if run.scenario.mechanism == "hybrid"]
+    assert any(run.metrics["violations"] for run in hybrid)
+    assert any(run.metrics["fault_counts"]["joint_limit"] for run in hybrid)
+    assert any(run.series["qp_active"].max() > 0 for run in hybrid if "qp_active" in run.series)

@@ -3,9 +3,11 @@
 The oracle (`tests.sim.oracle.OracleRun`) steps one lane with the planner objects as the
 former rigs did, on the engine's own held targets: every planner of every mechanism, in both
 joint-limit modes, through a plain run, a mid-run change of knobs, planner or joint-limit
-mode, an injected planner fault (a NaN target) and a change of sea. The rows the engine hands
-its kernels are checked against `held_target` on their own (`test_targets_are_the_held_targets`),
-so the shared targets are no blind spot.
+mode, an injected planner fault (a NaN target), a stretch of failed base motion (NaN base
+poses) and a change of sea. The rows the engine hands its kernels are checked against
+`held_target` on their own (`test_targets_are_the_held_targets`, and the held rows of a failed
+base motion in `test_base_motion_fault_holds_as_the_oracle`), so the shared targets are no
+blind spot.
 
 Runs are 3 s at dt = 0.05 (60 steps). The hybrid system starts towards its joint limits in a
 rough sea, so `hold` mode shortens steps and `record` mode passes the limits; the Upr4 starts
@@ -25,6 +27,7 @@ from twin.mechanisms import HybridBoardingSystem
 from twin.planners import PlatformModel, TipTarget, get_planner
 from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.engine import Simulation
+from twin.sim.kernels.layout import TARGET_V
 from twin.sim.scenario import Scenario
 from twin.sim.target import held_target
 from twin.spatial import pose_to_transform, so3_exp
@@ -43,11 +46,14 @@ NEAR_LIMITS = list(
 
 HYBRID = ("pi", "wpi", "mtmp", "dwa", "conv1", "conv2", "qp")
 #: (mechanism, planner, joint_limits): every planner of every mechanism in both modes (the
-#: small platforms' end stops hold in either, so one mode each)
+#: small platforms' end stops hold in either and their kernel never reads the mode, so one
+#: mode each here; `test_platform_joint_limits_move_nothing` holds `record` to the oracle)
 CASES = [("hybrid", p, mode) for p in HYBRID for mode in ("record", "hold")] + [
     (m, p, "hold") for m in ("upu3up", "upr4") for p in ("pid", "ik")
 ]
 IDS = ["-".join(case) for case in CASES]
+#: the small platforms' cases
+PLATFORMS = [case for case in CASES if case[0] != "hybrid"]
 #: the scenario fields of each mechanism's runs
 FIELDS = {
     "hybrid": dict(sea_state=7, seed=1, initial_state=NEAR_LIMITS),
@@ -186,13 +192,7 @@ def test_update_equals_oracle(case: tuple[str, str, str], changes: dict) -> None
         assert_changed(sim, case)
 
 
-@pytest.mark.parametrize(
-    "case",
-    [
-        pytest.param(case, id=name)
-        for case, name in zip(CASES, IDS, strict=True)
-    ],
-)
+@pytest.mark.parametrize("case", CASES, ids=IDS)
 def test_nan_target_holds_as_the_oracle(
     case: tuple[str, str, str], nan_target: Callable[..., None]
 ) -> None:
@@ -208,6 +208,75 @@ def test_nan_target_holds_as_the_oracle(
     assert np.any(states[K + 2 :] != states[K + 1])  # and moving again
     assert sim.faults[0].counts["planner"] == 1
     assert_equal_runs(sim, oracle)
+
+
+@pytest.mark.parametrize("case", PLATFORMS, ids=["-".join(case) for case in PLATFORMS])
+def test_platform_joint_limits_move_nothing(case: tuple[str, str, str]) -> None:
+    """A small platform's end stops hold in either joint-limit mode: `pack_platform` records
+    the mode and the kernel never reads it, and the rig (`platform_advance`) has no mode. So a
+    run in `record` equals the oracle, and so does a `hold` run switched to `record` at K (no
+    rebuild: the PID's integral and the actuator lengths carry on); both equal the `hold` run
+    sample for sample. The mode shows only in the metrics: `record` counts every clamped
+    sample as a violation, `hold` counts them as held steps instead."""
+    mechanism, planner, _ = case
+    recorded, oracle = start((mechanism, planner, "record"))
+    finish(recorded, oracle)
+    assert_equal_runs(recorded, oracle)
+    switched, oracle = start(case)
+    switched.advance(K)
+    oracle.follow()
+    assert switched.update({"joint_limits": "record"}) == {"joint_limits"}
+    oracle.update({"joint_limits": "record"})
+    finish(switched, oracle)
+    assert_equal_runs(switched, oracle)
+    held = Simulation(scenario(*case))
+    held.run()
+    for sim in (recorded, switched):
+        got = sim.series()
+        for key, value in held.series().items():
+            np.testing.assert_array_equal(got[key], value, err_msg=key)
+        assert dict(sim.faults[0].counts) == dict(held.faults[0].counts)
+    record, hold = recorded.result().metrics, held.result().metrics
+    assert record["limit_violations"]["clamped"] == record["clipped"] > 0
+    assert record["violations"] > hold["violations"]
+    assert hold["fault_counts"]["joint_limit"] == record["clipped"]
+
+
+#: the base samples whose pose is NaN in `test_base_motion_fault_holds_as_the_oracle`: 2.1 …
+#: 2.5 s, where every case moves (in `hold` mode pi, wpi, mtmp and conv1 stand still on their
+#: limits, step scale 0, from about 0.3 s to 2 s or later: a held target there changes nothing)
+BASE_FAULT = (42, 50)
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_base_motion_fault_holds_as_the_oracle(
+    case: tuple[str, str, str], nan_sea: Callable[..., None]
+) -> None:
+    """The base motion fails (NaN poses from `BaseMotion.uniform_poses` and `poses`) at samples
+    42 … 50: the engine hands its kernels `held_target` of the last good pose (sample 41) for
+    every step that reads a failed sample (computed here from the unbroken sea: a still
+    target), flags those ten steps BASE_MOTION, and the run still equals the oracle's step by
+    step (states, limit scale or legs, fault counts: the oracle flags the steps from its own
+    sea); the run is the plain run's up to the failure and not after it."""
+    first, last = BASE_FAULT
+    t = np.arange(round(DURATION / DT) + 1) * DT
+    s = Scenario(**scenario(*case))
+    poses = BaseMotion.of(s).poses(t)
+    plain = baseline(case)  # cached now, before the sea fails: later it would be the broken run
+    nan_sea(first * DT, last * DT)
+    sim, oracle = start(case)
+    finish(sim, oracle)
+    assert_equal_runs(sim, oracle)
+    assert sim.faults[0].counts["base_motion"] == last - first + 2
+    poses[first : last + 1] = poses[first - 1]
+    base = BaseSamples(t, poses, pose_to_transform(poses))
+    for k, row in enumerate(oracle.targets):
+        want = pack_target(held_target(sim.held[0], base, k, DT))
+        np.testing.assert_allclose(row, want, rtol=0, atol=1e-9, err_msg=f"step {k}")
+    assert not np.any(np.array(oracle.targets)[first - 1 : last, TARGET_V:])
+    states = sim.series()["xi" if oracle.hybrid else "state"]
+    np.testing.assert_array_equal(states[:first], plain[:first])
+    assert np.abs(states[first:] - plain[first:]).max() > 1e-6
 
 
 def sea_cases() -> list:

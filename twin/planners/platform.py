@@ -210,26 +210,39 @@ class PlatformModel:
             f"in {FIT_MAX_ITER} Gauss-Newton steps from {np.round(guess, 6).tolist()}"
         )
 
-    def violations(self, state: ArrayLike) -> dict[str, np.ndarray]:
+    def violations(
+        self, state: ArrayLike, lengths: ArrayLike | None = None
+    ) -> dict[str, np.ndarray]:
         """Limit name → (...) bool for states (..., 3), by the mechanism's own limits.
 
         Upr4: `Upr4.limits_violated` (stroke, U joints, collision eq (3)). Upu3Up: its
         `state_limits` box and the UPU stroke [leg_min, leg_max] (what
         `Upu3Up.leg_lengths(check=True)` enforces), within `LENGTH_TOL` and `ANGLE_TOL`; it
         has no U-joint or collision limit.
+
+        With `lengths` (..., n) [native], the actuators' own lengths, the stroke is judged on
+        them, not on the lengths of the state: the Upr4's four legs over-determine its three
+        DOFs, so the legs of its least-squares state (`fit`) lie up to a few mm off the
+        actuators', past the stroke while the actuators stand on their end stops.
         """
         state = as_array(state, "state", (3,))
         m = self.mechanism
         if isinstance(m, Upr4):
-            return m.limits_violated(state[..., 0], state[..., 1], state[..., 2])
-        low, high = m.state_limits
-        lengths = self.leg_lengths(state)
-        tol = np.array([LENGTH_TOL, ANGLE_TOL, ANGLE_TOL])
-        return {
-            "state": np.any((state < low - tol) | (state > high + tol), axis=-1),
-            "stroke_min": np.any(lengths < m.leg_min - LENGTH_TOL, axis=-1),
-            "stroke_max": np.any(lengths > m.leg_max + LENGTH_TOL, axis=-1),
-        }
+            out = m.limits_violated(state[..., 0], state[..., 1], state[..., 2])
+            tol = 0.0  # `limits_violated`'s own: strictly beyond the stroke
+        else:
+            box_low, box_high = m.state_limits
+            margin = np.array([LENGTH_TOL, ANGLE_TOL, ANGLE_TOL])
+            out = {"state": np.any((state < box_low - margin) | (state > box_high + margin),
+                                   axis=-1)}  # fmt: skip
+            tol = LENGTH_TOL
+            lengths = self.leg_lengths(state) if lengths is None else lengths
+        if lengths is not None:
+            lengths = as_array(lengths, "lengths", (self.n_legs,))
+            low, high = self.stroke
+            out["stroke_min"] = np.any(lengths < low - tol, axis=-1)
+            out["stroke_max"] = np.any(lengths > high + tol, axis=-1)
+        return out
 
     def reached(self, state: ArrayLike, lengths: ArrayLike) -> dict[str, np.ndarray]:
         """Limit name → (...) bool: at a limit or beyond it, for states (..., 3) and their
@@ -243,7 +256,7 @@ class PlatformModel:
         """
         state = as_array(state, "state", (3,))
         lengths = as_array(lengths, "lengths", (self.n_legs,))
-        out = dict(self.violations(state))
+        out = dict(self.violations(state, lengths))
         low, high = self.stroke
         tol = LENGTH_TOL if isinstance(self.mechanism, Upu3Up) else AT_TOL
         out["stroke_min"] = out["stroke_min"] | np.any(lengths <= low + tol, axis=-1)

@@ -187,7 +187,7 @@ def platform_metrics(
         violated = model.reached(state, legs)
         violated["clamped"] = series["clipped"] > 0
     else:
-        violated = model.violations(state)
+        violated = model.violations(state, legs)  # the actuators', held at their stops
     bad = np.any(np.stack(list(violated.values())), axis=0)
     low, high = model.mechanism.state_limits
     states: dict[str, dict[str, float]] = {}
