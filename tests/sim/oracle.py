@@ -9,6 +9,7 @@ engine around them flagged a step whose base motion failed. Their step is restat
 in numpy, for the kernel tests (`tests/sim/kernels`) and the engine test
 (`tests/sim/test_engine_oracle.py`):
 
+- `held_target`: the held target of one sample (`twin.sim.target.held_targets` compiled);
 - `pack_target` / `unpack_target`: a `TipTarget` as the kernels' (18,) row and back;
 - `limit_scale`, `hybrid_advance`: `HybridRig.advance` on one state;
 - `platform_advance`: `PlatformRig.advance` on one state;
@@ -24,11 +25,12 @@ import numpy as np
 from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners import PlatformModel, PlatformPlanner, TipTarget, get_planner
-from twin.sim.base_motion import BaseMotion
+from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.engine import Simulation
 from twin.sim.faults import Fault
 from twin.sim.kernels.layout import N_TARGET, TARGET_P, TARGET_R, TARGET_V
 from twin.sim.scenario import Scenario
+from twin.spatial import invert_transform, so3_log
 
 #: bisection steps of `limit_scale`: the step is shortened to within 2⁻¹² of the limit
 LIMIT_BISECTIONS = 12
@@ -48,6 +50,18 @@ def raised(exc: Exception) -> int:
 
 
 # ------------------------------------------------------------------------------------ targets
+
+
+
+def held_target(held: np.ndarray, base: BaseSamples, k: int, dt: float) -> TipTarget:
+    """Desired pose in B at sample k and its mean twist to sample k + 1, for the inertial pose
+    `held` (4, 4); the twist is [ᴮṗ; ᴮω] in B [m/s, rad/s] (seed 000 §5.1, docs/planners.md:
+    ᴮT_d = ᴵT_B⁻¹ ᴵT*, and the rate that carries it to the next sample over dt)."""
+    T0 = invert_transform(base.transform[k]) @ held
+    T1 = invert_transform(base.transform[k + 1]) @ held
+    v = (T1[:3, 3] - T0[:3, 3]) / dt
+    w = so3_log(T1[:3, :3] @ T0[:3, :3].T) / dt
+    return TipTarget(transform=T0, twist=np.r_[v, w])
 
 
 def pack_target(target: TipTarget) -> np.ndarray:

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from twin.mechanisms import HybridBoardingSystem
-from twin.sim import simulate
+from twin.sim import simulate, simulate_many
 from twin.sim.base_motion import BaseMotion
-from twin.sim.batch import numba_available, simulate_many
+from twin.sim.lanes import numba_available
 from twin.sim.scenario import Scenario
 from twin.vessel import MOUNTS, load_raos, vessel_motion
 

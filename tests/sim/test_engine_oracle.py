@@ -22,14 +22,13 @@ from functools import cache
 import numpy as np
 import pytest
 
-from tests.sim.oracle import OracleRun, pack_target, unpack_target
+from tests.sim.oracle import OracleRun, held_target, pack_target, unpack_target
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import PlatformModel, TipTarget, get_planner
 from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.engine import Simulation
 from twin.sim.kernels.layout import TARGET_V
 from twin.sim.scenario import Scenario
-from twin.sim.target import held_target
 from twin.spatial import pose_to_transform, so3_exp
 
 TOL = 1e-9

@@ -274,7 +274,7 @@ def advance_target(target: TipTarget, dt: float) -> np.ndarray:
 
     The twist's ω is the desired frame's angular velocity expressed in B, Ṙ_d = [ω]× R_d, so
     R_d(t + dt) = exp(ω dt) R_d; p_d(t + dt) = p_d + ṗ_d dt. With the simulation's targets,
-    whose twist is the mean rate to the next sample (`twin.sim.target.held_target`), this is
+    whose twist is the mean rate to the next sample (`twin.sim.target.held_targets`), this is
     that next sample exactly.
     """
     T = np.array(target.transform, dtype=float)

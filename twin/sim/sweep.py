@@ -36,7 +36,7 @@ from tqdm import tqdm
 
 from twin.errors import TwinError
 from twin.planners import get_planner
-from twin.sim.batch import simulate_many
+from twin.sim.engine import simulate_many
 from twin.sim.executor import SWEEP_PRIORITY, Executor
 from twin.sim.kernels.compile import limit_threads
 from twin.sim.scenario import TP_RANGE, Scenario

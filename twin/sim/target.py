@@ -14,20 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from twin.planners.target import TipTarget
-from twin.sim.base_motion import BaseSamples
 from twin.sim.kernels.layout import N_TARGET
-from twin.spatial import invert_transform, so3_log
-
-
-def held_target(held: np.ndarray, base: BaseSamples, k: int, dt: float) -> TipTarget:
-    """Desired pose in B at sample k and its mean twist to sample k + 1, for the inertial pose
-    `held` (4, 4); the twist is [ᴮṗ; ᴮω] in B [m/s, rad/s]."""
-    T0 = invert_transform(base.transform[k]) @ held
-    T1 = invert_transform(base.transform[k + 1]) @ held
-    v = (T1[:3, 3] - T0[:3, 3]) / dt
-    w = so3_log(T1[:3, :3] @ T0[:3, :3].T) / dt
-    return TipTarget(transform=T0, twist=np.r_[v, w])
 
 
 def tilt(R: np.ndarray, axis: int = 2) -> np.ndarray:
@@ -44,8 +31,10 @@ def held_targets(
     out: np.ndarray | None = None,
     end: bool = False,
 ) -> np.ndarray:
-    """`held_target` for a chunk of samples of N lanes at once, packed as the kernels read it
-    (`twin.sim.kernels.target`, parallel over lanes when there are several).
+    """ᴮT_d = ᴵT_B⁻¹ ᴵT* at each sample and its mean twist to the next, for a chunk of samples
+    of N lanes at once, packed as the kernels read it (`twin.sim.kernels.target`, parallel over
+    lanes when there are several). The tests hold it to the one-sample statement of the same
+    math in numpy (`held_target` in tests/sim/oracle.py).
 
     Args:
         held: (N, 4, 4) ᴵT*, each lane's held inertial pose.

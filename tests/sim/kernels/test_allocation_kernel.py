@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import random_hybrid_states
-from tests.sim.oracle import pack_target
+from tests.sim.oracle import held_target, pack_target
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners import HYBRID_RATE_LIMITS
 from twin.planners.allocation import AllocationPlanner, reachable_range
@@ -24,7 +24,6 @@ from twin.sim.kernels import allocation as ak
 from twin.sim.kernels import layout as lay
 from twin.sim.kernels.hybrid import hybrid_constants, rpy_to_matrix_lane
 from twin.sim.scenario import Scenario
-from twin.sim.target import held_target
 from twin.spatial import invert_transform, pose_to_transform, se3_log, so3_exp
 
 DT = 0.05  # [s]

@@ -17,6 +17,7 @@ import pytest
 from tests.sim.oracle import (
     LIMIT_BISECTIONS,
     HybridStep,
+    held_target,
     hybrid_advance,
     limit_scale,
     pack_target,
@@ -36,7 +37,7 @@ from twin.sim.faults import Fault
 from twin.sim.kernels import hybrid as hk
 from twin.sim.kernels import hybrid_runner, layout
 from twin.sim.kernels.records import N_TIP
-from twin.sim.target import held_target, held_targets
+from twin.sim.target import held_targets
 from twin.spatial import matrix_to_rpy, pose_to_transform, rpy_to_matrix, so3_exp, so3_log
 
 numba = pytest.importorskip("numba")

@@ -17,7 +17,7 @@ from functools import cache
 import numpy as np
 import pytest
 
-from tests.sim.oracle import pack_target, platform_advance
+from tests.sim.oracle import held_target, pack_target, platform_advance
 from twin.errors import TwinError
 from twin.mechanisms import Upr4, Upu3Up
 from twin.planners.platform import (
@@ -41,7 +41,6 @@ from twin.sim.kernels.layout import (
     P_KIND,
 )
 from twin.sim.scenario import Scenario
-from twin.sim.target import held_target
 from twin.spatial import pose_to_transform
 
 STEPS = 160

@@ -1,6 +1,7 @@
 """The held targets of a chunk, compiled: ᴮT_d = ᴵT_B⁻¹ ᴵT* and its mean twist to the next
-sample, for every lane and sample (`twin.sim.target.held_targets` is the entry point, and
-`twin.sim.target.held_target` the one-sample statement of the same math the tests hold it to).
+sample, for every lane and sample (`twin.sim.target.held_targets` is the entry point; the
+tests hold it to the one-sample statement of the same math, `held_target` in
+tests/sim/oracle.py).
 
 Per lane the base's rotation is built once per sample from its pose (seed 000 eq (3)); the
 twist of sample k is [(ᴮp_d(k+1) − ᴮp_d(k)) / dt; log(ᴮR_d(k+1) ᴮR_d(k)ᵀ) / dt] in B.
