@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import dataclasses
 import http.client
+import json
 import socket
 import time
 from collections.abc import Callable, Iterator
+from functools import partial
 
 import numpy as np
 import pytest
@@ -30,10 +32,12 @@ from twin.web.frame import read_frame
 from twin.web.gui import PLANNER_KNOBS, SWEEP_SETTINGS, ClientPanel, knob, limit_violations
 from twin.web.scene import (
     GRAPHICS,
+    PAINT_METALLIC,
     VIEWS,
     Viewer,
     margin_colours,
     mount_transform,
+    painted_urdf,
     start_viewer,
 )
 
@@ -87,6 +91,40 @@ def test_scene_has_its_nodes(viewer: Viewer) -> None:
                  "/trail_label"):  # fmt: skip
         assert scene.get_handle_by_name(name) is not None, name
     assert viewer.port == viewer.server.get_port()
+
+
+def glb_materials(glb: bytes) -> list[dict]:
+    """The materials of a GLB file (its JSON chunk: length at bytes 12-16, JSON from 20)."""
+    length = int.from_bytes(glb[12:16], "little")
+    return json.loads(glb[20 : 20 + length]).get("materials", [])
+
+
+@pytest.mark.parametrize("name", ["hybrid", "upu3up", "upr4"])
+def test_urdf_parts_reach_the_browser_painted_not_as_bare_metal(name: str) -> None:
+    """Each URDF mesh, exported as viser sends it (GLB), carries a material of its link's
+    `<color>` in linear light (IEC 61966-2-1), which shown in sRGB is that colour again, and
+    mostly diffuse.
+    Without one (as yourdfpy loads them: vertex colours only) three.js draws glTF's default
+    material, full metal, black wherever no environment map lights it ("light" graphics)."""
+    path = asset_path("urdf", f"{name}.urdf")
+    plain = yourdfpy.URDF.load(path, load_meshes=True, build_scene_graph=True,
+                               filename_handler=partial(yourdfpy.filename_handler_magic,
+                                                        dir=path.parent))  # fmt: skip
+    for mesh in plain.scene.geometry.values():
+        assert glb_materials(mesh.export(file_type="glb")) == []
+    urdf = painted_urdf(path)
+    assert urdf.scene.geometry.keys() == plain.scene.geometry.keys()
+    for key, mesh in urdf.scene.geometry.items():
+        (material,) = glb_materials(mesh.export(file_type="glb"))
+        pbr = material["pbrMetallicRoughness"]
+        assert pbr["metallicFactor"] == PAINT_METALLIC <= 0.5
+        linear = np.array(pbr["baseColorFactor"])
+        srgb = plain.scene.geometry[key].visual.main_color / 255.0
+        want = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+        # trimesh keeps a material's colour in 8 bits: half a step of rounding
+        np.testing.assert_allclose(linear[:3], want[:3], rtol=0, atol=0.5 / 255, err_msg=key)
+        assert linear[3] == srgb[3]
+        assert np.all(linear[:3] <= srgb[:3]) and np.any(linear[:3] < srgb[:3] - 0.05)
 
 
 @pytest.mark.parametrize("graphics", GRAPHICS)
