@@ -426,7 +426,6 @@ class Simulation:
         return held_targets(self.lanes.held, poses, self.dt, self.compiled, out, end)
 
 
-
 def with_faults(
     metrics: dict[str, Any], series: dict[str, np.ndarray], counts: Mapping[str, int], holds: int
 ) -> dict[str, Any]:
