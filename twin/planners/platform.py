@@ -229,6 +229,8 @@ class PlatformModel:
         m = self.mechanism
         if isinstance(m, Upr4):
             out = m.limits_violated(state[..., 0], state[..., 1], state[..., 2])
+            if lengths is None:
+                return out
             tol = 0.0  # `limits_violated`'s own: strictly beyond the stroke
         else:
             box_low, box_high = m.state_limits
@@ -236,12 +238,12 @@ class PlatformModel:
             out = {"state": np.any((state < box_low - margin) | (state > box_high + margin),
                                    axis=-1)}  # fmt: skip
             tol = LENGTH_TOL
-            lengths = self.leg_lengths(state) if lengths is None else lengths
-        if lengths is not None:
-            lengths = as_array(lengths, "lengths", (self.n_legs,))
-            low, high = self.stroke
-            out["stroke_min"] = np.any(lengths < low - tol, axis=-1)
-            out["stroke_max"] = np.any(lengths > high + tol, axis=-1)
+            if lengths is None:
+                lengths = self.leg_lengths(state)
+        lengths = as_array(lengths, "lengths", (self.n_legs,))
+        low, high = self.stroke
+        out["stroke_min"] = np.any(lengths < low - tol, axis=-1)
+        out["stroke_max"] = np.any(lengths > high + tol, axis=-1)
         return out
 
     def reached(self, state: ArrayLike, lengths: ArrayLike) -> dict[str, np.ndarray]:

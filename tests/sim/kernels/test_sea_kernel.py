@@ -100,6 +100,7 @@ def test_a_run_sampled_in_pieces_gets_the_bits_of_one_call(
     # span's phasor at another time), which is why the engine keeps t0 = 0 and moves `first`
     moved = BaseMotion.uniform_poses(motions, 1.5 + 300 * DT, DT, n - 300, compiled)
     np.testing.assert_allclose(moved, whole[:, 300:], rtol=0, atol=1e-12)
+    assert moved.tobytes() != whole[:, 300:].tobytes()
     with pytest.raises(TwinError, match="first"):
         BaseMotion.uniform_poses(motions, 1.5, DT, 3, compiled, first=-1)
 
