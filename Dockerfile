@@ -16,11 +16,14 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
     PIP_DISABLE_PIP_VERSION_CHECK=1
 
 WORKDIR /src
+# The locked dependency set (requirements/serve.txt: exact versions with hashes, `make lock`),
+# then the package alone: the image runs what CI tested.
+COPY requirements/serve.txt ./requirements/
 COPY pyproject.toml README.md ./
 COPY twin ./twin
 COPY assets ./assets
 COPY static ./static
-RUN pip install . && rm -rf /src
+RUN pip install --require-hashes -r requirements/serve.txt && pip install --no-deps . && rm -rf /src
 
 RUN useradd --create-home --uid 10001 twin
 USER twin

@@ -1,27 +1,53 @@
-# Set-up and checks. Every target installs what it needs into .venv first.
+# Set-up and checks. Every target installs what it needs into .venv first, from the lock files
+# in requirements/ (exact versions with hashes: a fresh machine gets what CI tested); `make lock`
+# refreshes them, `make test-latest` runs the suite on the newest releases instead.
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
+UV     := $(BIN)/uv
 STAMP  := $(VENV)/.installed
 SERVE_STAMP := $(VENV)/.installed-serve
+# locked: the lock files; latest: the newest releases pyproject.toml's ranges admit
+REQUIREMENTS ?= locked
+export TWIN_REQUIREMENTS := $(REQUIREMENTS)
+COMPILE := $(UV) pip compile --quiet --generate-hashes --python-version 3.11
 
-.PHONY: install serve test lint demo urdf raos bench reliability clean
+.PHONY: install serve test test-loaded test-latest lint lock demo urdf raos bench reliability clean
 
+# uv (itself pinned with hashes) installs the locked set in seconds where pip took minutes.
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet --require-hashes -r requirements/bootstrap.txt
+
+ifeq ($(REQUIREMENTS),latest)
+INSTALL_SERVE = $(UV) pip install --python $(BIN)/python --upgrade -e .
+INSTALL_TEST  = $(UV) pip install --python $(BIN)/python --upgrade -e ".[test,hydro]"
+else
+INSTALL_SERVE = $(UV) pip install --python $(BIN)/python --require-hashes -r requirements/serve.txt \
+	&& $(UV) pip install --python $(BIN)/python --no-deps -e .
+INSTALL_TEST  = $(UV) pip install --python $(BIN)/python --require-hashes -r requirements/test.txt \
+	&& $(UV) pip install --python $(BIN)/python --no-deps -e .
+endif
 
 # Serving needs the package alone (no test, BEM or browser tooling): a fresh `make serve` is quick.
-$(SERVE_STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e .
+$(SERVE_STAMP): pyproject.toml requirements/serve.txt | $(BIN)/python
+	$(INSTALL_SERVE)
 	touch $(SERVE_STAMP)
 
-# netsse (the closed-form RAO peer of tests/vessel/test_netsse.py) declares Python >= 3.12 and
-# drags in cartopy; the part we call needs only numpy, so it is installed on its own.
-$(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[test,hydro]"
-	$(BIN)/python -m pip install --quiet --no-deps --ignore-requires-python "netsse>=2.2,<3"
+# netsse: see requirements/netsse.in (it declares Python >= 3.12; the part we call runs on 3.11).
+$(STAMP): pyproject.toml requirements/test.txt requirements/netsse.txt | $(BIN)/python
+	$(INSTALL_TEST)
+	$(BIN)/python -m pip install --quiet --no-deps --ignore-requires-python --require-hashes \
+		-r requirements/netsse.txt
 	touch $(STAMP) $(SERVE_STAMP)
+
+## lock: re-resolve every dependency to its newest release within pyproject.toml's ranges
+lock: | $(BIN)/python
+	$(COMPILE) --upgrade pyproject.toml --extra test --extra hydro -o requirements/test.txt
+	$(COMPILE) pyproject.toml -c requirements/test.txt -o requirements/serve.txt
+	$(COMPILE) --upgrade requirements/bootstrap.in -o requirements/bootstrap.txt
+	$(UV) pip compile --quiet --generate-hashes --python-version 3.12 --upgrade --no-deps \
+		requirements/netsse.in -o requirements/netsse.txt
 
 install: $(STAMP)
 
@@ -36,12 +62,24 @@ serve: $(SERVE_STAMP)
 		apt-get install -y -q --no-install-recommends chromium
 
 ## test: install, lint and run the whole test suite (what CI runs)
+# The serial pass runs even when the parallel one fails, so one failure hides no browser test.
 test: $(STAMP) /usr/bin/chromium
 	$(BIN)/ruff check .
 	# the kernels compiled once, in two processes, before two test workers would each compile them
 	$(BIN)/python -m twin.cli warm --processes 2
-	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not serial" --durations=15
-	$(BIN)/python -m pytest -m serial --durations=15
+	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not serial" --durations=15; first=$$?; \
+	$(BIN)/python -m pytest -m serial --durations=15; second=$$?; \
+	echo "parallel pass exit $$first, serial pass exit $$second"; \
+	test $$first -eq 0 && test $$second -eq 0
+
+## test-loaded: `make test` with two busy CPU loops beside it (a shared 2-core machine)
+test-loaded:
+	@bash -c 'for i in 1 2; do (while :; do :; done) & done; \
+		trap "kill \$$(jobs -p) 2>/dev/null" EXIT; $(MAKE) test'
+
+## test-latest: the suite on the newest releases (not the lock), in its own .venv-latest
+test-latest:
+	$(MAKE) test VENV=.venv-latest REQUIREMENTS=latest
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
@@ -67,4 +105,4 @@ reliability: $(STAMP)
 	$(BIN)/python scripts/reliability.py
 
 clean:
-	rm -rf $(VENV) .pytest_cache .ruff_cache
+	rm -rf $(VENV) .venv-latest .pytest_cache .ruff_cache

@@ -33,9 +33,22 @@ COLOURS = {
 }
 
 
+#: Significant digits written: 1e-12 relative (under 2e-11 m on a 20 m gangway), far below
+#: what any reader resolves, and coarse enough that the last-bit differences between numpy,
+#: scipy or BLAS releases do not reach the file (a 17-digit `-2.3909166166173836` became
+#: `...832` with numpy 2.4.6). tests/mechanisms/test_urdf.py compares numerically anyway.
+DIGITS = 12
+
+
+#: [m, rad] values this small are rounding noise (a cos(pi/2)): written as 0.
+ZERO = 1e-12
+
+
 def fmt(values: Any) -> str:
-    """Space-separated floats, 17 significant digits: exact round trip, byte-stable output."""
-    return " ".join(f"{float(v):.17g}" for v in np.atleast_1d(values))
+    """Space-separated floats at `DIGITS` significant digits; |v| < `ZERO` (and -0) as 0."""
+    v = np.atleast_1d(np.asarray(values, dtype=float))
+    v = np.where(np.abs(v) < ZERO, 0.0, v)
+    return " ".join(f"{x:.{DIGITS}g}" for x in v)
 
 
 def disk_with_hinges(

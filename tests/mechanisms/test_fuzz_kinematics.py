@@ -2,8 +2,8 @@
 
 Random in-limit states give finite poses, Jacobians and manipulability and FK(IK(x)) = x;
 random leg lengths inside the stroke, reachable or not, make forward kinematics either
-converge to a pose whose legs have those lengths or raise a TwinError, within the deadline
-(no hang); bad input raises a ValueError that names the argument.
+converge to a pose whose legs have those lengths or raise a TwinError, in a bounded number
+of iterations (no hang); bad input raises a ValueError that names the argument.
 """
 
 from __future__ import annotations

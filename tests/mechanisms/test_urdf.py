@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
+import trimesh
 import yourdfpy
 
 from tests.conftest import random_hybrid_states
@@ -106,8 +108,45 @@ def test_legs_close_and_tip_matches_in_pinocchio(loaded, rng: np.random.Generato
             np.testing.assert_allclose(tip, mechanism.end_effector(state), atol=1e-9)
 
 
+#: [m, rad] how far a regenerated URDF number may lie from the committed one: the file keeps
+#: 12 significant digits (scripts/build_urdf.py), so a release of numpy, scipy or trimesh
+#: moves a number by ~1e-15 relative and the 12-digit rounding by at most 5e-12 relative.
+URDF_ATOL = 1e-9
+#: [m] meshes are binary STL, float32: 2e-6 m is one float32 step at 16 m.
+MESH_ATOL = 1e-5
+
+
+def _numbers(text: str) -> list[float] | None:
+    """The floats of a space-separated attribute, or None when it is not all numbers."""
+    try:
+        return [float(word) for word in text.split()]
+    except ValueError:
+        return None
+
+
+def assert_urdf_close(made: Path, committed: Path, atol: float) -> None:
+    """Same elements and attributes in the same order; numbers within `atol`, text equal."""
+    made_root, committed_root = ET.parse(made).getroot(), ET.parse(committed).getroot()
+    made_elements, committed_elements = list(made_root.iter()), list(committed_root.iter())
+    assert len(made_elements) == len(committed_elements), f"{made.name}: element count"
+    for a, b in zip(made_elements, committed_elements, strict=True):
+        where = f"{made.name} <{b.tag} {b.attrib.get('name', '')}>"
+        assert a.tag == b.tag and sorted(a.attrib) == sorted(b.attrib), where
+        for key, value in b.attrib.items():
+            x, y = _numbers(a.attrib[key]), _numbers(value)
+            if y is None:
+                assert a.attrib[key] == value, f"{where} {key}"
+            else:
+                assert x is not None and len(x) == len(y), f"{where} {key}"
+                np.testing.assert_allclose(x, y, rtol=0, atol=atol, err_msg=f"{where} {key}")
+
+
 def test_assets_are_reproducible(tmp_path: Path) -> None:
-    """scripts/build_urdf.py regenerates the committed URDF and meshes byte for byte."""
+    """scripts/build_urdf.py regenerates the committed URDF and meshes, compared numerically.
+
+    Numbers within `URDF_ATOL`, mesh vertices within `MESH_ATOL` with the same faces: a new
+    numpy, scipy or trimesh release that moves a last bit must not fail a fresh install.
+    """
     subprocess.run(
         [sys.executable, str(ROOT / "scripts" / "build_urdf.py"), "--out", str(tmp_path)],
         check=True,
@@ -115,6 +154,34 @@ def test_assets_are_reproducible(tmp_path: Path) -> None:
         cwd=ROOT,
     )
     committed = asset_path("urdf")
-    for made in sorted(tmp_path.rglob("*.*")):
-        relative = made.relative_to(tmp_path)
-        assert made.read_bytes() == (committed / relative).read_bytes(), f"{relative} differs"
+    made_files = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*.*"))
+    committed_files = sorted(p.relative_to(committed) for p in committed.rglob("*.*"))
+    assert made_files == committed_files
+    for relative in made_files:
+        if relative.suffix == ".urdf":
+            assert_urdf_close(tmp_path / relative, committed / relative, URDF_ATOL)
+            continue
+        made = trimesh.load(tmp_path / relative, process=False)
+        kept = trimesh.load(committed / relative, process=False)
+        np.testing.assert_array_equal(made.faces, kept.faces, err_msg=str(relative))
+        np.testing.assert_allclose(
+            made.vertices, kept.vertices, rtol=0, atol=MESH_ATOL, err_msg=str(relative)
+        )
+
+
+def test_asset_comparison_catches_a_moved_joint(tmp_path: Path) -> None:
+    """The numeric comparison is not vacuous: a joint 1e-6 m off fails it, 1e-12 m passes."""
+    committed = asset_path("urdf", "upr4.urdf")
+    text = committed.read_text()
+    origin = ET.parse(committed).getroot().find("joint/origin")
+    assert origin is not None
+    xyz = origin.attrib["xyz"]
+    first = float(xyz.split()[0])
+    for shift, fails in ((1e-6, True), (1e-12, False)):
+        moved = xyz.replace(xyz.split()[0], repr(first + shift), 1)
+        (tmp_path / "upr4.urdf").write_text(text.replace(f'xyz="{xyz}"', f'xyz="{moved}"', 1))
+        if fails:
+            with pytest.raises(AssertionError):
+                assert_urdf_close(tmp_path / "upr4.urdf", committed, URDF_ATOL)
+        else:
+            assert_urdf_close(tmp_path / "upr4.urdf", committed, URDF_ATOL)

@@ -1,7 +1,7 @@
 """The Dockerfile's install steps, replayed without a Docker engine (none runs on our machines).
 
 The COPY and RUN lines are read from the Dockerfile itself and replayed in a fresh virtual
-environment: the same files, the same `pip install .` (from pip's cache where CI has just
+environment: the same files, the same locked `pip install` (from pip's cache where CI has just
 downloaded the wheels; without the bytecode the image's build writes). Then the installed
 package — not the source tree — must run the CLI and find its packaged URDFs, RAO tables and
 landing page. The instructions themselves are linted in tests/web/test_cli.py.
@@ -10,6 +10,7 @@ landing page. The instructions themselves are linted in tests/web/test_cli.py.
 from __future__ import annotations
 
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -35,20 +36,30 @@ def test_install_steps_replay_in_a_fresh_environment(tmp_path: Path) -> None:
             path = ROOT / source
             if path.is_dir():
                 shutil.copytree(path, target, ignore=shutil.ignore_patterns("__pycache__"))
+            elif destination.endswith("/"):
+                target.mkdir(parents=True, exist_ok=True)
+                shutil.copy(path, target / path.name)
             else:
                 shutil.copy(path, src / path.name)
     runs = [r for r in instructions("RUN") if "pip install" in r]
-    assert runs == ["pip install . && rm -rf /src"]
+    assert len(runs) == 1 and runs[0].endswith("&& rm -rf /src"), runs
+    steps = [shlex.split(step) for step in runs[0].split("&&")[:-1]]
+    # the locked set with its hashes first, then the package alone: nothing unpinned
+    assert steps == [
+        ["pip", "install", "--require-hashes", "-r", "requirements/serve.txt"],
+        ["pip", "install", "--no-deps", "."],
+    ]
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
     python = venv / "bin" / "python"
-    # --no-compile: the same files installed without their bytecode, which pip would otherwise
-    # write for every dependency (half the replay's time, measured 72 s against 34 s); Python
-    # compiles what the probes below import as they import it
-    subprocess.run(
-        [str(python), "-m", "pip", "install", "--quiet", "--no-compile", "."],
-        cwd=src, check=True, timeout=1200,
-    )  # fmt: skip
+    for step in steps:
+        # --no-compile: the same files installed without their bytecode, which pip would
+        # otherwise write for every dependency (half the replay's time, measured 72 s against
+        # 34 s); Python compiles what the probes below import as they import it
+        subprocess.run(
+            [str(python), "-m", "pip", "install", "--quiet", "--no-compile", *step[2:]],
+            cwd=src, check=True, timeout=1200,
+        )  # fmt: skip
     shutil.rmtree(src)  # as the image does: nothing may depend on the source tree
     help_text = subprocess.run(
         [str(venv / "bin" / "twin"), "serve", "--help"], capture_output=True, text=True, check=True
