@@ -4,6 +4,7 @@
     python benchmarks/run.py --quick    # smaller sizes, a smoke test (does not write the doc)
     python benchmarks/run.py --server-only   # collection, live and REST rows only,
                                              # patched into the doc
+    python benchmarks/run.py --workability-only   # the site-workability rows only, printed
 
 **Features**
 - the peer: a closed-loop weighted pseudo-inverse on the hybrid system's nine virtual joints as a
@@ -44,7 +45,8 @@ from pathlib import Path
 
 import numpy as np
 from pinocchio_peer import PinocchioPeer, xi_to_q
-from server import live_rows, rest_rows
+from server import live_rows, nodelay_rows, rest_rows
+from workability_bench import workability_rows
 
 import twin
 from twin.mechanisms import HybridBoardingSystem
@@ -580,6 +582,8 @@ def main(quick: bool = False) -> None:
     live_session_rows(row, window=5.0 if quick else 60.0, fast_window=3.0 if quick else 10.0)
     live_rows(row, window=2.0 if quick else 5.0)
     rest_rows(row, requests_1=3 if quick else 20, requests_20=1 if quick else 2)
+    nodelay_rows(row, requests=20 if quick else 200)
+    workability_rows(row, quick=quick)
     reproduce_row(row, seeds=2 if quick else 5)
     if not quick:
         write_doc(rows, load_start)
@@ -599,6 +603,7 @@ def server_only() -> None:
     live_session_rows(row)
     live_rows(row)
     rest_rows(row)
+    nodelay_rows(row)
     lines = DOC.read_text().splitlines()
     ours = ("| garbage collection", "| live session", "| live server", "| REST:")
     kept = [line for line in lines if not line.startswith(ours)]
@@ -678,6 +683,12 @@ What is measured:
   over 10 s (it cannot run ahead: "keeps pace" is owing less than a tick, 8 × 1/60 + dt s).
 - **live server** and **REST**: `benchmarks/server.py` (the REST rows lift the per-address
   submission limit, since every bench client is 127.0.0.1; warm workers).
+- **workability** (issue 28, `benchmarks/workability_bench.py`): a synthetic 10-year hourly
+  record (the shipped NDBC 46097 month's 744 sea states repeated end to end with hourly times:
+  real sea states, synthetic chronology) for MTMP, WPI and PI with 5 seeds per cell, cells
+  method, from an empty cell cache on a two-worker `LocalCluster` (start and stop shown
+  apart), against its new runs as serial `simulate()` calls; then a 5-day forecast (40 sea
+  states at 3 h steps) with its cells cached, best of 3.
 - **reproduce**: `python scripts/reproduce.py --seeds 5 --out <scratch folder>` in a
   subprocess (its default 2 workers, numba cache warm): imports, every run of the report, the
   report and its plots included.
@@ -725,8 +736,24 @@ if __name__ == "__main__":
         action="store_true",
         help="only the live-session, live-server and REST rows",
     )
+    parser.add_argument(
+        "--workability-only",
+        action="store_true",
+        help="only the site-workability rows (benchmarks/workability_bench.py), printed",
+    )
     args = parser.parse_args()
-    if args.server_only:
+    if args.workability_only:
+        logging.disable(logging.INFO)
+        print(f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
+        workability_rows(
+            lambda figure, value, target="", met=None: print(
+                f"{figure:<66} {value:>30}  {target:<22} "
+                + ("" if met is None else ("met" if met else "not met")),
+                flush=True,
+            )
+        )
+        print(f"load average {os.getloadavg()[0]:.1f} at the end", flush=True)
+    elif args.server_only:
         server_only()
     else:
         main(quick=args.quick)

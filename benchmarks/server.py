@@ -13,6 +13,11 @@
   over every request. Every client connects from 127.0.0.1, so the app's per-address
   submission limit (`run_rate`, `run_burst`) is lifted: it would answer 429, which is what
   it is for, not latency.
+- **NODELAY** (`nodelay_rows`, issue 30): GET /api/health p50 and a 60 s run's POST /api/runs
+  p50 of twin's app served on `twin.web.server.listen`'s socket, as `twin serve` does, beside
+  a minimal FastAPI peer (one GET, one POST echo) on an `IPPROTO_TCP` socket and on a
+  protocol-0 one, measured in the same run over keep-alive connections: the protocol-0 peer
+  shows what Nagle plus the delayed ACK cost every answer before the fix.
 """
 
 from __future__ import annotations
@@ -182,3 +187,99 @@ def rest_rows(
             server.should_exit = True
             thread.join(timeout=10)
             close()
+
+
+#: keep-alive requests per NODELAY figure
+NODELAY_REQUESTS = 200
+
+
+def _serve_on(app: Any, sock: socket.socket) -> Callable[[], None]:
+    """Serve `app` with uvicorn on `sock` from a thread; returns the function that stops it."""
+    server = uvicorn.Server(uvicorn.Config(app, access_log=False, log_level="warning"))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    while not server.started:
+        time.sleep(0.05)
+
+    def stop() -> None:
+        server.should_exit = True
+        thread.join(timeout=10)
+        sock.close()
+
+    return stop
+
+
+def _peer_app() -> Any:
+    """The minimal FastAPI peer: a GET and a POST that answer small JSON at once."""
+    from fastapi import FastAPI
+
+    peer = FastAPI()
+
+    @peer.get("/api/health")
+    def health() -> dict[str, str]:
+        return {"status": "ok"}
+
+    @peer.post("/api/runs")
+    def post(body: dict[str, Any]) -> dict[str, Any]:
+        return {"id": "0" * 32, "scenario": body}
+
+    return peer
+
+
+def _p50(port: int, method: str, body: Any, n: int) -> float:
+    """[s] median latency of `n` keep-alive requests on one connection."""
+    latencies = []
+    with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=120) as http:
+        for _ in range(n + 3):  # the first three warm the connection and the route
+            start = time.perf_counter()
+            http.request(method, "/api/health" if method == "GET" else "/api/runs",
+                         json=body).raise_for_status()  # fmt: skip
+            latencies.append(time.perf_counter() - start)
+    return float(np.median(latencies[3:]))
+
+
+def nodelay_rows(
+    row: Row, requests: int = NODELAY_REQUESTS, targets: tuple[float, float] = (0.005, 0.020)
+) -> None:
+    """GET /api/health p50 and a 60 s run's POST p50, twin beside the peer (issue 30: ≤ 5 ms
+    and ≤ 20 ms on an idle machine)."""
+    from twin.web.server import listen
+
+    for name in ("uvicorn.error", "httpx"):
+        logging.getLogger(name).setLevel(logging.WARNING)
+    peers = {}
+    for label, proto in (("IPPROTO_TCP", socket.IPPROTO_TCP), ("protocol 0", 0)):
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM, proto)
+        sock.bind(("127.0.0.1", 0))
+        stop = _serve_on(_peer_app(), sock)
+        port = sock.getsockname()[1]
+        try:
+            peers[label] = (_p50(port, "GET", None, requests),
+                            _p50(port, "POST", REST_BODY, requests))  # fmt: skip
+        finally:
+            stop()
+    with tempfile.TemporaryDirectory() as folder, RunStore(Path(folder) / "r.sqlite") as store:
+        app, close, workers = _serving(store, 2)
+        sock = listen("127.0.0.1", 0)
+        port = sock.getsockname()[1]
+        stop = _serve_on(app, sock)
+        try:
+            health = _p50(port, "GET", None, requests)
+            _p50(port, "POST", REST_BODY, 2 * workers)  # every worker warm
+            post = _p50(port, "POST", REST_BODY, max(requests // 10, 10))
+        finally:
+            stop()
+            close()
+    tcp, zero = peers["IPPROTO_TCP"], peers["protocol 0"]
+    row(
+        "REST: GET /api/health p50, keep-alive (twin.web.server.listen)",
+        f"{1e3 * health:.1f} ms (peer {1e3 * tcp[0]:.1f} ms; protocol 0 {1e3 * zero[0]:.1f} ms)",
+        f"≤ {1e3 * targets[0]:.0f} ms",
+        health <= targets[0],
+    )
+    row(
+        f"REST: POST /api/runs (60 s run) p50, keep-alive, {workers} workers",
+        f"{1e3 * post:.1f} ms (peer echo {1e3 * tcp[1]:.1f} ms; protocol 0 {1e3 * zero[1]:.1f} ms)",
+        f"≤ {1e3 * targets[1]:.0f} ms",
+        post <= targets[1],
+    )

@@ -35,6 +35,14 @@ FUZZ_TESTS = (
 FAULT_TESTS = ("tests/sim/test_faults.py",)
 LOAD_TESTS = ("tests/web/test_load.py", "tests/web/test_crash.py")
 BOUNDARY_TESTS = ("tests/web/test_limits.py", "tests/web/test_cli.py")
+#: issue 30's tests (bounded work, fair limits, connections, exports, disk)
+ISSUE30_TESTS = (
+    "tests/web/test_jobs.py",
+    "tests/web/test_access.py",
+    "tests/web/test_connections.py",
+    "tests/web/test_export.py",
+    "tests/web/test_store.py",
+)
 ATTACK_TESTS = (
     "tests/web/test_api.py",
     "tests/web/test_scene.py",
@@ -131,9 +139,10 @@ ATTACKS = {
     ),
     "attack_token_guessing": (
         "short tokens, and guessing the token",
-        "a token needs ≥ 16 characters (exit 2 otherwise); past 10 wrong tokens a client is "
-        "refused (429, Retry-After) before its next guess is compared; the viewer's unlock "
-        "likewise",
+        "a token needs ≥ 16 characters (exit 2 otherwise); past 10 wrong tokens like one "
+        "another (the same client and token prefix) a client is refused (429, Retry-After) "
+        "before its next such guess is compared; the right token never is (issue 30); the "
+        "viewer's unlock likewise",
         "test_api.py, test_scene.py, test_cli.py",
     ),
     "load_soak": (
@@ -224,6 +233,25 @@ def security(records: list[dict[str, Any]]) -> str:
     return SECURITY.replace("UNAUTHORIZED", f"{refused:,}")
 
 
+ISSUE30_INTRO = """\
+Every request's work is bounded before it starts, and every job can be cancelled; limits are
+fair per client; connections time out; exports stream; the store has a quota. Bounds:
+
+- **a request**: priced (`twin.web.limits.price_run`, `price_sweep`) in steps, cells, heatmap
+  panels and stored bytes; over a limit is a 422 naming it (`MAX_PANELS` = 36 heatmap panels
+  beside `MAX_CELLS`, `MAX_RUNS`, `MAX_TOTAL_STEPS`), over the store's quota a 507;
+- **a connection**: its request within 10 s (`REQUEST_TIMEOUT`), idle keep-alive 5 s, 128
+  per client address, `connection_cap()` in all: min(1000, (fd limit − 256) / 2);
+- **an export**: the run's stored (compressed) series, its time column and one row group of
+  the columns asked for: ≤ blob + 8 B × samples + 16,384 × columns × 48 B
+  (`export.memory_bound`); measured on a 200,000-step run (45.5 MB stored, 177 MB of JSON):
+  RSS +7 MB for JSON, +45 MB for CSV (was: the 145 MB body, RSS +764 MB); 2 at once;
+- **SIGTERM**: the sweep in hand, its heatmap task and waiting requests stop at once; the
+  server exits within `docker stop`'s 10 s;
+- **defaults**: `--private` off (reading stored data needs no token; with it, and a token,
+  it does), `--forwarded-allow-ips` none, the Dask dashboard off (`--dashboard`: on
+  127.0.0.1), no store quota."""
+
 SECURITY = """\
 - **Bind**: `twin serve` binds 127.0.0.1 unless `--host` says otherwise; the Docker image
   binds 0.0.0.0. One server per data directory (an OS file lock).
@@ -235,13 +263,16 @@ SECURITY = """\
   handshake, must come from one of the server's own origins (http on an allowed host at the
   REST or viewer port) or an `--allow-origin` one (403 otherwise). No CORS headers are sent.
 - **Token**: any bind other than loopback needs `TWIN_TOKEN`, of at least 16 characters;
-  without one `twin serve` refuses to start (exit 2). With a token, every POST and PATCH needs
-  `Authorization: Bearer <token>`, checked in constant time (`hmac.compare_digest`) by an
-  ASGI middleware before the body is read, so an unknown client learns nothing from a
-  malformed body (401 either way); past 10 wrong tokens a client gets 429 until it has waited,
-  before its guess is compared. Each browser unlocks the 3D viewer's controls by entering the
-  token in its own panel (rate-limited alike); until then its controls are read-only, for it
-  alone. Tested: test_cli.py (refusal; a 0.0.0.0 server that answers 401 without the token and
+  without one `twin serve` refuses to start (exit 2). With a token, every POST, PATCH and
+  DELETE needs `Authorization: Bearer <token>` (and with `--private` every GET of stored runs
+  and sweeps), checked in constant time (`hmac.compare_digest`) by an ASGI middleware before
+  the body is read, so an unknown client learns nothing from a malformed body (401 either
+  way); past 10 wrong tokens with the same prefix a client gets 429 until it has waited,
+  before such a guess is compared; the right token is never refused for others' failures.
+  The client address is the socket's unless `--forwarded-allow-ips` names trusted proxies.
+  Each browser unlocks the 3D viewer's controls by entering the token in its own panel
+  (rate-limited alike); until then its controls are read-only, for it alone. Tested:
+  test_cli.py (refusal; a 0.0.0.0 server that answers 401 without the token and
   200 with it), test_fuzz_api.py (UNAUTHORIZED requests without the token), test_api.py (the
   failure limit), test_scene.py (locked and unlocked browsers over raw websockets),
   test_browser.py (a real Chromium that unlocks with the token).
@@ -254,23 +285,31 @@ SECURITY = """\
   they speak mutual TLS with a key made for the cluster and held only in the server's memory
   (`Security.temporary()`): another local user, in plain TCP or with a key of their own, is
   turned away (tests/sim/test_sweep.py). Their HTTP endpoints (health, metrics, task info)
-  are read-only. `--scheduler` joins a cluster the operator secures.
+  are read-only; the scheduler's dashboard is off unless `--dashboard` asks for it (then on
+  127.0.0.1). `--scheduler` joins a cluster the operator secures.
 - **Docker** runs as the non-root user `twin` (uid 10001) and stops on `docker stop` (SIGTERM,
   handled: PID 1 would ignore it otherwise); tests/web/test_cli.py checks the Dockerfile and
   tests/web/test_dockerfile.py replays its install.
 """
 
 
-def run_tests(log: Path) -> float:
-    """Run every reliability test with the figure log; [s] it took."""
-    tests = [*FUZZ_TESTS, *FAULT_TESTS, *LOAD_TESTS, *BOUNDARY_TESTS, *ATTACK_TESTS]
+def run_tests(log: Path, tests: tuple[str, ...] | None = None, soak: bool = True) -> float:
+    """Run every reliability test (or `tests`) with the figure log, then the short soak
+    (`scripts/soak.py --short`, which records its figures as "soak"); [s] it took."""
+    if tests is None:
+        tests = (*FUZZ_TESTS, *FAULT_TESTS, *LOAD_TESTS, *BOUNDARY_TESTS, *ATTACK_TESTS,
+                 *ISSUE30_TESTS)  # fmt: skip
     start = time.monotonic()
+    env = {**os.environ, "TWIN_RELIABILITY_LOG": str(log)}
     subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *tests],
-        cwd=ROOT,
-        env={**os.environ, "TWIN_RELIABILITY_LOG": str(log)},
-        check=True,
-    )
+        cwd=ROOT, env=env, check=True,
+    )  # fmt: skip
+    if soak:
+        subprocess.run(
+            [sys.executable, str(ROOT / "scripts" / "soak.py"), "--short"], cwd=ROOT, env=env,
+            check=True,
+        )  # fmt: skip
     return time.monotonic() - start
 
 
@@ -431,6 +470,132 @@ def attack_table(records: list[dict[str, Any]]) -> str:
     return "\n".join(rows)
 
 
+#: issue 30's attacks, by the figure their test records: (attack, what happens now, test)
+ISSUE30 = {
+    "attack30_heatmap": (
+        "`POST /api/sweeps` of one cell at 5,000 headings: 5,000 one-step runs, then 5,000 "
+        "matplotlib panels built in the server process (77 min, 6.6 GB, health timed out; "
+        "requeued at every restart)",
+        "every request is priced before it starts (`limits.price_sweep`: steps, cells, panels, "
+        "bytes); over `MAX_PANELS` (36) heatmap panels is a 422 naming the limit and the axis, "
+        "nothing stored; `heatmap_png` draws at most `MAX_PANELS` in any case",
+        "test_jobs.py",
+    ),
+    "attack30_heatmap_process": (
+        "the heatmap drawn in the process that answers requests",
+        "drawn by a task on the executor (`heatmap_bytes`, a worker process), waited for in "
+        "0.2 s steps so a stop or a cancel does not wait for it",
+        "test_jobs.py",
+    ),
+    "attack30_cancel": (
+        "no REST call cancels a sweep (or a run)",
+        "`POST /api/{runs,sweeps}/{id}/cancel` and `DELETE /api/{runs,sweeps}/{id}` (token "
+        "needed): a queued or running job becomes failed, `cancelled by request`; the sweep "
+        "in hand stops at its next chunk, the queue goes on",
+        "test_jobs.py",
+    ),
+    "attack30_requeue": (
+        "a job that ties the server up is requeued at every restart",
+        "a job started `MAX_ATTEMPTS` (3) times without finishing is failed on the next start, "
+        "saying so, instead of being queued again",
+        "test_jobs.py",
+    ),
+    "attack30_pending_sweeps": (
+        "8 sweeps pending against `MAX_PENDING_SWEEPS` = 4 over REST, 10 from the viewer's "
+        "button",
+        "the cap is checked in the same write transaction as the insert, on every surface "
+        "(`actions.submit_sweep`, which REST and the viewer call): 429 beyond it",
+        "test_jobs.py",
+    ),
+    "attack30_lockout": (
+        "ten wrong PATCHes from an address make the token holder's right one a 429",
+        "wrong tokens are limited per (client, token prefix); the right token is never "
+        "refused for anyone else's failures, from the same address, a NAT or a proxy",
+        "test_access.py, test_api.py",
+    ),
+    "attack30_xff": (
+        "X-Forwarded-For picks the client address (uvicorn trusts it from loopback)",
+        "the client is the socket's peer unless `--forwarded-allow-ips` names trusted proxies "
+        "(off by default)",
+        "test_access.py (a real uvicorn)",
+    ),
+    "attack30_nagle": (
+        "every keep-alive answer waits ~45 ms (a protocol-0 socket: no TCP_NODELAY)",
+        "the REST socket is IPPROTO_TCP with TCP_NODELAY, so is every connection it accepts "
+        "and the viewer's; `make bench` measures GET /api/health and a 60 s run's POST p50 "
+        "beside a minimal FastAPI peer (docs/performance.md)",
+        "test_connections.py, benchmarks/server.py",
+    ),
+    "attack30_slowloris": (
+        "20,000 idle or half-sent connections: the fd limit, /api/health timed out, 55,232 "
+        "tracebacks",
+        "a request (headers and body) must arrive within 10 s (408, closed); idle keep-alives "
+        "close after 5 s; at most 128 connections per client address and `connection_cap()` "
+        "in all (below the fd limit), more closed at once, before they are read",
+        "test_connections.py",
+    ),
+    "attack30_accept_log": (
+        "one traceback in the log per failed accept",
+        "accept errors and refusals are counted and logged once per minute",
+        "test_connections.py",
+    ),
+    "attack30_export": (
+        "the JSON series of a 200,000-step run built whole in memory (145 MB, RSS +764 MB)",
+        "CSV, Parquet and JSON stream a row group (16,384 samples) at a time, encoded 512 "
+        "samples a call; `columns`, `every`, `t0`, `t1` select part of a run; at most 2 "
+        "exports stream at once (429 beyond); `--private` puts stored data behind the token",
+        "test_export.py",
+    ),
+    "attack30_disk": (
+        "the store grows without bound (73.6 MB per 200,000-step run, no quota, no delete)",
+        "series stored as zstd Parquet (368 → 266 bytes per step); `--max-store`, "
+        "`--max-runs`: a submission that would pass them is a 507 saying what to do; "
+        "`--retain` deletes the oldest finished unpinned results instead; DELETE frees room",
+        "test_jobs.py, test_store.py",
+    ),
+    "attack30_corrupt_store": (
+        "a corrupt store at start-up: a raw sqlite traceback after 23 s",
+        "one line naming the file and what to do, before the executor starts",
+        "test_store.py",
+    ),
+    "attack30_bad_row": (
+        "one store row with invalid JSON makes `GET /api/runs` a 500",
+        "that row is listed as failed, saying it is unreadable; the rest as stored",
+        "test_store.py",
+    ),
+    "attack30_viewer_origin": (
+        "the viewer moved off a squatted port but still trusted the squatter's origin",
+        "the viewer trusts the REST port's origin and its own actual port's only",
+        "test_connections.py",
+    ),
+    "attack30_malformed": (
+        "a malformed viewer message logs a 730-byte traceback each time",
+        "one line per client address per minute, with the count",
+        "test_connections.py",
+    ),
+}
+
+
+def issue30_table(records: list[dict[str, Any]]) -> str:
+    """One row per attack of issue 30."""
+    rows = ["| attack | what happens now | measured | test |", "| --- | --- | --- | --- |"]
+    for name, (attack, now, test) in ISSUE30.items():
+        found = [r for r in records if r["test"] == name]
+        measured = _figures(found[0]) if found else "not run"
+        rows.append(f"| {attack} | {now} | {measured} | {test} |")
+    return "\n".join(rows)
+
+
+def soak_table(records: list[dict[str, Any]]) -> str:
+    """The soak's figures (`scripts/soak.py`), one row each."""
+    found = [r for r in records if r["test"] == "soak"]
+    if not found:
+        return "not run"
+    rows = ["| figure | value |", "| --- | --- |"]
+    rows += [f"| {k} | {json.dumps(v)} |" for k, v in found[-1].items() if k != "test"]
+    return "\n".join(rows)
+
+
 def render(records: list[dict[str, Any]], elapsed: float) -> str:
     today = datetime.date.today().isoformat()
     return f"""# Reliability: bad input, numerical faults, load, access
@@ -475,6 +640,16 @@ samples), checked through restarts and sea changes.
 
 {attack_table(records)}
 
+## A server strangers cannot tie up (issue 30)
+
+{ISSUE30_INTRO}
+
+{issue30_table(records)}
+
+### Soak (`scripts/soak.py --short`; `python scripts/soak.py` runs 30 minutes)
+
+{soak_table(records)}
+
 ## Access
 
 {security(records)}"""
@@ -483,10 +658,11 @@ samples), checked through restarts and sea changes.
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "reliability.md")
+    parser.add_argument("--no-soak", action="store_true", help="leave out scripts/soak.py")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         log = Path(folder) / "figures.jsonl"
-        elapsed = run_tests(log)
+        elapsed = run_tests(log, soak=not args.no_soak)
         records = read(log)
     args.out.write_text(render(records, elapsed))
     print(f"wrote {args.out} from {len(records)} records")

@@ -1,17 +1,21 @@
 """The `twin` command: `twin serve` runs the live twin, `twin run` one scenario to a file,
-`twin sweep` an operability sweep to a folder, `twin warm` compiles the kernels ahead."""
+`twin sweep` an operability sweep to a folder, `twin workability` a site record's workability to a
+folder, `twin warm` compiles the kernels ahead."""
 
 from __future__ import annotations
 
 import argparse
 import ipaddress
 import json
+import math
 import os
 import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+#: mechanisms a command may name (twin.mechanisms.MECHANISMS)
+MECHANISM_NAMES = ("hybrid", "upu3up", "upr4")
 #: formats `twin run --out` writes, by file suffix
 OUTPUTS = (".csv", ".parquet", ".json")
 #: [bytes] largest scenario or sweep file read (a scenario is < 2 KiB)
@@ -53,6 +57,37 @@ def seconds(text: str) -> float:
     value = float(text)
     if not 0.0 < value <= 3600.0:
         raise argparse.ArgumentTypeError(f"{text}: seconds are > 0 and ≤ 3600")
+    return value
+
+
+#: `--max-store` suffixes
+_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def size(text: str) -> int:
+    """A size in bytes, e.g. 2G, 500M, 1048576 (binary units; a trailing B is allowed)."""
+    raw = text.strip().upper().removesuffix("B").removesuffix("I")
+    unit = raw[-1:] if raw[-1:] in _UNITS and raw[-1:] else ""
+    number = raw[: len(raw) - len(unit)]
+    try:
+        value = float(number) * _UNITS[unit]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: not a size; allowed e.g. 2G, 500M, 1048576"
+        ) from None
+    if not math.isfinite(value) or value < 1 or value >= 2**63:
+        raise argparse.ArgumentTypeError(f"{text!r}: allowed 1 byte … 8 EiB")
+    return int(value)
+
+
+def workers_or_more(text: str) -> int:
+    """A count ≥ 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: allowed ≥ 1")
     return value
 
 
@@ -128,13 +163,44 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     serve.add_argument(
         "--graphics", default="full",
-        help="what the 3D viewer's browsers render: full, or light (no environment map and no "
-        "shadows: for a browser without a GPU, on a remote desktop or a virtual machine)",
+        help="what the 3D viewer's browsers render at first: full, or light (no environment map "
+        "and no shadows: for a browser without a GPU, on a remote desktop or a virtual "
+        "machine); a browser whose WebGL renderer is software is switched to light on its own, "
+        "and each browser switches its own under View -> Graphics",
     )  # fmt: skip
     serve.add_argument(
         "--run-budget", type=seconds, metavar="SECONDS",
         help="wall-clock budget of one run; over it the run fails with a message (default: "
         "twin.sim.executor.RUN_BUDGET, 60 s)",
+    )  # fmt: skip
+    serve.add_argument(
+        "--forwarded-allow-ips", action="append", default=[], metavar="ADDRESS",
+        help="a proxy whose X-Forwarded-For names the client (repeatable; '*' trusts any); "
+        "default none: the client is the socket's peer address, which the limits apply to",
+    )  # fmt: skip
+    serve.add_argument(
+        "--private", action="store_true",
+        help="with TWIN_TOKEN, reading stored runs and sweeps (GET /api/runs…, /api/sweeps…) "
+        "needs the token too; default: anyone who can reach the server may read them",
+    )  # fmt: skip
+    serve.add_argument(
+        "--max-store", type=size, metavar="SIZE",
+        help="most the run store may hold, e.g. 2G or 500M (runs' series, sweeps' tables and "
+        "heatmaps); a submission that would pass it answers 507; default: no limit",
+    )  # fmt: skip
+    serve.add_argument(
+        "--max-runs", type=workers_or_more, metavar="N",
+        help="most runs the store may hold (507 beyond); default: no limit",
+    )  # fmt: skip
+    serve.add_argument(
+        "--retain", action="store_true",
+        help="when the store is full, delete its oldest finished results that are not pinned "
+        "(POST /api/runs/{id}/pin) instead of refusing",
+    )  # fmt: skip
+    serve.add_argument(
+        "--dashboard", action="store_true",
+        help="serve the Dask scheduler's dashboard on 127.0.0.1 (a free port, printed); "
+        "default off",
     )  # fmt: skip
     serve.set_defaults(handler=_serve)
 
@@ -175,6 +241,50 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--out", type=Path, default=Path("sweep"), help="folder of the outputs")
     sweep.set_defaults(handler=_sweep)
 
+    workability = commands.add_parser(
+        "workability",
+        help="a site record's workability per planner: CSV, JSON and PNG plots",
+        description="Evaluate a site's wave record (NDBC standard meteorological file, CSV or "
+        "Parquet time series, Hs × Tp scatter table, or forecast) for each planner: the share "
+        "of time it is operable, per month, beside the Hs-threshold estimate, with limiting "
+        "constraints and weather windows (twin.sim.workability). Runs go through the executor "
+        "`twin serve` uses, with a progress bar; operability cells are cached in --data-dir.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    workability.add_argument("record", metavar="RECORD", type=Path, help="the record file")
+    workability.add_argument(
+        "--kind", choices=("ndbc", "timeseries", "scatter", "forecast"),
+        help="the record's format (default: sniffed)",
+    )  # fmt: skip
+    workability.add_argument(
+        "--planner", nargs="+", metavar="NAME", help="planners (default: the mechanism's)"
+    )
+    workability.add_argument("--mechanism", default="hybrid", choices=MECHANISM_NAMES)
+    workability.add_argument("--seeds", type=int, default=3, help="sea seeds per cell or row")
+    workability.add_argument("--method", default="cells", choices=("cells", "direct"))
+    workability.add_argument(
+        "--heading-strategy", default="fixed:150", metavar="STRATEGY",
+        help="fixed:DEG (relative heading, Scenario.heading: 180 head seas), best:DEG,DEG,… "
+        "(the best of a set) or record (the record's vessel heading)",
+    )  # fmt: skip
+    workability.add_argument(
+        "--spec", type=Path,
+        help="a JSON file of WorkabilitySpec fields; the options above override it",
+    )  # fmt: skip
+    workability.add_argument(
+        "--scheduler",
+        help="a Dask scheduler address tcp://HOST:PORT, or 'in-process'; default: a local "
+        "cluster, one worker per core (started only if a cell is not cached)",
+    )
+    workability.add_argument("--workers", type=workers, help="workers of the local cluster")
+    workability.add_argument(
+        "--data-dir", type=Path, default=Path("data"), help="folder of the cell cache"
+    )
+    workability.add_argument(
+        "--out", type=Path, default=Path("workability"), help="folder of the outputs"
+    )
+    workability.set_defaults(handler=_workability)
+
     warm = commands.add_parser(
         "warm",
         help="compile every kernel into numba's disk cache (or load it from there)",
@@ -184,8 +294,9 @@ def build_parser() -> argparse.ArgumentParser:
         "compile at once.",
     )
     warm.add_argument(
-        "--processes", type=int, default=1, metavar="N",
-        help="processes to compile in, 1-2 (one per share of twin.sim.engine.WARM_SHARES)",
+        "--processes", type=int, default=None, metavar="N",
+        help="processes to compile in, 1-2 (one per share of twin.sim.engine.WARM_SHARES); "
+        "default: one per core",
     )  # fmt: skip
     warm.set_defaults(handler=_warm)
     return parser
@@ -208,6 +319,12 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             allow_hosts=tuple(args.allow_host),
             allow_origins=tuple(args.allow_origin),
             graphics=args.graphics,
+            forwarded_allow_ips=tuple(args.forwarded_allow_ips),
+            private=args.private,
+            dashboard=args.dashboard,
+            max_store=args.max_store,
+            max_runs=args.max_runs,
+            retain=args.retain,
             **({} if args.run_budget is None else {"run_budget": args.run_budget}),
         )
     except (KeyboardInterrupt, Terminated):  # how a server is stopped; serve has cleaned up
@@ -221,6 +338,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from pydantic import ValidationError
 
     from twin.sim import PAPER_PRESETS, Scenario, simulate
+    from twin.validation import explain
 
     if args.out is not None and args.out.suffix not in OUTPUTS:
         parser.error(f"--out {args.out}: suffix must be one of {', '.join(OUTPUTS)}")
@@ -229,7 +347,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         try:
             scenario = Scenario.model_validate_json(read_input(parser, source))
         except ValidationError as exc:
-            parser.error(f"{source}: {exc}")
+            parser.error(f"{source}: {explain(exc)}")
     elif args.scenario in PAPER_PRESETS:
         scenario = PAPER_PRESETS[args.scenario]
     else:
@@ -249,13 +367,14 @@ def _sweep(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from pydantic import ValidationError
 
     from twin.sim.sweep import SweepSpec, heatmap_png, run_sweep
+    from twin.validation import explain
 
     if not args.spec.is_file():
         parser.error(f"{args.spec}: no such file")
     try:
         spec = SweepSpec.model_validate_json(read_input(parser, args.spec))
     except ValidationError as exc:  # its message names each bad field
-        parser.error(f"{args.spec}: {exc}")
+        parser.error(f"{args.spec}: {explain(exc)}")
     try:
         result = run_sweep(
             spec, scheduler=args.scheduler, n_workers=args.workers, progress=True
@@ -276,11 +395,56 @@ def _sweep(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return 0
 
 
-def _warm(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
-    from twin.sim.engine import warm_in_processes
+def _workability(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from pydantic import ValidationError
+
+    from twin.errors import TwinError
+    from twin.sim.workability import HeadingStrategy, WorkabilitySpec, run_workability
+    from twin.site import read_record
+    from twin.validation import explain
 
     try:
-        took = warm_in_processes(args.processes)
+        fields = {}
+        if args.spec is not None:
+            fields = json.loads(read_input(parser, args.spec))
+        given = {"mechanism": args.mechanism, "seeds": args.seeds, "method": args.method,
+                 "heading": HeadingStrategy.parse(args.heading_strategy)}  # fmt: skip
+        if args.planner:
+            given["planners"] = args.planner
+        spec = WorkabilitySpec(**{**fields, **given})
+        record = read_record(args.record, kind=args.kind)
+    except ValidationError as exc:  # its message names each bad field
+        parser.error(explain(exc))
+    except (TwinError, json.JSONDecodeError) as exc:
+        parser.error(str(exc))
+    try:
+        result = run_workability(
+            spec, record, scheduler=args.scheduler, n_workers=args.workers,
+            data_dir=args.data_dir, progress=True,
+        )  # fmt: skip
+    except ValueError as exc:  # a bad --scheduler address or a record the strategy cannot use
+        parser.error(str(exc))
+    written = result.write(args.out)
+    for planner, value in result.summary["workability"].items():
+        print(f"{planner:>6}: {100 * value:5.1f} % workable")
+    for limit, entry in result.summary["threshold"].items():
+        print(f"Hs < {limit} m: {100 * entry['workability']:5.1f} % (threshold estimate)")
+    print(f"\n{spec.criterion}", file=sys.stderr)
+    print(
+        f"twin: {record.n} rows ({sum(record.skipped.values())} skipped), {result.runs} runs "
+        f"({result.new_runs} new) in {result.elapsed:.1f} s; wrote "
+        f"{', '.join(p.name for p in written)} to {args.out}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _warm(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from twin.sim.engine import warm_in_processes
+    from twin.web.warmup import Warmup
+
+    try:
+        took = warm_in_processes(args.processes, progress=Warmup().kernel_done)
     except ValueError as exc:
         parser.error(str(exc))
     print(f"twin: compiled kernels ready in {took:.1f} s", flush=True)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike
+from pydantic import ValidationError
 
 from twin.errors import TwinError
 
@@ -49,3 +50,31 @@ def check_range(value: np.ndarray, name: str, low: ArrayLike, high: ArrayLike) -
                 else f" per component {low_a.ravel().tolist()} .. {high_a.ravel().tolist()}"
             )
         )
+
+
+def explain(error: ValidationError) -> str:
+    """A pydantic error as a person reads it: one `field: what is wrong (got …)` per mistake,
+    without pydantic's type codes and documentation links; a document that is not JSON says so.
+    """
+    lines = []
+    for item in error.errors(include_url=False):
+        if item["type"] == "json_invalid":
+            detail = str(item.get("ctx", {}).get("error", item["msg"])).removeprefix(
+                "Invalid JSON: "
+            )
+            lines.append(f"not valid JSON: {detail}")
+            continue
+        where = ".".join(str(part) for part in item["loc"])
+        message = str(item["msg"]).removeprefix("Value error, ")
+        if where and message.startswith(f"{where}: "):
+            message = message.removeprefix(f"{where}: ")
+        got = item.get("input")
+        shown = (
+            f" (got {got!r})"
+            if isinstance(got, str | int | float)
+            and len(repr(got)) <= 40
+            and item["type"] != "value_error"
+            else ""
+        )
+        lines.append(f"{where}: {message}{shown}" if where else f"{message}{shown}")
+    return "; ".join(lines)

@@ -14,6 +14,7 @@ from twin.errors import TwinError
 from twin.sea import G
 from twin.sea.spectra import (
     cos2s_spreading,
+    dnv_gamma,
     jonswap,
     jonswap_normalisation,
     pierson_moskowitz,
@@ -211,3 +212,36 @@ def test_bad_input_names_field_and_range(call, field: str, allowed: str) -> None
         call()
     assert field in str(error.value) and allowed in str(error.value)
     assert isinstance(error.value, ValueError)
+
+
+@pytest.mark.parametrize(
+    ("hs", "tp", "gamma"),
+    [
+        (1.0, 3.0, 5.0),  # Tp/√Hs = 3 ≤ 3.6: the steepest seas
+        (1.0, 3.6, 5.0),  # on the lower bound
+        (1.0, 4.0, np.exp(5.75 - 1.15 * 4.0)),  # between: 3.16
+        (4.0, 9.0, np.exp(5.75 - 1.15 * 4.5)),  # Tp/√Hs = 4.5 with Hs ≠ 1: 1.77
+        (1.0, 5.0, 1.0),  # on the upper bound
+        (1.875, 6.85, 1.0),  # WMO sea state 4: fully developed, PM
+        (0.0, 6.85, 1.0),  # a flat sea has no steepness
+    ],
+)
+def test_dnv_gamma_follows_the_steepness_rule(hs: float, tp: float, gamma: float) -> None:
+    """DNV-RP-C205 §3.5.5.5: γ = 5, exp(5.75 − 1.15 Tp/√Hs), 1 by Tp/√Hs (docs/references.md)."""
+    assert dnv_gamma(hs, tp) == pytest.approx(gamma, rel=1e-12)
+
+
+def test_dnv_gamma_falls_with_the_period_and_broadcasts() -> None:
+    """Longer periods at one Hs are older seas with flatter peaks; arrays broadcast."""
+    tp = np.linspace(2.0, 12.0, 51)
+    gamma = dnv_gamma(2.0, tp)
+    assert gamma.shape == tp.shape
+    assert np.all(np.diff(gamma) <= 0) and gamma[0] == 5.0 and gamma[-1] == 1.0
+    assert np.all((gamma >= 1.0) & (gamma <= 5.0))
+
+
+@pytest.mark.parametrize(("hs", "tp"), [(-1.0, 6.0), (1.0, 0.0), (np.nan, 6.0)])
+def test_dnv_gamma_rejects_bad_input(hs: float, tp: float) -> None:
+    """A negative or NaN Hs, or a Tp ≤ 0, is a TwinError naming the argument."""
+    with pytest.raises(TwinError, match=r"hs|tp"):
+        dnv_gamma(hs, tp)

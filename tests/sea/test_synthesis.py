@@ -11,7 +11,7 @@ from scipy.signal import welch
 
 from twin.errors import TwinError
 from twin.sea import G, WaveComponents
-from twin.sea.spectra import jonswap, pierson_moskowitz
+from twin.sea.spectra import dnv_gamma, jonswap, pierson_moskowitz
 from twin.sea.synthesis import (
     WaveStream,
     elevation,
@@ -217,3 +217,15 @@ def test_spreading_draws_cos2s_directions() -> None:
 def test_bad_input_raises_named_error(call, message: str) -> None:
     with pytest.raises(TwinError, match=message):
         call()
+
+
+@pytest.mark.parametrize(("hs", "tp"), [(1.875, 6.85), (3.415, 6.85), (1.0, 3.0)])
+def test_gamma_none_takes_the_dnv_rule(hs: float, tp: float) -> None:
+    """`gamma=None` gives the sea of γ = `dnv_gamma(hs, tp)` (DNV-RP-C205 §3.5.5.5), bit for bit,
+    and a steep sea's differs from the 3.3 default's."""
+    rule = wave_components(hs, tp, seed=3, n_components=64, gamma=None)
+    pinned = wave_components(hs, tp, seed=3, n_components=64, gamma=float(dnv_gamma(hs, tp)))
+    np.testing.assert_array_equal(rule.amplitude, pinned.amplitude)
+    np.testing.assert_array_equal(rule.omega, pinned.omega)
+    standard = wave_components(hs, tp, seed=3, n_components=64)
+    assert not np.allclose(rule.amplitude, standard.amplitude)

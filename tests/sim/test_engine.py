@@ -146,19 +146,22 @@ def test_every_allowed_spectrum_runs(spectrum: str) -> None:
     [
         # Algorithm 1 on the body yaw rate and half way to the Euler yaw (the default, 1, is
         # in tests/sim/test_engine_oracle.py); q1 starts at 24.9°, by the σ band (25°-30°),
-        # and the sea carries it in and out
-        dict(mechanism="hybrid", planner="mtmp", sea_state=7, yaw_hold=0.0,
-             initial_state=[0, 0, 2.475, 0, 0, 0, 0.435, 0, 13.052]),
-        dict(mechanism="hybrid", planner="mtmp", sea_state=7, yaw_hold=0.5,
-             initial_state=[0, 0, 2.475, 0, 0, 0, 0.435, 0, 13.052]),
+        # and the sea carries it in and out (γ 3.3, 200 components: a sea known to do so)
+        dict(mechanism="hybrid", planner="mtmp", sea_state=7, yaw_hold=0.0, gamma=3.3,
+             n_components=200, initial_state=[0, 0, 2.475, 0, 0, 0, 0.435, 0, 13.052]),
+        dict(mechanism="hybrid", planner="mtmp", sea_state=7, yaw_hold=0.5, gamma=3.3,
+             n_components=200, initial_state=[0, 0, 2.475, 0, 0, 0, 0.435, 0, 13.052]),
         # effort-driven actuators with mass (PlatformPlanner.actuate), the speed limit binding
-        dict(mechanism="upr4", planner="pid", sea_state=9, actuator_mass=10.0),
+        # (γ 3.3 and 200 components, the former defaults: seas known to make it bind)
+        dict(mechanism="upr4", planner="pid", sea_state=9, actuator_mass=10.0, gamma=3.3,
+             n_components=200),
         dict(mechanism="upr4", planner="pid", regular_waves="state3", actuator_mass=50.0,
              dt=0.005, actuator_speed=0.01),
-        dict(mechanism="upu3up", planner="pid", sea_state=6, actuator_mass=20.0),
+        dict(mechanism="upu3up", planner="pid", sea_state=6, actuator_mass=20.0, gamma=3.3,
+             n_components=200),
         # near full stroke: the masses run into the end stops
-        dict(mechanism="upr4", planner="pid", sea_state=9, actuator_mass=5.0,
-             initial_state=[0.84, 0.0, 0.0]),
+        dict(mechanism="upr4", planner="pid", sea_state=9, actuator_mass=5.0, gamma=3.3,
+             n_components=200, initial_state=[0.84, 0.0, 0.0]),
     ],
     ids=["yaw-body", "yaw-half", "upr4-mass", "upr4-mass-slow", "upu3up-mass", "upr4-stroke"],
 )  # fmt: skip
@@ -202,3 +205,30 @@ def test_warm_refuses_unknown_shares_and_process_counts(capsys: pytest.CaptureFi
         main(["warm", "--processes", "0"])
     assert exited.value.code == 2
     assert f"1-{last + 1} (one per share)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("spawn", [False, True])
+def test_warm_in_processes_reports_every_lane_set_once(
+    spawn: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Progress names each lane set of `WARM_SHARES` once, whether the other shares went to a
+    process of their own (share 0 still compiling after `SPAWN_AFTER` s: here at once) or were
+    loaded here (share 0 done in time: no process started)."""
+    import multiprocessing
+
+    from twin.sim import engine
+
+    labels = [engine.warm_label(lanes) for share in engine.WARM_SHARES for lanes in share]
+    if spawn:
+        monkeypatch.setattr(engine, "SPAWN_AFTER", 0.0)
+    else:
+        monkeypatch.setattr(engine, "SPAWN_AFTER", 1e6)
+
+        def no_process(*_: object) -> None:
+            raise AssertionError("a process was started")
+
+        monkeypatch.setattr(multiprocessing.context.SpawnContext, "Pool", no_process)
+    seen: list[str] = []
+    engine.warm_in_processes(2, progress=seen.append)
+    assert sorted(seen) == sorted(labels) and len(labels) == engine.WARM_TOTAL
+    assert "upr4 pid + upr4 ik" in labels  # a mechanism's default planner is named

@@ -40,12 +40,12 @@ def test_preset_validates(name: str) -> None:
 
 
 def test_seed000_is_the_reference_run_in_the_matched_sea() -> None:
-    """Hybrid system, MTMP, SOV, JONSWAP Hs 1.214 m, Tp 6.85 s from 215°, 200 s at 0.05 s."""
+    """Hybrid system, MTMP, SOV, JONSWAP Hs 1.038 m, Tp 6.85 s at heading 225°, 200 s at 0.05 s."""
     s = PAPER_PRESETS["seed000"]
     assert (s.mechanism, s.planner, s.vessel) == ("hybrid", "mtmp", "sov")
-    assert (s.hs, s.tp, s.spectrum, s.heading, s.spreading) == (1.214, 6.85, "jonswap", 215.0, None)
+    assert (s.hs, s.tp, s.spectrum, s.heading, s.spreading) == (1.038, 6.85, "jonswap", 225.0, None)
     assert (s.duration, s.dt, s.seed, s.initial_state) == (200.0, 0.05, 0, None)
-    assert s.sea() == (1.214, 6.85)
+    assert s.sea() == (1.038, 6.85)
 
 
 def test_sea_state_4_presets_keep_the_former_reference_sea() -> None:
@@ -68,7 +68,7 @@ def test_seed004_raises_the_platform_in_its_own_matched_sea() -> None:
     )  # fmt: skip
     lowest = HybridBoardingSystem().initial_state
     np.testing.assert_allclose(s.initial_state, lowest + np.r_[0, 0, 1.1, 0, 0, 0, 0, 0, 3.5])
-    assert s.hs == 3.415
+    assert s.hs == 3.086
     differ = {"planner", "duration", "initial_state", "hs"}
     assert s.model_dump(exclude=differ) == reference.model_dump(exclude=differ)
 
@@ -159,3 +159,13 @@ def test_seed004_runs(name: str) -> None:
     np.testing.assert_allclose(result.series["xi"][0], PAPER_PRESETS[name].initial_state)
     assert result.metrics["violations"] == 0
     assert result.metrics["faults"] == 0
+
+
+def test_hybrid_presets_pin_their_sea_against_the_defaults() -> None:
+    """The calibrated presets keep JONSWAP γ = 3.3 and 200 components whatever the scenario
+    defaults (DNV's γ from Tp/√Hs, 800 components), so batch reproductions do not move."""
+    default = Scenario()
+    assert default.gamma is None and default.n_components == 800
+    for name, preset in PAPER_PRESETS.items():
+        if preset.mechanism == "hybrid":
+            assert (preset.gamma, preset.n_components) == (3.3, 200), name

@@ -1,7 +1,7 @@
 """The papers' qualitative claims on the reference scenario, across five sea seeds.
 
 Reference: `PAPER_PRESETS["seed000"]`, the hybrid system on the walk-to-work SOV in the sea
-matched to seed 000 Table 7 (JONSWAP Hs 1.214 m, Tp 6.85 s, waves 35° off the starboard bow),
+matched to seed 000 Table 7 (JONSWAP Hs 1.038 m, Tp 6.85 s, waves from 45° off the port bow),
 200 s at dt = 0.05 s — one scenario for every planner, not tuned per planner.
 docs/reproduction.md reports the comparison over ten seeds, here and in sea state 4.
 """

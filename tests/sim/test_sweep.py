@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from distributed import Client, Security
 
+from tests.timing import scaled
 from twin.sim import simulate
 from twin.sim.executor import BudgetExceeded, Executor, map_unordered, unpack_series
 from twin.sim.sweep import (
@@ -77,7 +78,7 @@ def test_one_executor_runs_sweeps_runs_and_maps() -> None:
         expected = simulate(scenario)
         assert output.metrics == expected.metrics and output.steps == 100
         np.testing.assert_array_equal(unpack_series(output.series)["xi"], expected.series["xi"])
-        deadline = time.monotonic() + 5
+        deadline = time.monotonic() + scaled(5)
         while not reports and time.monotonic() < deadline:
             time.sleep(0.05)
         assert reports[0]["name"] == "run-1" and reports[0]["status"] == "running"
@@ -100,7 +101,7 @@ def test_one_executor_runs_sweeps_runs_and_maps() -> None:
         executor.close()
         closed = time.monotonic() - start
     assert busy.cancelled() or not busy.done() or busy.status != "finished"
-    assert closed < 5.0, closed
+    assert closed < scaled(5.0), closed
 
 
 def test_a_sweep_stops_when_told() -> None:

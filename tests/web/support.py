@@ -8,6 +8,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from tests.timing import scaled
 from twin.web.access import Access
 
 #: a token long enough for the server (≥ 16 characters)
@@ -26,8 +27,9 @@ def free_port() -> int:
 
 
 def wait_for(condition: Callable[[], bool], timeout: float = 3.0, poll: float = 0.01) -> bool:
-    """Poll `condition` until it holds or `timeout` [s] passes; its last value."""
-    end = time.monotonic() + timeout
+    """Poll `condition` until it holds or `timeout` [s] (an idle machine's, stretched by the
+    load now: tests/timing.py) passes; its last value."""
+    end = time.monotonic() + scaled(timeout)
     while not condition() and time.monotonic() < end:
         time.sleep(poll)
     return condition()

@@ -21,6 +21,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.figures import record
+from tests.timing import slowdown
 from tests.web.support import SAME_ORIGIN, TOKEN, access, wait_for
 from twin.mechanisms import MECHANISMS
 from twin.planners import PLANNERS, PlannerParameters
@@ -105,6 +106,10 @@ def test_openapi_lists_exactly_the_api_paths(client: TestClient) -> None:
         "/api/runs/{run_id}", "/api/runs/{run_id}/series", "/api/live", "/api/live/reset",
         "/api/live/pause", "/api/live/play", "/api/live/step", "/api/live/replay",
         "/api/sweeps", "/api/sweeps/{sweep_id}", "/api/sweeps/{sweep_id}/heatmap.png",
+        "/api/runs/{run_id}/cancel", "/api/sweeps/{sweep_id}/cancel",
+        "/api/runs/{run_id}/pin", "/api/sweeps/{sweep_id}/pin",
+        "/api/workability", "/api/workability/records", "/api/workability/{job_id}",
+        "/api/workability/{job_id}/{plot}.png", "/api/workability/{job_id}/cancel",
     }  # fmt: skip
     assert client.get("/docs").status_code == 200
 
@@ -790,7 +795,9 @@ def test_a_long_step_lets_readers_in_and_stops_at_its_wall_cap(
     taken = int(response.headers["x-steps-taken"])
     assert response.status_code == 200 and 0 < taken < 1000
     assert response.json()["t"] == pytest.approx(taken * 0.05)
-    assert took < 1.5 and latencies and max(latencies) < 0.25, (took, latencies)
+    stretch = slowdown()
+    assert took < 1.5 * stretch and latencies and max(latencies) < 0.25 * stretch, (
+        took, latencies, stretch)
     record("attack_long_step", n=1000, steps_taken=taken, step_s=round(took, 2),
            reads=len(latencies), read_max_s=round(max(latencies), 3))  # fmt: skip
 
@@ -808,11 +815,11 @@ def test_short_tokens_are_refused_and_wrong_ones_rate_limited(
     wrong = {"Authorization": "Bearer " + "0" * len(TOKEN)}
     codes = [client.post("/api/live/pause", headers=wrong).status_code for _ in range(5)]
     assert codes == [401, 401, 401, 429, 429]
-    good = {"Authorization": f"Bearer {TOKEN}"}
-    limited = client.post("/api/live/pause", headers=good)
+    limited = client.post("/api/live/pause", headers=wrong)
     assert limited.status_code == 429 and int(limited.headers["retry-after"]) >= 1
-    assert live.controls.playing  # nothing changed, not even by the right token
-    time.sleep(0.3)  # one attempt back after 1 / failure_rate
+    assert live.controls.playing  # nothing changed
+    # issue 30: someone else's wrong tokens, from the same address, never refuse the right one
+    good = {"Authorization": f"Bearer {TOKEN}"}
     assert client.post("/api/live/pause", headers=good).status_code == 200
     record("attack_token_guessing", min_token=MIN_TOKEN, answers=codes)
 

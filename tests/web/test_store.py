@@ -140,3 +140,92 @@ def test_two_stores_on_one_file_write_concurrently(store: RunStore) -> None:
     other.close()
     assert len(created) == 80
     assert {r.id for r in store.list_runs(limit=500)} == set(created)
+
+
+def test_a_corrupt_file_is_one_line_saying_what_to_do(tmp_path: Path) -> None:
+    """Issue 30: a raw sqlite traceback after 23 s of start-up before; now a TwinError whose
+    one line names the file and the way out (the server opens the store before the executor)."""
+    path = tmp_path / "runs.sqlite"
+    path.write_bytes(b"this is not a database" * 100)
+    with pytest.raises(TwinError) as info:
+        RunStore(path)
+    message = str(info.value)
+    assert "\n" not in message and str(path) in message and "move it aside" in message
+    from tests.figures import record
+
+    record("attack30_corrupt_store", lines=1, says="move it aside")
+
+
+def test_one_bad_row_is_that_rows_error_not_the_lists(store: RunStore) -> None:
+    good = store.create(SHORT).id
+    bad = store.create(SHORT).id
+    with sqlite3.connect(store.path) as conn:
+        conn.execute("UPDATE runs SET scenario = '{not json' WHERE id = ?", (bad,))
+    runs = {run.id: run for run in store.list_runs()}
+    assert runs[good].status == "queued"
+    assert runs[bad].status == "failed" and "unreadable" in runs[bad].error
+    from tests.figures import record
+
+    record("attack30_bad_row", list_status=200, bad_row="failed, unreadable")
+
+
+def test_an_older_stores_npz_series_still_read(store: RunStore, result: SimulationResult) -> None:
+    import io
+
+    run_id = store.create(SHORT).id
+    store.mark_running(run_id)
+    buffer = io.BytesIO()
+    np.savez(buffer, **result.series)  # how series were stored before issue 30
+    store.finish_packed(run_id, result.metrics, buffer.getvalue())
+    for key, values in store.result(run_id).series.items():
+        np.testing.assert_array_equal(values, result.series[key])
+
+
+def _full_store(tmp_path: Path, **quota: object) -> RunStore:
+    from twin.web.store import Quota
+
+    return RunStore(tmp_path / "q.sqlite", Quota(**quota))
+
+
+def test_a_full_store_refuses_naming_the_quota(tmp_path: Path, result: SimulationResult) -> None:
+    from twin.web.store import StoreFull
+
+    with _full_store(tmp_path, max_runs=2) as store:
+        for _ in range(2):
+            store.create(SHORT)
+        with pytest.raises(StoreFull, match="--max-runs"):
+            store.create(SHORT)
+        assert len(store.list_runs()) == 2
+    with _full_store(tmp_path / "b", max_bytes=50_000) as store:
+        with pytest.raises(StoreFull, match="--max-store"):
+            for _ in range(100):  # a 1 s run reserves its price, ~ 8 KB
+                store.create(SHORT)
+        used, runs = store.usage()
+        assert used <= 50_000 and 1 <= runs < 100
+
+
+def test_retention_deletes_the_oldest_finished_unpinned_results(
+    tmp_path: Path, result: SimulationResult
+) -> None:
+    with _full_store(tmp_path, max_runs=3, retain=True) as store:
+        ids = []
+        for _ in range(3):
+            run_id = store.create(SHORT).id
+            store.mark_running(run_id)
+            store.finish(run_id, result)
+            ids.append(run_id)
+        store.pin("runs", ids[0])
+        newest = store.create(SHORT).id  # full: the oldest unpinned finished one goes
+        kept = {run.id for run in store.list_runs()}
+        assert kept == {ids[0], ids[2], newest}
+
+
+def test_a_finished_run_counts_what_it_stored_not_its_price(
+    store: RunStore, result: SimulationResult
+) -> None:
+    run_id = store.create(Scenario(mechanism="hybrid", duration=600.0)).id
+    reserved, _ = store.usage()
+    store.mark_running(run_id)
+    store.finish(run_id, result)  # 1 s of series: far less than 600 s were priced at
+    stored, _ = store.usage()
+    assert stored < reserved

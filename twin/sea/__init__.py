@@ -9,6 +9,7 @@ from twin.sea.sea_states import WMO_SEA_STATES, SeaState, sea_state_code, sea_st
 from twin.sea.spectra import (
     SPECTRA,
     cos2s_spreading,
+    dnv_gamma,
     fully_developed_tp,
     jonswap,
     jonswap_normalisation,
@@ -40,6 +41,7 @@ __all__ = [
     "WaveComponents",
     "WaveStream",
     "cos2s_spreading",
+    "dnv_gamma",
     "elevation",
     "evaluate_elevation",
     "evaluate_slope",

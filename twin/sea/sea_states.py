@@ -7,8 +7,9 @@ each code is a fully developed Pierson–Moskowitz sea (seed 001 eq (28)):
 * Hs is the middle of the code's range. Code 9 is open ("over 14 m"); it is closed at 19 m,
   the largest buoy-measured Hs WMO has certified (North Atlantic, 4 February 2013), giving
   16.5 m. Code 0 is Hs = 0.
-* Tp = `fully_developed_tp(Hs)` ≈ 4.99·sqrt(Hs): the period at which the wind that raises
-  this Hs has fully developed the sea. Real seas with the same Hs are younger (shorter Tp,
+* Tp = `fully_developed_tp(Hs)` = 5.0005·sqrt(Hs): the period at which the wind that raises
+  this Hs has fully developed the sea, for which DNV-RP-C205 §3.5.5.5 gives JONSWAP γ = 1
+  (`dnv_gamma`, the scenario's default γ). Real seas with the same Hs are younger (shorter Tp,
   JONSWAP γ > 1) or carry swell (longer Tp); pass Tp explicitly for those.
 """
 

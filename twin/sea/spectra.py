@@ -129,12 +129,43 @@ def fully_developed_tp(hs: ArrayLike, *, g: float = G) -> np.ndarray:
     r"""Tp [s] of the fully developed PM sea with significant wave height `hs` [m].
 
     Eliminates U between the two relations of `pm_sea_from_wind`:
-    :math:`T_p = \frac{2π}{(4β/5)^{1/4}} \sqrt{\frac{H_s}{2g\sqrt{α/β}}} ≈ 4.99\sqrt{H_s}`,
-    the boundary DNV-RP-C205 §3.5.5.5 gives for γ = 1 (Tp/√Hs ≥ 5).
+    :math:`T_p = \frac{2π}{(4β/5)^{1/4}} \sqrt{\frac{H_s}{2g\sqrt{α/β}}} ≈ 5.0005\sqrt{H_s}`,
+    just past the boundary DNV-RP-C205 §3.5.5.5 gives for γ = 1 (Tp/√Hs ≥ 5, `dnv_gamma`).
     """
     hs = _checked(hs, "hs", "m")
     u = np.sqrt(hs * g / (2.0 * np.sqrt(PM_ALPHA / PM_BETA)))
     return 2.0 * np.pi * u / (g * (0.8 * PM_BETA) ** 0.25)
+
+
+#: [-] DNV-RP-C205 §3.5.5.5 bounds of Tp/√Hs [s/√m]: γ = 5 at or below the first, 1 at or
+#: above the second, exp(5.75 − 1.15 Tp/√Hs) between (continuous at both ends to 0.06 %)
+DNV_GAMMA_BOUNDS = (3.6, 5.0)
+
+
+def dnv_gamma(hs: ArrayLike, tp: ArrayLike) -> np.ndarray:
+    r"""JONSWAP peak enhancement γ from the sea's steepness, DNV-RP-C205 §3.5.5.5.
+
+    :math:`γ = 5` for :math:`T_p/\sqrt{H_s} ≤ 3.6`, :math:`γ = \exp(5.75 − 1.15\,T_p/\sqrt{H_s})`
+    for :math:`3.6 < T_p/\sqrt{H_s} < 5` and :math:`γ = 1` (Pierson–Moskowitz) for
+    :math:`T_p/\sqrt{H_s} ≥ 5`, Tp in s and Hs in m. A fully developed sea
+    (`fully_developed_tp`, Tp = 5.0005 √Hs, every WMO code of `sea_state_hs_tp`) gets γ = 1;
+    a younger, steeper wind sea (shorter Tp at the same Hs) a higher peak, e.g. Hs 3.086 m at
+    Tp 6.85 s (`seed004`'s sea) γ = 3.55. Hs = 0 has no steepness: γ = 1.
+
+    Args:
+        hs: [m] significant wave height ≥ 0.
+        tp: [s] peak period > 0, broadcast against `hs`.
+
+    Returns:
+        γ [-] in [1, 5], the broadcast shape of `hs` and `tp`.
+    """
+    hs = _checked(hs, "hs", "m")
+    tp = _checked(tp, "tp", "s", low_open=True)
+    with np.errstate(divide="ignore"):
+        ratio = tp / np.sqrt(hs)  # inf at Hs = 0: γ = 1
+    low, high = DNV_GAMMA_BOUNDS
+    middle = np.exp(5.75 - 1.15 * np.clip(ratio, low, high))
+    return np.where(ratio <= low, 5.0, np.where(ratio >= high, 1.0, middle))
 
 
 def _gauss_legendre(a: float, b: float, n: int) -> tuple[np.ndarray, np.ndarray]:

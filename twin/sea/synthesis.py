@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike
 
 from twin.errors import TwinError
 from twin.sea.components import WaveComponents
-from twin.sea.spectra import _checked, cos2s_spreading, spectral_density
+from twin.sea.spectra import _checked, cos2s_spreading, dnv_gamma, spectral_density
 
 OMEGA_BAND = (0.5, 5.0)  # [-] default band as multiples of ω_p = 2π/Tp
 _BLOCK = 1 << 18  # phase angles per evaluation block: 2 MB temporaries stay in cache
@@ -159,7 +159,7 @@ def wave_components(
     seed: int | np.random.Generator | None = 0,
     n_components: int = 256,
     *,
-    gamma: float = 3.3,
+    gamma: float | None = 3.3,
     omega_range: tuple[float, float] | None = None,
     jitter: bool = True,
 ) -> WaveComponents:
@@ -177,7 +177,8 @@ def wave_components(
         spreading: [-] cos-2s exponent s ≥ 0, or None for a long-crested sea.
         seed: seed or Generator; the same seed gives the same components.
         n_components: [-] number of components.
-        gamma: [-] JONSWAP peak enhancement.
+        gamma: [-] JONSWAP peak enhancement; None: DNV-RP-C205 §3.5.5.5's rule from
+            Tp/√Hs (`dnv_gamma`). Unused by other spectra.
         omega_range: [rad/s] band; default `OMEGA_BAND`·2π/Tp.
         jitter: random frequency inside each bin (no repeat) or bin centres.
 
@@ -186,6 +187,8 @@ def wave_components(
     """
     hs = _scalar(hs, "hs", "m")
     tp = _scalar(tp, "tp", "s", low_open=True)
+    if gamma is None:
+        gamma = float(dnv_gamma(hs, tp))
     heading = _scalar(heading, "heading", "rad", -np.inf)
     if spreading is not None:
         spreading = _scalar(spreading, "spreading", "")
@@ -271,7 +274,7 @@ def elevation(
     heading: float = 0.0,
     spreading: float | None = None,
     n_components: int = 256,
-    gamma: float = 3.3,
+    gamma: float | None = 3.3,
     omega_range: tuple[float, float] | None = None,
     jitter: bool = True,
 ) -> np.ndarray:
@@ -299,7 +302,7 @@ def slope(
     heading: float = 0.0,
     spreading: float | None = None,
     n_components: int = 256,
-    gamma: float = 3.3,
+    gamma: float | None = 3.3,
     omega_range: tuple[float, float] | None = None,
     jitter: bool = True,
 ) -> np.ndarray:

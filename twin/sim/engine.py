@@ -52,7 +52,7 @@ from twin.sim.kernels import layout
 from twin.sim.kernels.compile import limit_threads, numba_threads
 from twin.sim.lanes import HybridLanes, PlatformLanes, runner, use_numba
 from twin.sim.result import SimulationResult
-from twin.sim.scenario import Scenario
+from twin.sim.scenario import DEFAULT_PLANNER, Scenario
 from twin.sim.scratch import scratch
 from twin.sim.target import held_targets
 from twin.spatial import pose_to_transform
@@ -140,8 +140,8 @@ class Simulation:
         self.k = 0
         self.mechanism = MECHANISMS[first.mechanism]()
         self.base_motions = BaseMotion.many(self.scenarios)
-        self._block_size = LIVE_BLOCK if history_limit else min(
-            MAX_BLOCK, max(16, BLOCK // self.n_lanes)
+        self._block_size = (
+            LIVE_BLOCK if history_limit else min(MAX_BLOCK, max(16, BLOCK // self.n_lanes))
         )
         x0 = np.stack(
             [
@@ -562,7 +562,28 @@ WARM_SHARES: tuple[tuple[tuple[dict[str, str], ...], ...], ...] = (
 )
 
 
-def warm(engine: str = "auto", shares: Sequence[int] | None = None) -> float:
+def warm_label(lanes: tuple[dict[str, str], ...]) -> str:
+    """'hybrid mtmp', 'hybrid mtmp + dwa', 'upr4 pid', …: one lane set of `WARM_SHARES`, as a
+    warm-up's progress names it."""
+    names = []
+    for lane in lanes:
+        mechanism = lane.get("mechanism", "hybrid")
+        names.append(f"{mechanism} {lane.get('planner', DEFAULT_PLANNER[mechanism])}")
+    return " + ".join(names)
+
+
+#: lane sets in all shares: the `total` of a warm-up's progress
+WARM_TOTAL = sum(len(share) for share in WARM_SHARES)
+
+#: `progress(label)`: called as each lane set of a warm-up is done
+WarmProgress = Callable[[str], None]
+
+
+def warm(
+    engine: str = "auto",
+    shares: Sequence[int] | None = None,
+    progress: WarmProgress | None = None,
+) -> float:
     """Compile every kernel runner, serial and parallel, or load it from numba's disk cache
     (minutes on a first start, a fraction of a second after): a few steps of every planner
     family of every kind of mechanism. A server calls it before serving, a worker before its
@@ -571,6 +592,7 @@ def warm(engine: str = "auto", shares: Sequence[int] | None = None) -> float:
     Args:
         engine: as `Simulation`'s.
         shares: indices into `WARM_SHARES` to step; None: all.
+        progress: called with `warm_label(lanes)` as each lane set is done.
 
     Returns:
         [s] the wall time it took.
@@ -588,16 +610,34 @@ def warm(engine: str = "auto", shares: Sequence[int] | None = None) -> float:
             simulation = Simulation([{"duration": 0.1, **lane} for lane in lanes], engine=engine)
             simulation.run()  # lane 0's result: the one-lane (serial) metrics runner
             simulation.results()  # every lane's: the parallel one where there are several
+            if progress is not None:
+                progress(warm_label(lanes))
     return time.perf_counter() - start
 
 
-def warm_in_processes(processes: int) -> float:
-    """`warm` with its shares spread over new processes that compile at once (numba writes
-    what each compiles to its disk cache, where later processes load it): on a first start with
-    2 cores, the time of the costliest share instead of the sum.
+def _warm_group(shares: list[int], done: Any) -> None:
+    """Shares of `warm_in_processes` in a process of their own, putting each finished lane
+    set's label on `done`."""
+    warm("auto", shares, progress=done.put)
+
+
+#: [s] how long this process's first share may take before the others go to processes of
+#: their own: loading every kernel from numba's cache takes 1-6 s (6 s at load 6), compiling
+#: them minutes
+SPAWN_AFTER = 8.0
+
+
+def warm_in_processes(processes: int | None = None, progress: WarmProgress | None = None) -> float:
+    """`warm` with its shares spread over processes that compile at once: share 0 in this one
+    and, if it is still compiling after `SPAWN_AFTER` s, the others in new processes (numba
+    writes what each compiles to its disk cache, where this process then loads it). On a first
+    start with 2 cores, the time of the costliest share instead of the sum; with the cache
+    full, `warm`'s second: no process is started.
 
     Args:
-        processes: 1 … len(WARM_SHARES) processes (1: `warm` in this process).
+        processes: 1 … len(WARM_SHARES) processes, this one included (1: `warm` here); None:
+            one per core, at most one per share.
+        progress: called in this process with each lane set's label as it is done.
 
     Returns:
         [s] the wall time it took.
@@ -605,15 +645,68 @@ def warm_in_processes(processes: int) -> float:
     Raises:
         ValueError: processes outside 1 … len(WARM_SHARES).
     """
+    import os
+
+    if processes is None:
+        processes = max(1, min(len(WARM_SHARES), os.cpu_count() or 1))
     if not 1 <= processes <= len(WARM_SHARES):
         raise ValueError(f"warm: {processes} processes; 1-{len(WARM_SHARES)} (one per share)")
     if processes == 1:
-        return warm()
+        return warm(progress=progress)
     import multiprocessing
 
     start = time.perf_counter()
-    groups = [list(range(len(WARM_SHARES)))[i::processes] for i in range(processes)]
-    # spawned, not forked: a fork would copy this process's numba and thread state
-    with multiprocessing.get_context("spawn").Pool(processes) as pool:
-        pool.starmap(warm, [("auto", group) for group in groups])
+    shares = list(range(len(WARM_SHARES)))
+    groups = [shares[i::processes] for i in range(processes)]
+    lock = threading.Lock()
+    first_done, decided = threading.Event(), threading.Event()
+    spawned: dict[str, Any] = {}
+
+    reported: set[str] = set()
+
+    def report(label: str) -> None:
+        """`progress`, once per lane set (a share may be done here and in a process)."""
+        with lock:
+            if label in reported or progress is None:
+                return
+            reported.add(label)
+            progress(label)
+
+    def relay() -> None:
+        """After `SPAWN_AFTER` s of share 0, the other shares in processes of their own."""
+        try:
+            if first_done.wait(SPAWN_AFTER):
+                return  # loaded from the cache: no process needed
+            # spawned, not forked: a fork would copy this process's numba and thread state
+            context = multiprocessing.get_context("spawn")
+            spawned["manager"] = manager = context.Manager()
+            spawned["done"] = done = manager.Queue()
+            spawned["pool"] = pool = context.Pool(processes - 1)
+            spawned["result"] = pool.starmap_async(
+                _warm_group, [(group, done) for group in groups[1:]]
+            )
+        finally:
+            decided.set()
+        while (label := done.get()) is not None:
+            report(label)
+
+    thread = threading.Thread(target=relay, name="twin-warm", daemon=True)
+    thread.start()
+    rest = [share for group in groups[1:] for share in group]
+    try:
+        warm("auto", groups[0], progress=report)
+        first_done.set()
+        # what the processes have compiled meanwhile loads from the cache; the rest compiles
+        # here too, so the slower of two copies never holds the start-up
+        warm("auto", rest, progress=report)
+    finally:
+        first_done.set()
+        decided.wait()
+        if "pool" in spawned:
+            spawned["pool"].terminate()  # numba writes its cache files whole (os.replace)
+            spawned["pool"].join()
+            spawned["done"].put(None)
+            thread.join()
+        if "manager" in spawned:
+            spawned["manager"].shutdown()
     return time.perf_counter() - start

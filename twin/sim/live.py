@@ -38,7 +38,7 @@ from twin.planners import PLANNERS, get_planner
 from twin.sea.components import WaveComponents
 from twin.sim.engine import RESTART_FIELDS, Simulation
 from twin.sim.result import SimulationResult
-from twin.sim.scenario import Scenario
+from twin.sim.scenario import Scenario, check_one_sea
 
 log = logging.getLogger(__name__)
 
@@ -165,6 +165,9 @@ class LiveSession:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self.version = 0  # bumps on every reset, so viewers can clear trails
+        #: times live time restarted at t = 0 (a restarting change or a reset), and why last
+        self.restarts = 0
+        self.restart_reason: str | None = None
         self.loop_errors = 0  # steps the loop caught an unexpected error in
 
     # -- readers -----------------------------------------------------------------------------
@@ -266,6 +269,8 @@ class LiveSession:
                 **self.controls.model_dump(),
                 "faults": {**sim.faults[0].summary(), "loop_errors": self.loop_errors},
                 "replay": None,
+                "restarts": self.restarts,
+                "restart_reason": self.restart_reason,
             }
             if compare is not None:
                 other, other_metrics = sim.series(1), sim.metrics_later(1)
@@ -320,6 +325,9 @@ class LiveSession:
         controls = {k: changes.pop(k) for k in list(changes) if k in LiveControls.model_fields}
         given = COMPARE in changes
         compare = changes.pop(COMPARE, None)
+        if isinstance(changes.get("sea_state"), int | float):  # the code takes over from hs, tp
+            check_one_sea(changes)
+            changes = {"hs": None, "tp": None, **changes}
         unknown = sorted(set(changes) - set(LIVE_FIELDS))
         if unknown:
             raise TwinError(
@@ -353,6 +361,8 @@ class LiveSession:
         if compare != self._compare:
             changed.add(COMPARE)
         self._sim, self._compare, self._debt = sim, compare, 0.0
+        self.restarts += 1
+        self.restart_reason = ", ".join(sorted(changed)) + " changed"
         self.version += 1
         return changed
 
@@ -374,6 +384,8 @@ class LiveSession:
         with self._lock:
             self._sim = self._build(self._sim.scenario, self._compare)
             self._debt = 0.0
+            self.restarts += 1
+            self.restart_reason = "reset"
             if self._replay is not None:
                 self._replay = None
                 self.controls.playing = self._live_playing

@@ -6,8 +6,9 @@ every unset field takes the papers' default (or ours, documented in the field).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field, field_validator, model_validator
@@ -61,20 +62,37 @@ class Scenario(PlannerParameters):
         150.0,
         ge=-360.0,
         le=360.0,
-        description="[deg] wave direction relative to the bow, 180 = head seas, 90 = beam seas "
-        "from port (waves travelling to starboard)",
+        description="[deg] direction the waves travel towards, counter-clockwise from the bow "
+        "seen from above (vessel x bow, y port, z up; docs/frames.md): 180 = head seas (from "
+        "ahead), 0 = following seas, 90 = beam seas from starboard (travelling to port), 270 = "
+        "beam seas from port; the waves come from heading − 180°, e.g. 150 = from 30° off the "
+        "starboard bow, 225 = from 45° off the port bow",
     )
     spectrum: SpectrumName = Field(
         "jonswap", description="wave spectrum (seed 001 eq 28); `pm` is short for pierson_moskowitz"
     )
-    gamma: float = Field(3.3, ge=1.0, le=10.0, description="[-] JONSWAP peak enhancement")
+    gamma: float | None = Field(
+        None,
+        ge=1.0,
+        le=10.0,
+        description="[-] JONSWAP peak enhancement γ; None: DNV-RP-C205 §3.5.5.5's rule from "
+        "Tp/√Hs (5 at ≤ 3.6, exp(5.75 − 1.15 Tp/√Hs) between, 1 at ≥ 5: 1 for the WMO sea "
+        "states' fully developed seas); 3.3 is the JONSWAP mean the papers' presets pin",
+    )
     spreading: float | None = Field(
         None,
         ge=1.0,
         le=100.0,
         description="[-] cos-2s spreading exponent s; None: long-crested",
     )
-    n_components: int = Field(200, ge=8, le=2048, description="[-] wave components")
+    n_components: int = Field(
+        800,
+        ge=8,
+        le=2048,
+        description="[-] wave components, random frequencies inside equal bins; 800 so a live "
+        "session's vessel motion does not repeat within hours (docs/sea.md); the papers' "
+        "presets pin 200",
+    )
     regular_waves: Literal["state1", "state2", "state3"] | None = Field(
         None,
         description="seed 002 Table 2 regular-wave state instead of a spectrum (directions "
@@ -158,6 +176,32 @@ class Scenario(PlannerParameters):
             return hs, tp_table
         # below Hs ≈ 0.04 m a fully developed sea peaks under 1 s, outside the tp range
         return hs, float(np.clip(fully_developed_tp(hs), TP_RANGE[0], TP_RANGE[1]))
+
+
+def check_one_sea(given: Mapping[str, Any]) -> None:
+    """Refuse a request that sets the sea twice: `sea_state` (a WMO code) with `hs` or `tp`.
+
+    `Scenario` lets `hs`/`tp` override `sea_state`, so a stored scenario carries both; a
+    request (REST, the live session's PATCH) that writes both would silently lose one.
+
+    Args:
+        given: the fields as the request wrote them.
+
+    Raises:
+        TwinError: naming which to drop.
+    """
+    def number(name: str) -> bool:  # anything else gets its own error from its field
+        value = given.get(name)
+        return isinstance(value, int | float) and not isinstance(value, bool)
+
+    both = [name for name in ("hs", "tp") if number(name)]
+    if number("sea_state") and both:
+        named = " and ".join(both)
+        raise TwinError(
+            f"sea_state: given together with {named}, which set the sea themselves; drop "
+            f"sea_state to keep {named}, or drop {named} to use WMO sea state "
+            f"{given['sea_state']}"
+        )
 
 
 def _check_state(mechanism: str, state: list[float]) -> None:

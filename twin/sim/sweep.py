@@ -39,7 +39,7 @@ from twin.planners import get_planner
 from twin.sim.engine import simulate_many
 from twin.sim.executor import SWEEP_PRIORITY, Executor
 from twin.sim.kernels.compile import limit_threads
-from twin.sim.scenario import TP_RANGE, Scenario
+from twin.sim.scenario import DEFAULT_PLANNER, TP_RANGE, Scenario
 
 #: most grid cells (Hs × Tp × heading × planner × β × k_e × k_c) one sweep may ask for
 MAX_CELLS = 5_000
@@ -52,6 +52,12 @@ AXES = ("hs", "tp", "heading", "planner", "beta", "k_e", "k_c")
 #: most values of each axis `spec_around` makes (Hs and Tp), and Tp's largest half-width [s]
 AROUND_MAX_POINTS = 11
 AROUND_MAX_TP_SPAN = 10.0
+#: most heatmap panels (planner × heading × β × k_e × k_c) one figure draws: matplotlib's cost
+#: per panel grows with their number (50 / 400 panels took 4.4 / 51.7 s, issue 30); the REST
+#: API refuses a sweep over it (422), `heatmap_png` draws the first ones and says so
+MAX_PANELS = 36
+#: the panel axes of a heatmap
+PANEL_AXES = ("planner", "heading", "beta", "k_e", "k_c")
 #: what a run's row in `SweepResult.runs` keeps from its metrics
 RUN_METRICS = (
     "violations",
@@ -83,9 +89,15 @@ class SweepSpec(BaseModel):
     hs: list[float] = Field([0.5, 1.0, 1.5, 2.0, 2.5, 3.0], description="[m] significant heights")
     tp: list[float] = Field([6.0, 8.0, 10.0], description="[s] peak periods")
     heading: list[float] = Field(
-        [150.0], description="[deg] wave direction relative to the bow (180 head seas)"
+        [150.0],
+        description="[deg] direction the waves travel towards, counter-clockwise from the bow "
+        "(180 head seas, 90 from starboard)",
     )
-    planner: list[str] = Field(["mtmp"], description="planners of the mechanism (PLANNERS)")
+    planner: list[str] | None = Field(
+        None,
+        description="planners of the mechanism (PLANNERS); default (null): the mechanism's "
+        "own, mtmp for the hybrid system, pid for the small platforms",
+    )
     beta: list[float] = Field([0.7], description="[-] parallel/serial weight β")
     k_e: list[float] = Field([25.0], description="[1/s] closed-loop gain k_e")
     k_c: list[float] = Field([9.0], description="[-] telescope weight k_c")
@@ -108,6 +120,8 @@ class SweepSpec(BaseModel):
     def _axis(cls, values: Any, info: Any) -> Any:
         if isinstance(values, str | int | float):
             values = [values]
+        if info.field_name == "planner" and values is None:
+            return None  # the mechanism's default, filled in by `_caps`
         if not isinstance(values, list | tuple) or len(values) == 0:
             raise ValueError(f"{info.field_name}: empty axis; give at least one value")
         if not all(isinstance(v, str | int | float) for v in values):
@@ -118,18 +132,24 @@ class SweepSpec(BaseModel):
 
     @field_validator(*AXES)
     @classmethod
-    def _values(cls, values: list, info: Any) -> list:
+    def _values(cls, values: list | None, info: Any) -> list | None:
         """Each value within the `Scenario` field's range (the error names the field)."""
         name = info.field_name
+        if values is None:
+            return values
         for value in values:
             if name == "planner":
-                get_planner(value, info.data.get("mechanism", "hybrid"))
+                if "mechanism" not in info.data:
+                    break  # the mechanism itself is wrong: that is the one error to report
+                get_planner(value, info.data["mechanism"])
             else:
                 Scenario(**{name: value})
         return values
 
     @model_validator(mode="after")
     def _caps(self) -> SweepSpec:
+        if self.planner is None:
+            self.planner = [DEFAULT_PLANNER[self.mechanism]]
         clash = sorted(set(self.scenario) & {*AXES, "seed", "duration", "dt", "mechanism"})
         if clash:
             raise TwinError(f"scenario: {clash} are set by the sweep itself, not by `scenario`")
@@ -418,17 +438,30 @@ def _readable(values: np.ndarray, centre: float) -> list[float]:
     return list(dict.fromkeys(out))
 
 
+def panel_count(spec: SweepSpec) -> int:
+    """Heatmap panels a sweep's figure has: one per planner, heading and (β, k_e, k_c)."""
+    return math.prod(len(getattr(spec, axis)) for axis in PANEL_AXES)
+
+
 def heatmap_png(
-    result: SweepResult, path: str | Path, mark: tuple[float, float] | None = None
-) -> Path:
+    result: SweepResult,
+    path: Any,
+    mark: tuple[float, float] | None = None,
+    *,
+    max_panels: int = MAX_PANELS,
+) -> Any:
     """Operability heatmaps, Hs (rows) × Tp (columns), one panel per planner, heading and
     (β, k_e, k_c); cells annotated in percent; the criterion in the title.
 
+    At most `max_panels` panels are drawn (the first ones, in the table's order); the title
+    then says how many the table has, so a figure's cost stays bounded whatever the sweep.
+
     Args:
         result: the sweep.
-        path: the PNG written.
+        path: the PNG written (or a binary file object).
         mark: (Hs [m], Tp [s]) to ring on every panel, e.g. the live sea (left out when it
             lies outside the grid).
+        max_panels: most panels drawn.
 
     Returns:
         The path written.
@@ -437,7 +470,11 @@ def heatmap_png(
 
     table = result.table
     hs, tp = sorted(table["hs"].unique()), sorted(table["tp"].unique())
-    panels = list(table.groupby(["planner", "heading", "beta", "k_e", "k_c"], sort=False))
+    panels = list(table.groupby(list(PANEL_AXES), sort=False))
+    shown = "" if len(panels) <= max_panels else (
+        f"; the first {max_panels} of {len(panels)} panels (the table has all)"
+    )
+    panels = panels[:max_panels]
     columns = min(len(panels), 3)
     rows = -(-len(panels) // columns)
     figure = Figure(
@@ -456,8 +493,9 @@ def heatmap_png(
         for (i, j), value in np.ndenumerate(grid):
             if np.isfinite(value):
                 ax.text(j, i, f"{100 * value:.0f}", ha="center", va="center", fontsize=8)
-        ax.set_xticks(range(len(tp)), [f"{v:g}" for v in tp])
-        ax.set_yticks(range(len(hs)), [f"{v:g}" for v in hs])
+        # rounded as users read a sea: Hs to 0.1 m, Tp to 0.1 s
+        ax.set_xticks(range(len(tp)), [f"{v:.1f}" for v in tp])
+        ax.set_yticks(range(len(hs)), [f"{v:.1f}" for v in hs])
         ax.set_xlabel("Tp [s]")
         ax.set_ylabel("Hs [m]")
         knobs = f"β {beta:g}, k_e {k_e:g}, k_c {k_c:g}"  # the hybrid system's knobs
@@ -473,15 +511,27 @@ def heatmap_png(
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
     figure.suptitle(
-        f"Operability [%], {result.spec.seeds} seeds per cell, {result.spec.duration:g} s runs\n"
-        f"operable: no limit violation, tip error ≤ {result.spec.tip_error_threshold:g} m",
+        f"Operability [%], {result.spec.seeds} seed{'s' if result.spec.seeds != 1 else ''} "
+        f"per cell, {result.spec.duration:g} s runs\n"
+        f"operable: no limit violation, tip error ≤ {result.spec.tip_error_threshold:g} m"
+        f"{shown}",
         fontsize=9,
     )
     if image is not None:
         figure.colorbar(image, ax=axes, label="operable runs [%]", shrink=0.8)
-    path = Path(path)
-    figure.savefig(path, dpi=120, bbox_inches="tight")
+    path = Path(path) if isinstance(path, str | Path) else path
+    figure.savefig(path, dpi=120, bbox_inches="tight", format="png")
     return path
+
+
+def heatmap_bytes(result: SweepResult, max_panels: int = MAX_PANELS) -> bytes:
+    """`heatmap_png` as PNG bytes: the task a server submits to its executor, so the figure
+    is drawn in a worker process, never in the process that answers requests."""
+    import io
+
+    buffer = io.BytesIO()
+    heatmap_png(result, buffer, max_panels=max_panels)
+    return buffer.getvalue()
 
 
 def _collect(

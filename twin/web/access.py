@@ -12,9 +12,15 @@
   the REST or the viewer port) and those given with `--allow-origin`; anything else is a 403.
   A request without Origin (a script, curl) is not a browser page and is let through to the
   token check. Its Host header is never used to decide what is same-origin.
-- **Token** (REST POST and PATCH; the viewer's controls): if set, at least `MIN_TOKEN`
-  characters, compared in constant time. A client that sends a wrong token more than
-  `failure_burst` times is refused (429) for a while before its next guess is even compared.
+- **Token** (REST POST, PATCH and DELETE; the viewer's controls): if set, at least
+  `MIN_TOKEN` characters, compared in constant time. Wrong tokens are limited per (client
+  address, the failure: the first `FAILURE_PREFIX` characters of the token sent, or "none"):
+  past `failure_burst` wrong ones a client is refused (429) for a while before its next guess
+  with that prefix is even compared. The right token has a prefix of its own, which only its
+  holder knows, so nobody else's failures, from the same address, a NAT or a proxy, ever
+  refuse it (issue 30: ten wrong PATCHes from an address made the holder's right one a 429).
+  The client address is the socket's, unless the server names trusted proxies
+  (`--forwarded-allow-ips`): a made-up X-Forwarded-For picks no address.
 
 The middleware runs before the app reads a body: a request without the token is a 401
 whatever its body holds (a malformed body must not earn a 422 that tells an unknown client how
@@ -45,8 +51,14 @@ MIN_TOKEN = 16
 #: failed token attempts a client may make at once, then [1/s] how fast it gets more
 FAILURE_BURST = 10
 FAILURE_RATE = 0.2
+#: characters of a wrong token that key its failure limit (a quarter of the shortest token:
+#: the right token's bucket is out of reach of anyone who does not know a quarter of it)
+FAILURE_PREFIX = 4
 #: the scope key the middleware sets on a request it let through
 GRANTED = "twin.access"
+#: what a private server's GETs need the token for: stored runs, series, sweeps, heatmaps,
+#: workability jobs and their plots
+PRIVATE_PATHS = ("/api/runs", "/api/sweeps", "/api/workability")
 
 
 def split_host(value: str) -> tuple[str, int | None]:
@@ -103,6 +115,8 @@ class Access:
             one of its origins.
         failure_burst: wrong tokens a client may send at once; then 429 until it has waited.
         failure_rate: [1/s] how fast a client earns another attempt.
+        private: with a token, reading stored data (`PRIVATE_PATHS`) needs it too; default
+            False: GETs stay open (`twin serve --private`).
     """
 
     token: str | None = None
@@ -111,6 +125,7 @@ class Access:
     ports: frozenset[int] = frozenset()
     failure_burst: int = FAILURE_BURST
     failure_rate: float = FAILURE_RATE
+    private: bool = False
     _token: bytes | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -133,6 +148,7 @@ class Access:
         token: str | None = None,
         allow_hosts: Iterable[str] = (),
         allow_origins: Iterable[str] = (),
+        private: bool = False,
         **limits: float,
     ) -> Access:
         """The policy of a server bound to `bind` on `ports`.
@@ -167,7 +183,10 @@ class Access:
                 origins.add(normalise_origin(origin))
             except ValueError as exc:
                 raise TwinError(f"--allow-origin {origin!r}: {exc}") from None
-        return cls(token, frozenset(hosts), frozenset(origins), frozenset(ports), **limits)
+        return cls(
+            token, frozenset(hosts), frozenset(origins), frozenset(ports), **limits,
+            private=private,
+        )  # type: ignore[misc]  # fmt: skip
 
     def allows_host(self, header: str | None) -> bool:
         """Whether a request's Host header names this server (a request must have one)."""
@@ -199,8 +218,17 @@ class Access:
         return hmac.compare_digest(given, self._token)
 
     def failure_limit(self) -> RateLimit:
-        """A fresh per-client limit of failed token attempts."""
+        """A fresh per-client limit of failed token attempts (keyed by `failure_key`)."""
         return RateLimit(self.failure_rate, self.failure_burst)
+
+    @staticmethod
+    def failure_key(client: str, given: str | bytes | None) -> str:
+        """The failure limit's key of a token attempt: the client and the failure (the first
+        `FAILURE_PREFIX` characters of the token sent, "none" without one)."""
+        if isinstance(given, str):
+            given = given.encode("utf-8", "replace")
+        kind = given[:FAILURE_PREFIX].hex() if given else "none"
+        return f"{client} {kind}"
 
 
 def _client(scope: Scope) -> str:
@@ -238,28 +266,39 @@ class Guard:
                 "--allow-host NAME to allow one",
             )
             return
-        if scope["method"] in MUTATING:
+        private = self.access.private and scope["path"].startswith(PRIVATE_PATHS)
+        if scope["method"] in MUTATING or private:
             # Browsers send Origin with every POST/PATCH; scripts send none. A page from
             # another origin (another site, the viewer's port) must not drive the twin.
-            origin = headers.get(b"origin")
-            if origin is not None and not self.access.allows_origin(origin.decode("latin-1")):
-                await refuse(send, 403, f"cross-origin request from {origin.decode()} refused")
+            # Every Origin header, not the last: two are no origin (refused, as the viewer
+            # does); one that is not UTF-8 text is no URL at all (400, not a 500).
+            origins = [value for name, value in scope.get("headers", []) if name == b"origin"]
+            try:
+                texts = [value.decode("utf-8") for value in origins]
+            except UnicodeDecodeError:
+                await refuse(send, 400, "Origin header is not UTF-8 text: not an origin")
+                return
+            if len(texts) > 1 or (texts and not self.access.allows_origin(texts[0])):
+                shown = ", ".join(texts)
+                await refuse(send, 403, f"cross-origin request from {shown!r} refused")
                 return
             if self.access.token is not None:
                 client = _client(scope)
-                wait = self.failures.wait(client)
+                scheme, _, given = headers.get(b"authorization", b"").partition(b" ")
+                given = given.strip() if scheme.lower() == b"bearer" else b""
+                key = self.access.failure_key(client, given)
+                wait = self.failures.wait(key)
                 if wait > 0:
                     await refuse(
                         send,
                         429,
-                        f"too many wrong tokens from {client}; retry in {math.ceil(wait)} s",
+                        f"too many wrong tokens like this one from {client}; retry in "
+                        f"{math.ceil(wait)} s",
                         ((b"retry-after", str(math.ceil(wait)).encode()),),
                     )
                     return
-                scheme, _, given = headers.get(b"authorization", b"").partition(b" ")
-                right = self.access.token_matches(given.strip())  # constant time
-                if scheme.lower() != b"bearer" or not right:
-                    self.failures.acquire(client)
+                if not given or not self.access.token_matches(given):  # constant time
+                    self.failures.acquire(key)
                     await refuse(
                         send,
                         401,

@@ -35,19 +35,28 @@ def start_replay(
     session.replay(store.result(run_id), run_id, t, playing)
 
 
-def submit_sweep(store: RunStore, sweeps: SweepRunner, spec: SweepSpec) -> Sweep:
+def submit_sweep(
+    store: RunStore, sweeps: SweepRunner, spec: SweepSpec, max_pending: int | None = None
+) -> Sweep:
     """Store a sweep (queued) and hand it to the runner, as `POST /api/sweeps` does.
+
+    Args:
+        max_pending: most sweeps queued or running, checked atomically with the insert
+            (default `deps.MAX_PENDING_SWEEPS`), so no surface can queue more.
 
     Raises:
         ValueError: a `scenario` a run's body would refuse (a vessel path, say), located at
             `scenario.<field>` in its message.
+        QueueFull: `max_pending` sweeps are queued or running (a ValueError too).
     """
+    from twin.web.deps import MAX_PENDING_SWEEPS
     try:
         RunRequest(**spec.scenario)  # the same rules as a run's body: no vessel paths
     except ValueError as exc:
         raise SweepScenarioError(exc) from None
     total = math.prod(len(getattr(spec, axis)) for axis in AXES) * spec.seeds
-    sweep = store.create_sweep(spec.model_dump(), total)
+    cap = MAX_PENDING_SWEEPS if max_pending is None else max_pending
+    sweep = store.create_sweep(spec.model_dump(), total, max_pending=cap)
     sweeps.submit(sweep.id)
     return sweep
 

@@ -65,6 +65,9 @@ from twin.web.models import (
 )
 from twin.web.routers.registries import STATIC_DIR
 from twin.web.store import RunNotFound, RunStore, StoreUnavailable
+from twin.web.warmup import Warmup
+from twin.web.workability_jobs import WorkabilityRunner
+from twin.web.workability_store import WorkabilityStore
 
 #: Swagger UI's and ReDoc's files, as the `fastapi-offline` package ships them
 DOCS_ASSETS = Path(fastapi_offline.__file__).resolve().parent / "static"
@@ -93,24 +96,27 @@ __all__ = [
 
 
 def create_app(
-    session: LiveSession,
+    session: LiveSession | None,
     store: RunStore,
     *,
     access: Access | None = None,
     executor: Executor | None = None,
     jobs: JobRunner | None = None,
     sweeps: SweepRunner | None = None,
+    workability: WorkabilityRunner | None = None,
     viewer_port: int | None = None,
     run_rate: float = RUN_RATE,
     run_burst: int = RUN_BURST,
     max_pending_runs: int = MAX_PENDING_RUNS,
     max_pending_sweeps: int = MAX_PENDING_SWEEPS,
     max_body: int = MAX_BODY,
+    warmup: Warmup | None = None,
 ) -> FastAPI:
     """The REST app over a live session and a run store.
 
     Args:
-        session: the live session `/api/live` reads and patches (started or not).
+        session: the live session `/api/live` reads and patches (started or not); None with
+            `warmup`, until the server attaches it (`Services.attach`).
         store: where runs and sweeps are stored.
         access: who may talk to it (`Access.for_server` of the server's bind address and
             ports, with its token); default: loopback names only, no token, and no browser
@@ -122,12 +128,17 @@ def create_app(
             executor and shut down with the app.
         sweeps: the runner of operability sweeps (default: a `SweepRunner` on `store`); the
             same.
+        workability: the runner of site-workability jobs (default: a `WorkabilityRunner` on
+            the store's file, its cell cache in the store's folder); the same.
         viewer_port: the 3D viewer's port, shown by `/api/health` and the landing page.
         run_rate: [1/s] sustained run and sweep submissions per client address (429 beyond).
         run_burst: submissions a client may make at once.
         max_pending_runs: runs queued or running at most (429 beyond, until some finish).
         max_pending_sweeps: sweeps queued or running at most.
         max_body: [bytes] largest request body (413 beyond).
+        warmup: a server still starting up (`twin.web.warmup`): the app answers at once, the
+            live routes 503 and runs queue until `services.attach(session, executor)`; the
+            app then neither starts nor closes an executor of its own.
 
     Returns:
         The FastAPI app (serve it with uvicorn); `app.state.services` holds what it runs on,
@@ -142,22 +153,30 @@ def create_app(
         admission=Admission(run_rate, run_burst, max_pending_runs, max_pending_sweeps),
         registries=Registries.build(),
         viewer_port=viewer_port,
+        warmup=warmup,
+        workability=workability if workability is not None
+        else WorkabilityRunner(WorkabilityStore(store.path)),
     )
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
         own = None
-        if executor is None:
-            own = await run_in_threadpool(Executor.start, IN_PROCESS)
-        services.executor = executor if executor is not None else own
         services.stopping.clear()
-        await run_in_threadpool(services.jobs.start, services.executor)
-        await run_in_threadpool(services.sweeps.start, services.executor)
+        if warmup is None:
+            if executor is None:
+                own = await run_in_threadpool(Executor.start, IN_PROCESS)
+            services.executor = executor if executor is not None else own
+            await run_in_threadpool(services.jobs.start, services.executor)
+            await run_in_threadpool(services.sweeps.start, services.executor)
+            if services.workability is not None:
+                await run_in_threadpool(services.workability.start, services.executor)
         try:
             yield
         finally:
             services.stopping.set()
             await run_in_threadpool(services.sweeps.shutdown)
+            if services.workability is not None:
+                await run_in_threadpool(services.workability.shutdown)
             await run_in_threadpool(services.jobs.shutdown)
             if own is not None:
                 await run_in_threadpool(own.close)
@@ -189,8 +208,10 @@ def create_app(
     async def _unavailable(_: Request, exc: StoreUnavailable) -> JSONResponse:
         return JSONResponse({"detail": str(exc), "message": str(exc)}, status_code=503)
 
-    for module in (routers.registries, routers.runs, routers.sweeps, routers.live):
+    for module in (routers.registries, routers.runs, routers.sweeps, routers.workability,
+                   routers.live):  # fmt: skip
         app.include_router(module.router)
+    app.include_router(routers.workability.pages)  # the Workability page
     return app
 
 

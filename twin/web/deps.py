@@ -26,6 +26,8 @@ from twin.web.jobs import JobRunner, SweepRunner
 from twin.web.limits import RateLimit
 from twin.web.models import Registries
 from twin.web.store import RunStore
+from twin.web.warmup import Warmup
+from twin.web.workability_jobs import WorkabilityRunner
 
 #: [1/s] sustained run (and sweep) submissions per client, and how many at once
 RUN_RATE = 5.0
@@ -33,6 +35,8 @@ RUN_BURST = 20
 #: most runs, and sweeps, queued or running at a time; more are refused until some finish
 MAX_PENDING_RUNS = 200
 MAX_PENDING_SWEEPS = 4
+#: most site-workability jobs queued or running at a time (`twin.web.routers.workability`)
+MAX_PENDING_WORKABILITY = 4
 
 
 class Admission:
@@ -54,7 +58,8 @@ class Admission:
     ) -> None:
         self.limit = RateLimit(rate, burst)
         self.rate, self.burst = rate, burst
-        self.caps = {"runs": max_pending_runs, "sweeps": max_pending_sweeps}
+        self.caps = {"runs": max_pending_runs, "sweeps": max_pending_sweeps,
+                     "workability": MAX_PENDING_WORKABILITY}  # fmt: skip
 
     def admit(self, request: Request, what: str, pending: int) -> None:
         """Raise a 429 unless this client may submit now and the queue of `what` has room."""
@@ -81,7 +86,7 @@ class Services:
     """Everything the routers use, built once per app.
 
     Attributes:
-        session: the live session.
+        session: the live session; None while the server warms up (`warmup`).
         store: the run store.
         jobs: scripted runs on the executor.
         sweeps: operability sweeps on the executor.
@@ -91,9 +96,10 @@ class Services:
         viewer_port: the 3D viewer's port, if any.
         executor: the executor, once the app has started.
         stopping: set when the server starts to shut down (open requests answer at once).
+        warmup: a server's start-up progress (`twin.web.warmup`), None for an app built ready.
     """
 
-    session: LiveSession
+    session: LiveSession | None
     store: RunStore
     jobs: JobRunner
     sweeps: SweepRunner
@@ -103,6 +109,23 @@ class Services:
     viewer_port: int | None = None
     executor: Executor | None = None
     stopping: threading.Event = field(default_factory=threading.Event)
+    warmup: Warmup | None = None
+    #: site-workability jobs on the executor (`twin.web.workability_jobs`); None: no such routes
+    workability: WorkabilityRunner | None = None
+
+    @property
+    def warming(self) -> bool:
+        """Still starting up: no live session or executor yet."""
+        return self.warmup is not None and self.warmup.status != "ok"
+
+    def attach(self, session: LiveSession, executor: Executor) -> None:
+        """The start-up is done: serve `session`, and run the queued runs and sweeps (those
+        stored while warming among them) on `executor`."""
+        self.session, self.executor = session, executor
+        self.jobs.start(executor)
+        self.sweeps.start(executor)
+        if self.workability is not None:
+            self.workability.start(executor)
 
 
 def get_services(request: Request) -> Services:
@@ -113,6 +136,9 @@ ServicesDep = Annotated[Services, Depends(get_services)]
 
 
 def get_session(services: ServicesDep) -> LiveSession:
+    if services.session is None:
+        message = services.warmup.message() if services.warmup else "no live session"
+        raise HTTPException(503, message, headers={"Retry-After": "2"})
     return services.session
 
 

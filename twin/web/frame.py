@@ -39,6 +39,9 @@ class FrameState:
         leg_lengths: (n,) [m] hinge to hinge, every leg of the URDF.
         leg_min: (n,) [m] shortest leg lengths.
         leg_max: (n,) [m] longest leg lengths.
+        landing: (3,) [m] the landing point in the inertial frame: the gangway tip (hybrid:
+            ᴵT_B · ᴮT_E), else the platform top (the 3UPU_UP's cargo top, the 4-UPR's pad
+            centre: ᴵT_B · ᴮT_P), the point whose held place is `held`'s origin.
         ghost: the comparison lane read the same way (its scenario has its own planner), or
             None.
         replay: the stored run shown instead of the simulation ({run_id, t, duration}), or
@@ -59,6 +62,7 @@ class FrameState:
     leg_lengths: np.ndarray
     leg_min: np.ndarray
     leg_max: np.ndarray
+    landing: np.ndarray
     ghost: FrameState | None = None
     replay: dict[str, Any] | None = None
 
@@ -71,6 +75,18 @@ class FrameState:
     def state(self) -> np.ndarray:
         """The mechanism's own state (xi for the hybrid system)."""
         return self.record[STATE_KEY.get(self.scenario.mechanism, "state")]
+
+    @property
+    def landing_offset(self) -> np.ndarray:
+        """(3,) [m] where the landing point is minus where it is held, inertial: the tip
+        error of every mechanism, as the viewer shows it (trail, readout, plots).
+
+        The recorded `tip_error` is this for the hybrid system and the 3UPU_UP, but for the
+        4-UPR it is the top's error against the state it can reach (its height held on the
+        base, no surge or sway: `PlatformModel.desired_state`), which a pad drifting off its
+        held pose with the vessel does not show.
+        """
+        return self.landing - self.held[:3, 3]
 
     @property
     def leg_margin(self) -> np.ndarray:
@@ -100,6 +116,10 @@ def _frame(
     cfg = {name: float(v) for name, v in joint_configuration(mechanism, state).items()}
     layout = mechanism.layout
     strokes = [leg_joint_names(i + 1)[2] for i in range(layout.n_legs)]
+    transform_base = pose_to_transform(record["base_pose"])
+    transform_platform = pose_to_transform(np.asarray(mechanism.platform_pose(state)))
+    # the gangway tip of the hybrid system, else the platform top (`FrameState.landing`)
+    top = mechanism.end_effector(state) if scenario.mechanism == "hybrid" else transform_platform
     return FrameState(
         version=view["version"],
         scenario=scenario,
@@ -110,11 +130,12 @@ def _frame(
         playing=view["playing"],
         speed=view["speed"],
         cfg=cfg,
-        transform_base=pose_to_transform(record["base_pose"]),
-        transform_platform=pose_to_transform(np.asarray(mechanism.platform_pose(state))),
+        transform_base=transform_base,
+        transform_platform=transform_platform,
         leg_lengths=np.array([cfg[name] for name in strokes]),
         leg_min=np.array(layout.length_min),
         leg_max=np.array(layout.length_max),
+        landing=(transform_base @ top)[:3, 3],
         ghost=ghost,
         replay=view["replay"],
     )

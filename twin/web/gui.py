@@ -32,6 +32,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any, get_args
@@ -60,6 +61,23 @@ PLOT_SAMPLES = 300
 PLOT_PERIOD = 0.1
 READOUT_PERIOD = 0.2
 METRICS_PERIOD = 2.0
+#: what the browsers render (`twin.web.scene.configure_graphics`): "full" lights the scene
+#: with an environment map (image-based reflections) and casts the sun's shadows (three
+#: cascaded shadow maps, each drawing the scene again); "light" drops both, for a browser
+#: without a GPU (a remote desktop, a virtual machine: WebGL on the CPU), where the
+#: environment map costs most of each frame. The server's `--graphics` is every browser's
+#: start; each browser switches its own (View → Graphics), and one that reports a software
+#: renderer is switched to "light" (`twin.web.scene.Viewer.report_renderer`)
+GRAPHICS = ("full", "light")
+#: [s] how long the readout says that live time restarted (a compare planner change)
+RESTART_NOTE = 15.0
+#: what each mechanism holds still in the inertial frame: the landing point its tip error
+#: is measured at (`FrameState.landing_offset`)
+HOLDS_WHAT = {
+    "hybrid": "gangway tip from its landing spot",
+    "upu3up": "platform top from its held pose",
+    "upr4": "pad centre from its held pose",
+}
 #: [m] leg-length tolerance of the limit readout (Table 1's millimetre precision)
 LEG_TOL = 5e-4
 #: [-] tolerance of the state-limit readout, a fraction of each state's range: a state held
@@ -181,7 +199,7 @@ PLANNER_KNOBS = tuple(
 )
 SEA_KNOBS = (
     knob(Scenario, "sea_state", "Sea state (WMO)", step=0.1),
-    knob(Scenario, "heading", "Wave heading [deg]"),
+    knob(Scenario, "heading", "Wave heading [deg] (180 from ahead, 90 from stbd, 270 from port)"),
 )
 SPEED_KNOB = knob(LiveControls, "speed", "Sim speed ×", step=0.25)
 MECHANISM_NAMES: tuple[str, ...] = get_args(Scenario.model_fields["mechanism"].annotation)
@@ -238,12 +256,13 @@ def plot_specs(fs: FrameState) -> tuple[PlotSpec, ...]:
     error = PlotSpec(
         # µrad, not degrees: uPlot's tick labels keep three decimals, and the hybrid
         # system's orientation error is ~1e-4 deg
+        # position: the landing point's distance from where it is held (`landing_offset`)
         "Tip error: position [mm] (left), orientation [µrad] (right)",
         (_line("|e_p| [mm]", 0, "a"), _line("|e_r| [µrad]", 1, "b")),
         two,
         two_axes,
         lambda f: np.r_[
-            1e3 * np.linalg.norm(f.record["tip_error"][:3]),
+            1e3 * np.linalg.norm(f.landing_offset),
             1e6 * np.linalg.norm(f.record["tip_error"][3:]),
         ],
     )
@@ -323,6 +342,12 @@ def plain(value: float, digits: int = 3) -> str:
 
 #: SI prefixes the readout picks from, largest first
 _PREFIXES = ((1e3, "k"), (1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"))
+
+
+def mm(length: float, digits: int = 3) -> str:
+    """A length [m] in millimetres, the one unit of every tip error shown: `digits`
+    significant digits in plain notation (1.39 m reads 1390 mm, 18 µm 0.0180 mm)."""
+    return f"{plain(1e3 * float(length), digits)} mm"
 
 
 def si(value: float, unit: str, digits: int = 3) -> str:
@@ -415,9 +440,18 @@ def limit_line(faults: dict[str, Any], joint_limits: str) -> str:
 HELP = """**Legs** are coloured by their margin to the stroke ends: green at mid-stroke, through
 yellow and orange, to red at a limit.
 
-**Tip-error trail** (magenta): the gangway tip's (a platform top's) distance from the pose it
-holds, drawn magnified by the power of ten in its label ("tip error ×10000": 1 mm of error
-draws as 10 m); older samples fade.
+**Tip error**, for every mechanism: the distance in mm between where its landing point is
+and where it is held still in the sea. The hybrid system holds its gangway tip on the
+turbine's landing spot; the 3UPU_UP holds its platform top (the cargo's seat) where it was
+at the start, level, under the container (the green disc); the 4-UPR holds its pad's centre
+where it was at the start, level, under the UAV (the green pad). The 4-UPR can only keep
+its pad level: its height rides on the vessel, and surge and sway carry it off the held
+pad, so its tip error is the vessel's drift, up to metres. The readout, the
+plot and the trail all show this distance.
+
+**Tip-error trail** (magenta): the landing point's offset from its held place, drawn from
+the held place with a fixed magnification that its label states: ×10 000 for the gangway
+tip (1 mm draws as 10 m), true size (×1) for the two platforms; older samples fade.
 
 **Targets**, fixed in the sea while the vessel moves: the hybrid gangway lands on a wind
 turbine's access platform (the grey tower is the turbine, the green square its landing
@@ -442,7 +476,10 @@ current planner and knobs: "Hs cells" values of Hs from (100 − span) % to (100
 the current Hs ("Hs span"; 0 … 2 × span / 100 m on a calm sea) times "Tp cells" values of Tp
 within the current Tp ± "Tp span" seconds (kept within 1 … 30 s), evenly spaced with the
 current sea one of the cells; each cell runs "Seeds per cell" sea records of "Run length"
-seconds, so a sweep is cells × seeds runs. The heatmap rings the current sea.
+seconds, so a sweep is cells × seeds runs. The heatmap rings the current sea. A cell's
+operability is the share of its seeds' runs that stayed operable over the whole run length
+(a run with one sample beyond a limit, or a tip error over the threshold, is not), so the
+ringed cell can differ from the live run, which is one seed and shows only its last 30 s.
 """
 
 
@@ -495,6 +532,8 @@ class ClientPanel:
             length → its widget (with a run store).
         buttons: button label → its handle (run controls, replay, sweep and camera views).
         show_trail: checkbox of the tip-error trail.
+        graphics: this browser's graphics dropdown (`GRAPHICS`; never locked: it changes
+            what this browser draws, nothing else).
         locked: whether its edits are refused.
     """
 
@@ -555,6 +594,13 @@ class ClientPanel:
                 button.on_click(lambda event, view=view: gui.on_camera(view, [client]))
                 self.buttons[VIEW_LABELS[view]] = button
             self.show_trail = cg.add_checkbox("Tip-error trail", initial_value=gui.trail)
+            self.graphics = cg.add_dropdown(
+                "Graphics", GRAPHICS, initial_value=gui.graphics,
+                hint="what this browser draws: full (environment map, shadows) or light (for "
+                "a browser without a GPU); switched to light by itself on a software WebGL "
+                "renderer",
+            )  # fmt: skip
+            self.graphics.on_update(self._on_graphics)
         if gui.store is not None:
             self._add_replay(folders["Replay"])
         if gui.store is not None and gui.sweeps is not None:
@@ -723,6 +769,11 @@ class ClientPanel:
 
         return on_update
 
+    def _on_graphics(self, event: viser.GuiEvent) -> None:
+        if event.client is None:
+            return  # the server's own change (`TwinGui.set_graphics`)
+        self.gui.set_graphics(self, str(self.graphics.value))
+
     def _on_trail(self, event: viser.GuiEvent) -> None:
         if event.client is None:
             return
@@ -795,6 +846,8 @@ class TwinGui:
             the Operability folder.
         sweeps: the runner of sweeps (the REST app's).
         api_url: the REST API's address, for links to stored sweeps.
+        graphics: every browser's graphics at the start (`GRAPHICS`).
+        on_graphics: lights one browser's scene for a graphics mode (client, mode).
 
     Attributes:
         panels: client id → its controls.
@@ -817,9 +870,13 @@ class TwinGui:
         store: Any = None,
         sweeps: Any = None,
         api_url: str | None = None,
+        graphics: str = "full",
+        on_graphics: Callable[[viser.ClientHandle, str], None] | None = None,
     ) -> None:
         self.server = server
         self.session = session
+        self.graphics = graphics
+        self.on_graphics = on_graphics
         self.store = store
         self.sweeps = sweeps
         self.api_url = (api_url or "").rstrip("/")
@@ -845,6 +902,10 @@ class TwinGui:
         self._metrics: dict[str, Any] = {}
         self._faults: dict[str, Any] = {}
         self._compare: dict[str, Any] | None = None
+        # (|tip error|, the ghost's) [m] at the plots' samples: the readout's window
+        self._tips: deque[tuple[float, float]] = deque(maxlen=PLOT_SAMPLES)
+        self.restarted: tuple[float, str] | None = None  # (monotonic time, why), see update
+        self._compare_seen: str | None = None
         gui = server.gui
         shown = FOLDERS if store is not None else FOLDERS[:4]
         if sweeps is None:
@@ -891,7 +952,7 @@ class TwinGui:
         """Remove a panel built for a browser that had already left (viser's teardown of it
         ran before these widgets existed, so they would stay listed in the shared folders)."""
         handles = [*panel.inputs.values(), *panel.settings.values(), *panel.buttons.values()]
-        for handle in [*handles, panel.show_trail]:
+        for handle in [*handles, panel.show_trail, panel.graphics]:
             try:
                 handle.remove()
             except Exception:
@@ -911,7 +972,7 @@ class TwinGui:
         Returns:
             True, or why not (a wrong token, or too many wrong ones from its address).
         """
-        key = self._remote(client)
+        key = self.access.failure_key(self._remote(client), token)  # per failure, not address
         wait = self._failures.wait(key)
         if wait > 0:
             return f"too many wrong tokens; retry in {wait:.0f} s"
@@ -924,6 +985,16 @@ class TwinGui:
         if panel is not None:
             panel.set_locked(False)
         return True
+
+    def set_graphics(self, panel: ClientPanel, mode: str) -> None:
+        """Light one browser's scene for `mode` (one of `GRAPHICS`) and show it on its
+        dropdown; an unknown mode is undone."""
+        if mode not in GRAPHICS:
+            mode = self.graphics
+        if panel.graphics.value != mode:
+            _assign(panel.graphics, "value", mode)
+        if self.on_graphics is not None:
+            self.on_graphics(panel.client, mode)
 
     def allowed(self, client: viser.ClientHandle | None) -> bool:
         """Whether edits from `client` apply (None: the server itself)."""
@@ -1068,10 +1139,9 @@ class TwinGui:
             path = heatmap_png(result, Path(folder) / "heatmap.png", mark=sea)
             image = np.asarray(Image.open(path).convert("RGB"))
         link = f"{self.api_url}/api/sweeps/{sweep.id}"
-        self.sweep_status.content = (
-            f"**Sweep {sweep.id[:8]}** done: {sweep.total} runs; the ring marks the current "
-            f"sea (Hs {sea[0]:.2g} m, Tp {sea[1]:.2g} s). Stored as [{link}]({link}) "
-            f"([heatmap]({link}/heatmap.png))."
+        seeds = int(sweep.spec.get("seeds", 1))
+        self.sweep_status.content = sweep_text(
+            sweep.id, sweep.total, seeds, float(sweep.spec.get("duration", 0.0)), sea, link
         )
         with self.folders["Operability"]:
             if self.heatmap is None:
@@ -1130,6 +1200,7 @@ class TwinGui:
         self._specs = specs
         self._samples = np.zeros((len(specs), PLOT_SAMPLES, 1 + max(len(p.series) for p in specs)))
         self._count = 0
+        self._tips.clear()
         self._next["plot"] = self._next["metrics"] = 0.0
 
     def update(self, fs: FrameState) -> None:
@@ -1141,6 +1212,14 @@ class TwinGui:
         }  # fmt: skip
         values[COMPARE] = fs.ghost.scenario.planner if fs.ghost is not None else NO_COMPARE
         now = time.monotonic()
+        compare = self.current(COMPARE)
+        if self._compare_seen is not None and compare != self._compare_seen:
+            # a compare change restarts both lanes from t = 0 (`LiveSession.patch`): say so
+            what = ("the compare planner was removed" if compare == NO_COMPARE
+                    else f"the compare planner is now {compare}")  # fmt: skip
+            self.restarted = (now, what)
+            self._next["readout"] = 0.0
+        self._compare_seen = compare
         if self.store is not None and now >= self._next["runs"]:
             self._next["runs"] = now + RUNS_PERIOD
             self._refresh_runs()
@@ -1175,8 +1254,11 @@ class TwinGui:
         last = self._samples[0, self._count - 1, 0] if self._count else -np.inf
         if fs.t < last:  # a restart the version check has not seen yet
             self._count, last = 0, -np.inf
+            self._tips.clear()
         if fs.t < last + PLOT_DT - 1e-9:
             return
+        ghost = fs.ghost.landing_offset if fs.ghost is not None else np.zeros(3)
+        self._tips.append((np.linalg.norm(fs.landing_offset), np.linalg.norm(ghost)))
         if self._count == PLOT_SAMPLES:
             self._samples = np.roll(self._samples, -1, axis=1)
             self._count -= 1
@@ -1197,8 +1279,8 @@ class TwinGui:
             f"**t = {fs.t:.2f} s** · {where}, {'playing' if fs.playing else 'paused'} at "
             f"{fs.speed:g}× · {s.mechanism} / {s.planner} · {sea}",
             "",
-            f"- tip error now: {si(np.linalg.norm(e[:3]), 'm')}, "
-            f"{si(np.linalg.norm(e[3:]), 'rad')}",
+            f"- tip error now: {mm(np.linalg.norm(fs.landing_offset))} "
+            f"({HOLDS_WHAT[s.mechanism]}), orientation {si(np.linalg.norm(e[3:]), 'rad')}",
             f"- leg margin: {si(margin[worst], 'm')} (leg {worst + 1})",
         ]
         if "manipulability" in fs.record:
@@ -1210,21 +1292,25 @@ class TwinGui:
             )
         span = "the whole run" if fs.replay else "the history"
         m = self._metrics
-        if m:
+        tips = np.asarray(self._tips)
+        window = f"the last {PLOT_DT * len(tips):.0f} s"
+        if tips.size:
             lines.append(
-                f"- over {span}: tip error rms {si(m['tip_position_error_rms'], 'm')}, "
-                f"max {si(m['tip_position_error_max'], 'm')}"
+                f"- over {window}: tip error rms {mm(np.sqrt(np.mean(tips[:, 0] ** 2)))}, "
+                f"max {mm(tips[:, 0].max())}"
             )
         c = self._compare
         if c is not None and fs.ghost is not None:
             cm = c["metrics"]
+            ghost = tips[:, 1] if tips.size else np.zeros(1)
             lines.append(
                 f"- ghost {c['planner']}: tip error now "
-                f"{si(np.linalg.norm(fs.ghost.record['tip_error'][:3]), 'm')}, rms "
-                f"{si(cm['tip_position_error_rms'], 'm')}, max "
-                f"{si(cm['tip_position_error_max'], 'm')}; {cm['violations']} samples beyond "
-                "a limit"
+                f"{mm(np.linalg.norm(fs.ghost.landing_offset))}, over {window} rms "
+                f"{mm(np.sqrt(np.mean(ghost**2)))}, max {mm(ghost.max())}; "
+                f"{cm['violations']} samples beyond a limit"
             )
+        if self.restarted is not None and time.monotonic() < self.restarted[0] + RESTART_NOTE:
+            lines.insert(1, f"\n↺ **Live time restarted at t = 0:** {self.restarted[1]}\n")
         violations = limit_violations(fs)
         now = ("none now" if not violations
                else "⚠ now " + "; ".join(violations))  # fmt: skip
@@ -1233,6 +1319,28 @@ class TwinGui:
         lines += ["", fault_line(self._faults), "", limit_line(self._faults, s.joint_limits),
                   "", f"**Limit violations:** {now} · {over}"]  # fmt: skip
         return "\n".join(lines)
+
+
+def plural(n: int, word: str) -> str:
+    """`n` and `word`, plural unless n is 1: "1 seed", "2 seeds"."""
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"
+
+
+def sweep_text(
+    sweep_id: str, total: int, seeds: int, duration: float, sea: tuple[float, float], link: str
+) -> str:
+    """The Operability folder's text under a sweep's heatmap: what it ran, the ringed current
+    sea (Hs to 0.1 m, Tp to 0.1 s, as the heatmap's ticks), why a cell can differ from the
+    live run, and short links to the stored sweep (a bare URL would not wrap in the panel)."""
+    return (
+        f"**Sweep {sweep_id[:8]}** done: {plural(total, 'run')}, {plural(seeds, 'seed')} per "
+        f"cell, {duration:g} s each. The ring marks the current sea (Hs {sea[0]:.1f} m, "
+        f"Tp {sea[1]:.1f} s).\n\n"
+        f"A cell's operability is the share of its runs ({plural(seeds, 'seed')}) that stayed "
+        f"operable for the whole {duration:g} s, so it can differ from the live run (one "
+        f"seed, seen over its last 30 s).\n\n"
+        f"Stored: [sweep {sweep_id[:8]}]({link}) · [heatmap PNG]({link}/heatmap.png)"
+    )
 
 
 def replay_line(fs: FrameState) -> str:

@@ -16,18 +16,25 @@ it (`BudgetExceeded`) and it is stored as failed with a message. A worker that d
 `WATCHDOG_GRACE` s after the budget has its run failed and is restarted.
 
 Sweeps (`SweepRunner`) run one at a time from a thread that drives `run_sweep` on the same
-executor: their chunks queue behind single runs (a lower Dask priority).
+executor: their chunks queue behind single runs (a lower Dask priority). A sweep's heatmap is
+drawn by a task on the executor too (`twin.sim.sweep.heatmap_bytes`), never in the server
+process, so a figure cannot take the process that answers requests.
+
+Cancel (issue 30): `JobRunner.cancel` and `SweepRunner.cancel` mark a queued or running job
+failed ("cancelled …") and cancel its futures; a sweep in hand stops after the chunk that is
+running. A run already on a worker cannot be interrupted mid-chunk: it ends within its budget
+and its outcome is dropped. Restarts: a job started `store.MAX_ATTEMPTS` times without
+finishing (each stopped by a shutdown or a crash) is failed on the next start, with the
+reason, instead of being queued again.
 """
 
 from __future__ import annotations
 
 import logging
 import queue
-import tempfile
 import threading
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
-from pathlib import Path
 from typing import Any
 
 from twin.sim import Scenario
@@ -46,6 +53,8 @@ SYNC_GRACE = 30.0
 WATCHDOG_GRACE = 10.0
 #: [s] how often the watchdog looks
 WATCHDOG_PERIOD = 1.0
+#: [s] how often a sweep thread waiting on the executor looks whether to stop
+POLL = 0.2
 
 
 def steps(scenario: Scenario) -> int:
@@ -132,6 +141,25 @@ class JobRunner:
             log.warning("run store unavailable at shutdown: unfinished runs not requeued")
 
     # -- runs ----------------------------------------------------------------------------------
+    def cancel(self, run_id: str, reason: str = "by request") -> bool:
+        """Cancel a queued or running run: stored failed ("cancelled …"), its future cancelled
+        (a run in a worker's hands ends within its budget; its outcome is dropped). Whether it
+        was queued or running.
+
+        Raises:
+            RunNotFound: no run has this id.
+        """
+        cancelled = self.store.cancel(run_id, reason)
+        with self._lock:
+            entry = self._futures.pop(run_id, None)
+            self._running.pop(run_id, None)
+        if entry is not None:
+            dask, done = entry
+            if self.executor is not None and dask is not None:
+                self.executor.cancel([dask])
+            done.cancel()
+        return cancelled
+
     def submit(self, run_id: str) -> Future[Run]:
         """Run a stored run on the executor.
 
@@ -259,6 +287,8 @@ class SweepRunner:
         self._queue: queue.Queue[str | None] = queue.Queue()
         self._thread: threading.Thread | None = None
         self._stopping = threading.Event()
+        self._cancelled: set[str] = set()
+        self._lock = threading.Lock()
 
     def start(self, executor: Executor) -> list[str]:
         """Start the thread on `executor`; queue sweeps a previous server left unfinished.
@@ -277,8 +307,28 @@ class SweepRunner:
         return recovered
 
     def submit(self, sweep_id: str) -> None:
-        """Run a stored sweep after the ones already queued."""
-        self._queue.put(sweep_id)
+        """Run a stored sweep after the ones already queued (not started yet, as while a server
+        warms up: `start` takes it from the store with the others)."""
+        if self.executor is not None:
+            self._queue.put(sweep_id)
+
+    def cancel(self, sweep_id: str, reason: str = "by request") -> bool:
+        """Cancel a queued or running sweep: stored failed ("cancelled …"); the one in hand
+        stops after its running chunk, its other chunks and its heatmap cancelled. Whether it
+        was queued or running.
+
+        Raises:
+            SweepNotFound: no sweep has this id.
+        """
+        cancelled = self.store.cancel_sweep(sweep_id, reason)
+        if cancelled:
+            with self._lock:
+                self._cancelled.add(sweep_id)
+        return cancelled
+
+    def _stopped(self, sweep_id: str) -> bool:
+        with self._lock:
+            return self._stopping.is_set() or sweep_id in self._cancelled
 
     def shutdown(self, timeout: float = 2.0) -> None:
         """Cancel the sweep in hand; it and the queued ones stay queued in the store."""
@@ -296,29 +346,56 @@ class SweepRunner:
         while (sweep_id := self._queue.get()) is not None:
             if self._stopping.is_set():
                 return
+            if self._stopped(sweep_id):  # cancelled while queued: nothing to run
+                with self._lock:
+                    self._cancelled.discard(sweep_id)
+                continue
             self.execute(sweep_id)
 
     def execute(self, sweep_id: str) -> None:
         """Run one stored sweep to the end, storing progress, table and heatmap (or the error)."""
-        from twin.sim.sweep import SweepSpec, heatmap_png, run_sweep
+        from twin.sim.sweep import SweepSpec, heatmap_bytes, run_sweep
 
+        stop = lambda: self._stopped(sweep_id)  # noqa: E731
         try:
             spec = SweepSpec(**self.store.get_sweep(sweep_id).spec)
-            self.store.sweep_running(sweep_id)
+            if not self.store.sweep_running(sweep_id):
+                return  # cancelled before it started
             result = run_sweep(
                 spec,
                 executor=self.executor,
                 progress=False,
                 on_progress=lambda done, _total: self.store.sweep_progress(sweep_id, done),
-                stop=self._stopping.is_set,
+                stop=stop,
             )
-            with tempfile.TemporaryDirectory() as folder:
-                png = heatmap_png(result, Path(folder) / "heatmap.png").read_bytes()
+            png = self._render(heatmap_bytes, result, stop)
             self.store.finish_sweep(sweep_id, result.to_dict(), png)
         except Exception as exc:  # a thread has no caller to raise to: the store is its report
-            if self._stopping.is_set():
-                return  # cancelled by the shutdown: left queued, run again on the next start
+            if stop():
+                # a shutdown leaves it queued (run again on the next start); a cancel has
+                # stored it as cancelled already
+                return
             try:
                 self.store.fail_sweep(sweep_id, f"{type(exc).__name__}: {exc}")
             except Exception:
                 log.exception("sweep %s failed and could not be stored as failed", sweep_id)
+        finally:
+            with self._lock:
+                self._cancelled.discard(sweep_id)
+
+    def _render(self, draw: Any, result: Any, stop: Any) -> bytes:
+        """`draw(result)` as a task on the executor (a worker process draws the figure),
+        waited for in short steps so a stop or a cancel does not wait for it."""
+        if self.executor is None:
+            raise RuntimeError("SweepRunner.start(executor) first")
+        future = self.executor.submit(draw, result)
+        try:
+            while True:
+                if stop():
+                    raise RuntimeError("stopped while the heatmap was drawn")
+                try:
+                    return future.result(timeout=POLL)
+                except TimeoutError:
+                    continue
+        finally:
+            self.executor.cancel([future])

@@ -1,9 +1,14 @@
-"""Limits on what a client may send: request size (413), submission rate (429), and (through
-`RateLimit`, used by `twin.web.access`) failed token attempts.
+"""Limits on what a client may send: request size (413), submission rate (429), (through
+`RateLimit`, used by `twin.web.access`) failed token attempts, and the price of a request.
 
 A script in a loop, or a hostile client, must not fill the memory with one huge body nor the
 run queue and the disk with thousands of runs: bodies are capped before they are parsed, and
 each client address gets a token bucket of submissions.
+
+Every run and sweep is priced before it starts (`price_run`, `price_sweep`: steps, cells,
+heatmap panels, bytes it will store) and refused with a 422 that names the limit when it is
+over one (issue 30: one sweep of 5,000 headings built 5,000 matplotlib panels for over an
+hour).
 """
 
 from __future__ import annotations
@@ -13,10 +18,18 @@ import math
 import threading
 import time
 from collections.abc import Awaitable, Callable, MutableMapping
+from dataclasses import dataclass
 from typing import Any
 
 #: [bytes] largest request body: a scenario is < 2 KiB, a sweep spec with long axes < 16 KiB
 MAX_BODY = 64 * 1024
+#: [bytes] a run's stored series per step, before compression: 73.6 MB for a 200,000-step run
+#: of the hybrid system (issue 30), the largest kind; a price's upper bound
+SERIES_BYTES_PER_STEP = 368
+#: [bytes] a sweep's stored table per cell and heatmap per panel (upper bounds, measured on
+#: 7-axis tables and 120 dpi panels)
+SWEEP_BYTES_PER_CELL = 400
+HEATMAP_BYTES_PER_PANEL = 40_000
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -151,3 +164,56 @@ class RateLimit:
         ]
         for k in full:
             del self._buckets[k]
+
+
+@dataclass(frozen=True)
+class Price:
+    """What a request will cost, known before it starts.
+
+    Attributes:
+        steps: planner steps in all (runs × duration / dt).
+        cells: grid cells (1 for a run).
+        panels: heatmap panels (0 for a run).
+        bytes: [bytes] an upper bound of what it stores.
+    """
+
+    steps: int
+    cells: int
+    panels: int
+    bytes: int
+
+
+def price_run(scenario: Any) -> Price:
+    """The price of one run of `scenario` (a `Scenario`)."""
+    steps = round(scenario.duration / scenario.dt)
+    return Price(steps, 1, 0, steps * SERIES_BYTES_PER_STEP)
+
+
+def price_sweep(spec: Any) -> Price:
+    """The price of a sweep (`SweepSpec`): its steps, cells, panels and stored bytes."""
+    from twin.sim.sweep import AXES, panel_count
+
+    cells = math.prod(len(getattr(spec, axis)) for axis in AXES)
+    panels = panel_count(spec)
+    steps = cells * spec.seeds * round(spec.duration / spec.dt)
+    return Price(
+        steps, cells, panels, cells * SWEEP_BYTES_PER_CELL + panels * HEATMAP_BYTES_PER_PANEL
+    )
+
+
+def sweep_over_limits(spec: Any) -> list[dict[str, Any]]:
+    """The limits a sweep is over, as 422 errors naming each (empty: it may run). The grid's
+    own caps (cells, runs, steps) are `SweepSpec`'s; this adds the heatmap's panels."""
+    from twin.sim.sweep import MAX_PANELS, PANEL_AXES
+
+    price = price_sweep(spec)
+    if price.panels <= MAX_PANELS:
+        return []
+    shape = " × ".join(f"{axis} {len(getattr(spec, axis))}" for axis in PANEL_AXES)
+    widest = max(PANEL_AXES, key=lambda axis: len(getattr(spec, axis)))
+    return [{
+        "loc": ("body", widest),
+        "msg": f"heatmap of {price.panels} panels ({shape}); allowed at most {MAX_PANELS} "
+        f"(MAX_PANELS): give fewer {widest} values, or split it into several sweeps",
+        "type": "limit_exceeded",
+    }]  # fmt: skip

@@ -27,7 +27,7 @@ from twin.sea.sea_states import WMO_SEA_STATES
 from twin.sim import Scenario
 from twin.sim.live import COMPARE, LiveControls
 from twin.sim.live import LIVE_FIELDS as SESSION_FIELDS
-from twin.sim.scenario import DEFAULT_PLANNER
+from twin.sim.scenario import DEFAULT_PLANNER, check_one_sea
 from twin.sim.sweep import SweepSpec
 from twin.vessel.rao import available_raos
 
@@ -42,13 +42,26 @@ class ExecutorInfo(BaseModel):
     started: float = Field(description="[s] when it started (Unix time)")
 
 
-class Health(BaseModel):
-    """The server is up."""
+class WarmupInfo(BaseModel):
+    """A server's start-up progress (`twin.web.warmup.Warmup`)."""
 
-    status: Literal["ok"] = "ok"
+    stage: str = Field(description="what it is doing: compiling kernels, starting the executor …")
+    kernels_done: int = Field(description="lane sets of the kernels compiled or loaded so far")
+    kernels_total: int
+    last_kernel: str | None = Field(description="the last one done, e.g. 'hybrid mtmp'")
+    elapsed_s: float = Field(description="[s] since start-up began")
+    error: str | None = Field(description="why start-up failed, if it did")
+
+
+class Health(BaseModel):
+    """The server is up: `ok` once it runs, `warming` while its kernels compile (REST answers;
+    runs queue and the live routes answer 503 until then), `failed` if start-up failed."""
+
+    status: Literal["ok", "warming", "failed"] = "ok"
     version: str = Field(description="wave-twin version")
     viewer_port: int | None = Field(description="port of the 3D viewer on this host, if any")
     executor: ExecutorInfo | None = Field(None, description="where runs and sweeps execute")
+    warming: WarmupInfo | None = Field(None, description="start-up progress, until `ok`")
 
 
 class MechanismInfo(BaseModel):
@@ -157,6 +170,13 @@ class RunRequest(Scenario):
         "mount. Your own .nc table is loaded from Python (`Scenario(vessel=path)`), not REST.",
     )
 
+    @model_validator(mode="before")
+    @classmethod
+    def _one_sea(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            check_one_sea(data)
+        return data
+
     @field_validator("planner")
     @classmethod
     def _planner_for_mechanism(cls, value: str | None, info: Any) -> str | None:
@@ -187,12 +207,20 @@ def _optional(model: type[BaseModel], name: str) -> tuple[Any, Any]:
     return annotation | None, Field(None, description=info.description)
 
 
+def _one_sea_patch(cls: type, data: Any) -> Any:
+    """A PATCH sets the sea once: `sea_state`, or `hs`/`tp` (`check_one_sea`)."""
+    if isinstance(data, dict):
+        check_one_sea(data)
+    return data
+
+
 LivePatch = create_model(
     "LivePatch",
     __config__=ConfigDict(extra="forbid", allow_inf_nan=False),
     __doc__="Fields to change in the live session; omitted fields stay as they are.",
     __validators__={
-        "_known_planner": field_validator("planner", COMPARE)(_known_planner)
+        "_known_planner": field_validator("planner", COMPARE)(_known_planner),
+        "_one_sea": model_validator(mode="before")(_one_sea_patch),
     },
     **{name: _optional(RunRequest, name) for name in LIVE_FIELDS},
     **{COMPARE: (
@@ -246,6 +274,13 @@ LiveState = create_model(
     metrics=(dict[str, Any], Field(description="metrics over the live history (a replay: "
              "over the stored run)")),
     compare=(LiveCompare | None, Field(None, description="the comparison lane, if any")),
+    restarts=(int, Field(0, description="times live time restarted at t = 0 since the server "
+              "started (a mechanism, vessel, dt, initial_state or compare_planner change, or a "
+              "reset)")),
+    restart_reason=(str | None, Field(None, description="why it last restarted, e.g. "
+                    "'compare_planner changed'")),
+    restarted=(bool | None, Field(None, description="PATCH's answer only: whether this change "
+               "restarted live time at t = 0")),
     replay=(ReplayState | None, Field(None, description="the stored run replayed, if any; "
             "scenario fields, `t` and metrics are then the run's")),
     faults=(
@@ -321,9 +356,15 @@ def unprocessable(
         if field in ranges:
             item["allowed"] = ranges[field]
         detail.append(item)
+        if error["type"] == "json_invalid":  # loc is (body, character offset): say what it is
+            reason = error.get("ctx", {}).get("error", error["msg"])
+            lines.append(f"the body is not valid JSON: {reason} (at character {loc[-1]})")
+            continue
         name = ".".join(map(str, loc[1:] or loc))
-        lines.append(f"{name}: {error['msg']}" + (f" (allowed: {item['allowed']})"
-                                                  if "allowed" in item else ""))  # fmt: skip
+        # a TwinError located at its field already names it: "sea_state: given together …"
+        message = str(error["msg"]).removeprefix("Value error, ").removeprefix(f"{name}: ")
+        lines.append(f"{name}: {message}" + (f" (allowed: {item['allowed']})"
+                                             if "allowed" in item else ""))  # fmt: skip
     return JSONResponse({"detail": detail, "message": "; ".join(lines), **extra}, status_code=422)
 
 

@@ -16,7 +16,9 @@ The scene is drawn in the simulation's inertial (equilibrium) frame, z up:
 - the fixed target in the inertial frame: a wind-turbine transition piece with its access
   platform (hybrid gangway), a hovering UAV over the landing pad's held pose (4-UPR), a
   crane-hung container over the cargo platform's held pose (3UPU_UP);
-- a trail of the tip error, magnified by a labelled power of ten.
+- a trail of the tip error (where the landing point is minus where it is held,
+  `FrameState.landing_offset`), magnified by a fixed factor per mechanism
+  (`TRAIL_MAGNIFICATION`) that its label states.
 
 Nodes are added when a mechanism is built (at start and when the session switches mechanism,
 when every browser's camera is pointed at the new mechanism) and otherwise only updated
@@ -40,13 +42,16 @@ from __future__ import annotations
 
 import contextlib
 import http
+import json
 import logging
+import secrets
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
 from functools import partial
 from pathlib import Path
 from typing import Any
+from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 import trimesh
@@ -69,20 +74,56 @@ from twin.spatial import invert_transform, matrix_to_wxyz, pose_to_transform
 from twin.vessel import MOUNTS
 from twin.vessel.hulls import HULLS, Hull
 from twin.web.access import Access
+from twin.web.connections import quiet_malformed_messages
 from twin.web.frame import VIEWS, FrameState, View, read_frame
-from twin.web.gui import TwinGui
+from twin.web.gui import GRAPHICS, TwinGui, si
 
 logger = logging.getLogger(__name__)
 
 #: [Hz] render-loop rate; issue 6 asks for ≥ 30 fps, the margin absorbs slow frames
 FPS = 40.0
-#: what the browsers render: "full" lights the scene with an environment map (image-based
-#: reflections) and casts the key light's shadows (three cascaded shadow maps, each drawing
-#: the scene again); "light" drops both, for a browser without a GPU (a remote desktop, a
-#: virtual machine: WebGL on the CPU), where the environment map costs most of each frame
-GRAPHICS = ("full", "light")
-#: [-] the ambient light of "light" graphics, in place of the environment map
-AMBIENT = 1.2
+#: what the browsers render: `twin.web.gui.GRAPHICS` (imported above, used here too)
+
+#: [-] the ambient light of "light" graphics, in place of the environment map: low enough
+#: that the sun's shading of the wave slopes shows (at 1.2 it washed the sea flat)
+AMBIENT = 0.6
+#: the key light (`configure_graphics`): a low sun, 21° above the horizon where the waves
+#: run to (`sun_azimuth`), where a wave slope of 5° changes the light it gets by ±20 %
+#: (overhead: 0.4 %) and the sea's toon bands split the slopes facing the sun from those
+#: facing away (`SEA_MATERIAL`)
+SUN_ELEVATION = float(np.radians(21.0))
+SUN_AZIMUTH = 0.0  # [rad] from +x towards +y, until a sea is drawn
+SUN_INTENSITY = 2.6
+SUN = (255, 244, 226)
+#: [-] the fill light from above (viser's own key light was 3.0 from there)
+OVERHEAD_INTENSITY = 0.8
+#: lower-case words of a WebGL renderer string that mean software rendering
+SOFTWARE_RENDERERS = ("swiftshader", "llvmpipe", "softpipe", "software", "basic render")
+#: where a page reports its WebGL renderer (relative to the page, as its websocket is)
+RENDERER_PATH = "/twin-renderer"
+#: what the viewer runs in a browser once (viser's RunJavascriptMessage, as viser sends
+#: plotly.js): read the WebGL renderer of a throw-away canvas and report it with the key
+#: the server gave this browser alone; `__KEY__` and `__PATH__` are filled in (JSON)
+DETECT_RENDERER_JS = """(() => {
+  let name = "unknown";
+  try {
+    const gl = document.createElement("canvas").getContext("webgl");
+    if (gl === null) {
+      name = "no WebGL";
+    } else {
+      const info = gl.getExtension("WEBGL_debug_renderer_info");
+      name = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+      const lose = gl.getExtension("WEBGL_lose_context");
+      if (lose) lose.loseContext();
+    }
+  } catch (err) {
+    name = "error: " + err;
+  }
+  const url = new URL(__PATH__.slice(1), window.location.href);
+  url.searchParams.set("key", __KEY__);
+  url.searchParams.set("renderer", name.slice(0, 200));
+  fetch(url, { cache: "no-store" }).catch(() => {});
+})();"""
 #: [-] the URDF parts' PBR material: painted steel. Their `<color>` alone reaches the browser
 #: as vertex colours with no material, which three.js draws as rough full metal (glTF's
 #: default): lit by the environment map alone, black in "light" graphics. Mostly diffuse, they
@@ -103,15 +144,45 @@ NEAR = 5e-4
 #: most wave components drawn; the smaller ones are invisible at this grid spacing and would
 #: make a frame cost grow with `n_components` (up to 2048)
 OCEAN_COMPONENTS = 96
-#: [-] Gerstner steepness Q of the drawn surface (sharper crests, no effect on heights)
-GERSTNER_Q = 0.5
+#: [-] Gerstner steepness Q of the drawn surface (sharper crests, no effect on heights): 1 is
+#: linear theory's own surface particle orbit (`twin.sea.surface.gerstner_points`)
+GERSTNER_Q = 1.0
+#: the sea's material: three.js' toon shading in three bands of the sun's incidence
+#: (MeshToonMaterial: band edges at N·L = ±1/3). With the sun a little higher than
+#: asin(1/3) = 19.5° (`SUN_ELEVATION`), a level sea sits in the upper band and every wave
+#: slope turned more than 1.5° away from the sun drops into the middle one: the waves' backs
+#: draw as darker bands, so wave fronts and crests read at a glance, in either graphics
+#: mode (the per-vertex normals are three.js', computed from the moving vertices); a calm
+#: sea stays one colour. Per pixel it costs what the standard material does, less.
+SEA_MATERIAL = "toon3"
 #: the view every browser gets when a mechanism is built: the mechanism and its target fill
 #: it, however small the mechanism is next to its vessel
 FRAMING: View = "close-up"
+#: [rad] the cameras' vertical field of view (viser's default, set on every camera)
+FOV = float(np.radians(75.0))
+#: [px] the overview draws the mechanism's longest side at least this long, face on, in a
+#: window this tall (a laptop's browser): seen at the overview's slant, ≥ 80 px (the issue's
+#: least; measured in tests/web/test_browser_scene.py). A small
+#: mechanism on a large vessel (the 3UPU_UP's 1.3 m on 70 m) is not shrunk to fit the whole
+#: vessel: the overview then comes in to the deck around it (the cameras zoom; the scene is
+#: never drawn out of scale)
+OVERVIEW_MIN_PX, VIEW_HEIGHT_PX = 120.0, 720.0
+#: [-] the close-up's distance over the one at which the mechanism and its target's bounding
+#: sphere just fits the field of view
+CLOSE_UP_MARGIN = 1.3
+#: [-] the views put what they show this fraction of the view's half-width left of its middle,
+#: clear of the control panel (about a third of a 1200 px window, on the right), for a
+#: window of width / height `VIEW_ASPECT`
+PANEL_SHIFT, VIEW_ASPECT = 0.3, 1.6
+#: [m] height of each target's prop above its held pose (UAV, hanging container), framed too
+TARGET_HEIGHT = {"hybrid": 0.0, "upu3up": 2.6, "upr4": 1.8}
 #: render frames kept in the tip-error trail
 TRAIL_LENGTH = 240
-#: [-] magnified trail reach as a fraction of the mechanism size
-TRAIL_REACH = 0.5
+#: [-] the tip-error trail's fixed magnification per mechanism, stated in its label: the
+#: gangway tip is held to within about 0.1 mm (×10⁴: 0.1 mm draws as 1 m), the platforms'
+#: tops drift by up to a metre or so at sea state 4 (the 3UPU_UP's stroke cannot follow
+#: the heave; the 4-UPR holds level only), so they draw at true size
+TRAIL_MAGNIFICATION = {"hybrid": 1e4, "upu3up": 1.0, "upr4": 1.0}
 #: [-] deck height above the waterline as a fraction of the draft (a monohull's freeboard)
 FREEBOARD = 0.7
 
@@ -123,6 +194,13 @@ DECK = (128, 132, 136)
 #: the comparison lane's ghost: RGB in [0, 1] and opacity
 GHOST = (0.25, 0.8, 1.0, 0.4)
 SUPERSTRUCTURE = (236, 236, 232)
+WINDOWS = (30, 44, 60)
+FUNNEL = (200, 60, 40)
+#: [m] height of the bulwark along the deck edge
+BULWARK = 1.2
+#: vessel parts drawn with smooth normals (curved plating); the rest, boxes, flat-shaded so
+#: their faces read as faces, not as one rounded blob
+SMOOTH_PARTS = ("hull", "topsides", "bulwark", "wetted", "float_port", "float_starboard")
 STEEL = (112, 116, 122)
 YELLOW = (236, 190, 30)
 WHITE = (240, 242, 245)
@@ -179,9 +257,46 @@ def drawn_sea(sea: WaveComponents) -> WaveComponents:
     )
 
 
+def trail_label(scale: float) -> str:
+    """The tip-error trail's label: its magnification and what a millimetre draws as."""
+    if scale == 1.0:
+        return "tip error ×1 (true size)"
+    return f"tip error ×{scale:,.0f} (1 mm draws as {si(1e-3 * scale, 'm')})".replace(",", " ")
+
+
 def mechanism_size(mechanism: Any) -> float:
     """[m] radius of the base hinge circle: the length scale of cameras, lines and props."""
     return float(np.max(np.linalg.norm(mechanism.layout.base_hinges, axis=-1)))
+
+
+def mechanism_points(fs: FrameState) -> np.ndarray:
+    """(n, 3) [m] inertial points that span the mechanism at the frame's state: its base
+    hinges, its platform hinges and its landing point (the gangway tip, the top)."""
+    layout, T_IB = fs.mechanism.layout, fs.transform_base
+    T_IP = T_IB @ fs.transform_platform
+    base = layout.base_hinges @ T_IB[:3, :3].T + T_IB[:3, 3]
+    top = layout.platform_hinges @ T_IP[:3, :3].T + T_IP[:3, 3]
+    return np.concatenate([base, top, fs.landing[None]])
+
+
+def framed_points(fs: FrameState) -> np.ndarray:
+    """(n, 3) [m] what a view of the mechanism and its target keeps in sight: the mechanism
+    (`mechanism_points`), the held pose and the top of the target's prop over it."""
+    held = fs.held[:3, 3]
+    prop = held + np.array([0.0, 0.0, TARGET_HEIGHT[fs.scenario.mechanism]])
+    return np.concatenate([mechanism_points(fs), [held, prop]])
+
+
+def beside_panel(
+    centre: np.ndarray, direction: np.ndarray, distance: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(camera position, look-at point) [m] that show `centre` from `direction` (unit, from
+    the centre to the camera) at `distance`, a little left of the middle of the view: viser's
+    control panel covers the right of the window (`PANEL_SHIFT`)."""
+    right = np.cross(-direction, np.array([0.0, 0.0, 1.0]))
+    right /= max(float(np.linalg.norm(right)), 1e-9)
+    look_at = centre + PANEL_SHIFT * distance * np.tan(FOV / 2) * VIEW_ASPECT * right
+    return look_at + distance * direction, look_at
 
 
 def hull_for(scenario: Scenario) -> Hull:
@@ -275,15 +390,27 @@ def hull_parts(hull: Hull, lever_arm: Iterable[float]) -> dict[str, tuple[trimes
         return parts
     deck = FREEBOARD * T
     walls, deck_plate = topsides(hull, deck)
+    # the deck edge: a light bulwark on the hull's outline, so the deck reads against the sea
+    bulwark, _ = topsides(hull, BULWARK)
+    bulwark.apply_translation([0.0, 0.0, deck])
+    # a forward accommodation block, its bridge over it with a band of dark windows all
+    # round, a mast on the bridge and a funnel aft of it: a ship's silhouette, in boxes
+    x_s, length = 0.21 * L, 0.2 * L
+    top = deck + 6.0  # [m] two decks of accommodation, 3 m each
     parts = {
         "hull": (wetted, BOTTOM),
         "topsides": (walls, HULL),
         "deck": (deck_plate, DECK),
-        "superstructure": (
-            _box((0.22 * L, 0.8 * B, 9.0), (0.21 * L, 0, deck + 4.5)),
-            SUPERSTRUCTURE,
-        ),
-    }
+        "bulwark": (bulwark, SUPERSTRUCTURE),
+        "superstructure": (_box((length, 0.8 * B, 6.0), (x_s, 0, deck + 3.0)), SUPERSTRUCTURE),
+        "bridge": (_box((0.5 * length, 0.9 * B, 3.0), (x_s + 0.2 * length, 0, top + 1.5)),
+                   SUPERSTRUCTURE),
+        "windows": (_box((0.5 * length + 0.1, 0.9 * B + 0.1, 1.1),
+                         (x_s + 0.2 * length, 0, top + 1.9)), WINDOWS),
+        "mast": (_cylinder(0.25, top + 3.0, top + 9.0, (x_s + 0.2 * length, 0.0)), WHITE),
+        "funnel": (_box((0.25 * length, 0.25 * B, 4.0), (x_s - 0.3 * length, 0, top + 2.0)),
+                   FUNNEL),
+    }  # fmt: skip
     if z_b - deck > 0.5:
         parts["pedestal"] = (_box((3.5, 3.5, z_b - deck), (x_b, y_b, 0.5 * (z_b + deck))), STEEL)
     return parts
@@ -474,10 +601,6 @@ class Trail:
         self.samples = np.roll(self.samples, -1, axis=0)
         self.samples[-1] = deviation
 
-    def reach(self) -> float:
-        """[m] the largest deviation held."""
-        return float(np.max(np.linalg.norm(self.samples, axis=-1)))
-
     def draw(self, anchor: np.ndarray, scale: float, visible: bool) -> None:
         """The segments from `anchor` (3,) [m], the deviations magnified by `scale`."""
         points = anchor + scale * self.samples
@@ -505,6 +628,7 @@ class TwinScene:
         self.clip = (0.01, 1000.0)  # [m] the cameras' near and far planes
         self.ghost: LiveUrdf | None = None  # the comparison lane's mechanism
         self._sea_source: WaveComponents | None = None
+        self.sun_azimuth = SUN_AZIMUTH  # [rad] (`sun_azimuth`)
         self._sea: WaveComponents | None = None
         self._trail_t = -np.inf  # [s] the newest sample of the trails
         self.ghost_trail: Trail | None = None  # the comparison lane's, while it is shown
@@ -534,6 +658,7 @@ class TwinScene:
             vertices=self._ocean_vertices(fs),
             faces=ocean_faces(axis.size),
             color=SEA,
+            material=SEA_MATERIAL,
             side="double",
             cast_shadow=False,
         )
@@ -543,8 +668,9 @@ class TwinScene:
         self.vessel = scene.add_frame("/vessel", show_axes=False)
         for part, (mesh, colour) in hull_parts(self.hull, mount.lever_arm).items():
             scene.add_mesh_simple(
-                f"/vessel/{part}", mesh.vertices, mesh.faces, color=colour, side="double"
-            )
+                f"/vessel/{part}", mesh.vertices, mesh.faces, color=colour, side="double",
+                flat_shading=part not in SMOOTH_PARTS,
+            )  # fmt: skip
 
         self.base = scene.add_frame("/base", show_axes=False)
         scene.add_frame("/base/robot", show_axes=False)
@@ -563,16 +689,20 @@ class TwinScene:
             thickness=0.06 * float(np.mean(fs.leg_lengths)),
         )
         self.trail = Trail(scene, "/trail", TRAIL, 0.02 * self.size)
-        self.trail_label = scene.add_label("/trail_label", "tip error", anchor="bottom-center")
+        self.trail_scale = TRAIL_MAGNIFICATION[name]
+        self.trail_label = scene.add_label(
+            "/trail_label", trail_label(self.trail_scale), anchor="bottom-center"
+        )
         self.ghost = self.ghost_trail = None
-        self._roots = ["/ocean", "/vessel", "/base", "/target", "/trail", "/trail_label",
-                       "/ghost_label", "/ghost_trail"]  # fmt: skip
+        self._roots = ["/ocean", "/vessel", "/base", "/target", "/trail",
+                       "/trail_label", "/ghost_label", "/ghost_trail"]  # fmt: skip
         self.restart(fs)
         # the camera frames the mechanism: new browsers start there, open ones move there
         position, look_at = self.camera_pose(FRAMING, fs)
         camera = self.server.initial_camera
         camera.position, camera.look_at = tuple(position), tuple(look_at)
         camera.up = (0.0, 0.0, 1.0)
+        camera.fov = FOV
         camera.near, camera.far = self.clip
         self.last = fs
         self.set_camera(FRAMING, self.server.get_clients().values())
@@ -661,9 +791,17 @@ class TwinScene:
         self._update_trail(fs, show_trail)
         self.last = fs  # last: readers see a complete frame
 
+    def _aim_sun(self, sea: WaveComponents) -> None:
+        """Put the sun where the waves run to (`sun_azimuth`), in every browser."""
+        self.sun_azimuth = sun_azimuth(sea)
+        sun = self.server.scene.get_handle_by_name("/sun")
+        if sun is not None:  # a position update reaches each browser's "/sun", its own too
+            sun.position = tuple(sun_position(self.sun_azimuth))
+
     def _ocean_vertices(self, fs: FrameState) -> np.ndarray:
         if fs.sea is not self._sea_source:
             self._sea_source, self._sea = fs.sea, drawn_sea(fs.sea)
+            self._aim_sun(self._sea)
         # The drawing frame moves with the vessel's mean velocity; the sea is fixed in the
         # world, where this frame's origin is at U t along x (heading 0).
         shift = fs.scenario.forward_speed * fs.t
@@ -675,9 +813,9 @@ class TwinScene:
 
     @staticmethod
     def _tip_deviation(fs: FrameState) -> np.ndarray:
-        """(3,) [m] tip (or top) position minus its held position, inertial: e = x_d - x is
-        in the base frame, so x - x_d = -ᴵR_B e."""
-        return -fs.transform_base[:3, :3] @ fs.record["tip_error"][:3]
+        """(3,) [m] the landing point minus its held position, inertial
+        (`FrameState.landing_offset`)."""
+        return fs.landing_offset
 
     def _trails(self, fs: FrameState) -> list[tuple[Trail, FrameState]]:
         """The trails shown and the frame each follows: the mechanism's, and the ghost's
@@ -702,17 +840,12 @@ class TwinScene:
         elif fs.t < self._trail_t:  # a restart the version check has not seen yet
             self._reset_trails(fs)
         shown = self._trails(fs)
-        reach = max(trail.reach() for trail, _ in shown)
-        scale = 10.0 ** np.floor(np.log10(TRAIL_REACH * self.size / max(reach, 1e-9)))
-        scale = float(np.clip(scale, 1.0, 1e6))
+        scale = self.trail_scale
         anchor = fs.held[:3, 3]
         for trail, _ in shown:
             trail.draw(anchor, scale, show)
         self.trail_label.visible = show
-        if scale != self.trail_scale:
-            self.trail_scale = scale
-            self.trail_label.text = f"tip error ×{scale:g}"
-        self.trail_label.position = anchor + np.array([0.0, 0.0, 1.2 * TRAIL_REACH * self.size])
+        self.trail_label.position = anchor + np.array([0.0, 0.0, 0.6 * self.size])
 
     # -- cameras ------------------------------------------------------------------------------
     def camera_pose(self, view: View, fs: FrameState) -> tuple[np.ndarray, np.ndarray]:
@@ -722,7 +855,16 @@ class TwinScene:
         if view == "overview":  # high over the port bow: vessel, mechanism and target
             centre = 0.5 * (held + T_IB[:3, 3])
             reach = max(self.hull.length, 2.0 * float(np.linalg.norm(held - T_IB[:3, 3])))
-            return centre + 1.4 * reach * np.array([0.3, 0.8, 0.6]), centre
+            direction = np.array([0.3, 0.8, 0.6]) / np.linalg.norm([0.3, 0.8, 0.6])
+            distance = 1.4 * reach * np.linalg.norm([0.3, 0.8, 0.6])
+            extent = float(np.ptp(mechanism_points(fs), axis=0).max())  # [m] longest side
+            # the farthest the camera may be for the mechanism to span OVERVIEW_MIN_PX
+            farthest = extent * VIEW_HEIGHT_PX / (OVERVIEW_MIN_PX * 2.0 * np.tan(FOV / 2))
+            if distance > farthest:  # a small mechanism: come in to it and its target
+                distance = farthest
+                points = framed_points(fs)
+                centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+            return beside_panel(centre, direction, distance)
         if view == "walkway":
             if fs.scenario.mechanism == "hybrid":
                 # a person at the gangway's slew bearing (3.1 m above the platform, URDF)
@@ -732,11 +874,19 @@ class TwinScene:
             return eye + 1.7 * up, held
         if view == "close-up":  # from the vessel's side of the target, a little aside
             back = T_IB[:2, 3] - held[:2]
-            back = back / np.linalg.norm(back) if np.linalg.norm(back) > self.size else (-0.6, -0.8)
+            # a target held over its own mechanism (the platforms) gives no steady "vessel's
+            # side": the base wanders around it with the waves, so the view is a fixed one
+            far = np.linalg.norm(back) > 3.0 * self.size
+            back = back / np.linalg.norm(back) if far else np.array([-0.6, -0.8])
             side = np.array([-back[1], back[0]])
-            top = (T_IB @ fs.transform_platform)[:3, 3]
-            look_at = 0.5 * (held + top)  # the target and what holds it
-            return look_at + self.size * np.r_[4.0 * np.asarray(back) + 2.5 * side, 2.2], look_at
+            direction = np.r_[4.0 * np.asarray(back) + 2.5 * side, 3.0]
+            direction /= np.linalg.norm(direction)
+            # the whole mechanism (base to landing point) and its target's prop fit the view
+            points = framed_points(fs)
+            centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+            radius = float(np.max(np.linalg.norm(points - centre, axis=-1)))
+            distance = CLOSE_UP_MARGIN * radius / np.sin(FOV / 2)
+            return beside_panel(centre, direction, distance)
         raise ValueError(f"unknown view {view!r}; allowed: {VIEWS}")
 
     def set_camera(self, view: View, clients: Iterable[viser.ClientHandle]) -> None:
@@ -748,6 +898,7 @@ class TwinScene:
             try:
                 with client.atomic():
                     client.camera.up_direction = (0.0, 0.0, 1.0)
+                    client.camera.fov = FOV
                     client.camera.position = position
                     client.camera.look_at = look_at
                     client.camera.near, client.camera.far = self.clip
@@ -769,6 +920,7 @@ class Viewer:
         gui: the control panel.
         frames: render frames completed so far.
         frame_cpu: [s] CPU time of the render thread per frame (moving average).
+        renderers: client id → the WebGL renderer its page reported (`report_renderer`).
     """
 
     def __init__(
@@ -780,9 +932,12 @@ class Viewer:
         store: Any = None,
         sweeps: Any = None,
         api_url: str | None = None,
+        graphics: str = "full",
     ) -> None:
         self.session = session
         self.server = server
+        self.renderers: dict[int, str] = {}
+        self._keys: dict[str, int] = {}  # a page's report key → its client id
         self.frames = 0
         self.frame_cpu = 0.0
         self._blas = threadpoolctl.ThreadpoolController() if threadpoolctl else None
@@ -792,8 +947,13 @@ class Viewer:
         self.scene.build(fs)
         self.gui = TwinGui(
             server, session, fs, on_camera=self.scene.set_camera, access=access, store=store,
-            sweeps=sweeps, api_url=api_url,
+            sweeps=sweeps, api_url=api_url, graphics=graphics,
+            on_graphics=lambda client, mode: configure_graphics(
+                client.scene, mode, self.scene.sun_azimuth
+            ),
         )  # fmt: skip
+        server.on_client_connect(self._ask_renderer)
+        server.on_client_disconnect(self._forget_renderer)
         self._version = fs.version
         self._shown: tuple | None = None  # what the scene's nodes show (`_draw`)
         self._frame(fs)
@@ -805,6 +965,54 @@ class Viewer:
     def port(self) -> int:
         """The port the viser server listens on."""
         return self.server.get_port()
+
+    # -- the browser's WebGL renderer ---------------------------------------------------------
+    def _ask_renderer(self, client: viser.ClientHandle) -> None:
+        """Have the new browser's page report its WebGL renderer (`DETECT_RENDERER_JS`), with
+        a random key of its own: a page cannot report for another browser."""
+        key = secrets.token_urlsafe(16)
+        self._keys[key] = client.client_id
+        source = DETECT_RENDERER_JS.replace("__KEY__", json.dumps(key)).replace(
+            "__PATH__", json.dumps(RENDERER_PATH)
+        )
+        try:  # viser's own message for running a script (it sends plotly.js so)
+            client._websock_connection.queue_message(
+                viser._messages.RunJavascriptMessage(source=source)
+            )
+        except Exception:  # a viser without it: the browser keeps the server's graphics
+            logger.warning("viewer: cannot ask browser %s for its renderer", client.client_id,
+                           exc_info=True)  # fmt: skip
+
+    def _forget_renderer(self, client: viser.ClientHandle) -> None:
+        self.renderers.pop(client.client_id, None)
+        for key in [k for k, c in self._keys.items() if c == client.client_id]:
+            self._keys.pop(key, None)
+
+    def report_renderer(self, key: str, renderer: str) -> None:
+        """A page's WebGL renderer (its first report per key counts): a software renderer
+        (`software_renderer`) in "full" graphics switches that browser to "light", and a
+        notification says why and how to switch back (View → Graphics)."""
+        client_id = self._keys.pop(key, None)
+        if client_id is None:
+            return
+        self.renderers[client_id] = renderer
+        logger.info("viewer: browser %s renders with %r", client_id, renderer)
+        if not software_renderer(renderer):
+            return
+        # its panel may still be under construction: give it a few seconds
+        wait = time.monotonic() + 5.0
+        while (panel := self.gui.panels.get(client_id)) is None and time.monotonic() < wait:
+            time.sleep(0.05)
+        if panel is None or panel.graphics.value != "full":
+            return
+        self.gui.set_graphics(panel, "light")
+        panel.client.add_notification(
+            "Light graphics",
+            f"This browser draws WebGL on the CPU ({renderer[:80]}), so the viewer switched it "
+            "to light graphics (no environment map, no shadows). View → Graphics switches "
+            "back to full.",
+            auto_close_seconds=12.0,
+        )  # fmt: skip
 
     def stop(self) -> None:
         """Stop the render thread and the viser server (the session keeps running)."""
@@ -905,6 +1113,54 @@ def _checked_handshake(check: Handshake) -> Iterator[list[bool]]:
             ws_server.serve = original  # type: ignore[misc]
 
 
+def sun_azimuth(sea: WaveComponents) -> float:
+    """[rad] the sun's azimuth from +x towards +y: where the drawn sea's waves run to (the
+    amplitude-weighted mean of the components' directions), so their slopes face towards
+    and away from it and its light tells them apart (`SEA_MATERIAL`)."""
+    a = sea.amplitude
+    return float(np.arctan2(np.sum(a * np.sin(sea.direction)), np.sum(a * np.cos(sea.direction))))
+
+
+def sun_position(azimuth: float) -> np.ndarray:
+    """(3,) [m] where the sun node stands: far away at `SUN_ELEVATION` and `azimuth` (a
+    three.js directional light shines from its position towards the world origin)."""
+    return 1000.0 * np.array([np.cos(azimuth) * np.cos(SUN_ELEVATION),
+                              np.sin(azimuth) * np.cos(SUN_ELEVATION),
+                              np.sin(SUN_ELEVATION)])  # fmt: skip
+
+
+def configure_graphics(scene: Any, graphics: str, azimuth: float = 0.0) -> None:
+    """Light a scene (the server's: every browser; a client's: that browser alone) for one
+    of `GRAPHICS`.
+
+    viser's default lights are replaced: its key light stands overhead, where a wave slope
+    of a few degrees barely changes the light it gets. A low sun (`SUN_ELEVATION`) shades the
+    wave slopes and the vessel's sides; a weaker light from above and, in "light", the
+    sky's ambient light (in place of the environment map, at no cost per pixel) fill the
+    rest. "full" adds the environment map (viser's built-in one, "city") and the sun's
+    cascaded shadows. `azimuth` [rad]: the sun's (`sun_azimuth`).
+    """
+    full = graphics == "full"
+    scene.configure_environment_map("city" if full else None)
+    scene.configure_default_lights(enabled=False, cast_shadow=False)
+    scene.add_light_directional(
+        "/sun", color=SUN, intensity=SUN_INTENSITY, cast_shadow=full,
+        position=tuple(sun_position(azimuth)),
+    )  # fmt: skip
+    scene.add_light_directional(
+        "/overhead", intensity=OVERHEAD_INTENSITY, position=(-200.0, 0.0, 1000.0)
+    )
+    scene.add_light_ambient("/sky_light", color=SKY, intensity=0.0 if full else AMBIENT)
+
+
+def software_renderer(renderer: str) -> bool:
+    """Whether a WebGL renderer string (WEBGL_debug_renderer_info's) names a renderer that
+    draws on the CPU: the names viser's own client warns about (SwiftShader, llvmpipe,
+    softpipe, "software"), and Windows' "Microsoft Basic Render Driver"."""
+    name = renderer.lower()
+    return any(word in name for word in SOFTWARE_RENDERERS)
+
+
 def check_graphics(graphics: str) -> None:
     """Raises TwinError (a ValueError) unless `graphics` is one of `GRAPHICS`."""
     if graphics not in GRAPHICS:
@@ -954,8 +1210,10 @@ def start_viewer(
             starts its websocket server another way): nothing is left running.
     """
     check_graphics(graphics)
+    quiet_malformed_messages()  # a client's garbage: one line per client per minute (issue 30)
     access = access if access is not None else Access()
     bound: list[int] = []
+    viewers: list[Viewer] = []  # the viewer, once it is built (renderer reports)
 
     def check(connection: Any, request: Any) -> Any:
         # Host first, on every request (the page, its assets, the websocket): as REST does.
@@ -968,11 +1226,28 @@ def start_viewer(
                 f"Host {named!r} is not a name this server answers to; start it with "
                 "--allow-host NAME to allow one\n",
             )
+        url = urlsplit(request.path)
+        if url.path.endswith(RENDERER_PATH):  # a page telling its WebGL renderer
+            query = parse_qs(url.query)
+            key, name = query.get("key", [""])[0], query.get("renderer", [""])[0][:200]
+            for viewer in viewers:  # a key it gave out: handled off the server's event loop
+                if key in viewer._keys:  # (it sends to the browser, and may wait for a panel)
+                    threading.Thread(
+                        target=viewer.report_renderer, args=(key, name), daemon=True
+                    ).start()
+            return connection.respond(http.HTTPStatus.OK, "noted\n")
         if request.headers.get("Upgrade", "").lower() != "websocket":
             return None  # the page and its assets: the same for anyone it answers to
         origins = request.headers.get_all("Origin")
         if not origins:
             return None  # no Origin: not a browser page (a script); the token still applies
+        try:  # websockets reads headers as ASCII with surrogate escapes; UTF-8 text or 400
+            origins = [o.encode("ascii", "surrogateescape").decode("utf-8") for o in origins]
+        except UnicodeError:
+            logger.warning("viewer: websocket with a non-UTF-8 Origin refused")
+            return connection.respond(
+                http.HTTPStatus.BAD_REQUEST, "Origin header is not UTF-8 text: not an origin\n"
+            )
         origin = ", ".join(origins)  # two Origins are no origin: refused below
         if len(origins) == 1 and access.allows_origin(origin, port=bound[0] if bound else port):
             return None
@@ -996,14 +1271,12 @@ def start_viewer(
         if message is not None and message in websock._incoming_handlers:
             websock.unregister_handler(message)
     server.gui.configure_theme(control_width="large", show_share_button=False)
-    if graphics == "light":
-        server.scene.configure_environment_map(None)
-        server.scene.configure_default_lights(cast_shadow=False)
-        # the environment map lit the sides the key light misses: the sky's colour stands in
-        # for it, at no cost per pixel
-        server.scene.add_light_ambient("/sky_light", color=SKY, intensity=AMBIENT)
+    configure_graphics(server.scene, graphics)
     try:
-        return Viewer(session, server, access, store=store, sweeps=sweeps, api_url=api_url)
+        viewer = Viewer(session, server, access, store=store, sweeps=sweeps, api_url=api_url,
+                        graphics=graphics)  # fmt: skip
+        viewers.append(viewer)
+        return viewer
     except Exception:
         server.stop()
         raise

@@ -15,9 +15,12 @@ and their runs left queued for the next start, and the process exits within seco
 from __future__ import annotations
 
 import dataclasses
+import logging
+import os
 import signal
 import socket
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -25,22 +28,34 @@ from typing import Any
 import uvicorn
 
 from twin.errors import TwinError
-from twin.sim.engine import warm
+from twin.sim.engine import warm_in_processes
 from twin.sim.executor import RUN_BUDGET, Executor
 from twin.sim.heap import freeze_startup
 from twin.sim.live import LiveSession
 from twin.web.access import Access, is_loopback
 from twin.web.api import create_app
+from twin.web.connections import (
+    KEEP_ALIVE,
+    MAX_PER_CLIENT,
+    REQUEST_TIMEOUT,
+    connection_cap,
+    guarded_protocol,
+    throttled_exceptions,
+)
+from twin.web.deps import Services
 from twin.web.jobs import JobRunner, SweepRunner
 from twin.web.lock import DataDirLock
-from twin.web.store import RunStore
+from twin.web.store import Quota, RunStore
+from twin.web.warmup import WarmingPage, Warmup
 
 #: the run store's file inside the data directory
 DATABASE = "runs.sqlite"
+
+log = logging.getLogger("twin.web.server")
 #: [s] how long open requests may take to finish once the server is told to stop
 GRACEFUL = 3
 
-__all__ = ["DATABASE", "GRACEFUL", "Terminated", "is_loopback", "serve", "url"]
+__all__ = ["DATABASE", "GRACEFUL", "Terminated", "is_loopback", "serve", "url", "uvicorn_config"]
 
 
 class Terminated(BaseException):
@@ -67,6 +82,48 @@ class _Uvicorn(uvicorn.Server):
         self._stopping.set()
         super().handle_exit(sig, frame)
 
+    async def startup(self, sockets: list[socket.socket] | None = None) -> None:
+        import asyncio
+
+        throttled_exceptions(asyncio.get_running_loop())  # accept errors: once per interval
+        await super().startup(sockets)
+
+
+def uvicorn_config(
+    app: Any,
+    host: str,
+    port: int,
+    *,
+    forwarded_allow_ips: tuple[str, ...] = (),
+    request_timeout: float = REQUEST_TIMEOUT,
+    max_connections: int | None = None,
+    max_per_client: int = MAX_PER_CLIENT,
+    **options: Any,
+) -> uvicorn.Config:
+    """How `twin serve` runs uvicorn (issue 30): the client address is the socket's unless
+    `forwarded_allow_ips` names trusted proxies (uvicorn's own default trusts X-Forwarded-For
+    from loopback, so any local client could pick its address); requests must arrive within
+    `request_timeout` s; idle keep-alives close after `KEEP_ALIVE` s; at most
+    `max_connections` (default `connection_cap()`: below the fd limit) are open at once,
+    `max_per_client` from one address, and as many requests run (503 beyond).
+    """
+    cap = connection_cap() if max_connections is None else max_connections
+    return uvicorn.Config(
+        app,
+        host=host,
+        port=port,
+        access_log=False,
+        timeout_graceful_shutdown=GRACEFUL,
+        proxy_headers=bool(forwarded_allow_ips),
+        forwarded_allow_ips=list(forwarded_allow_ips) or None,
+        http=guarded_protocol(request_timeout, cap, max_per_client),
+        timeout_keep_alive=KEEP_ALIVE,
+        # uvicorn's 503 past as many connections or tasks: one above the cap, so it only
+        # ever counts tasks (the protocol keeps connections within the cap itself)
+        limit_concurrency=cap + 1,
+        **options,
+    )
+
 
 def listen(host: str, port: int) -> socket.socket:
     """A TCP socket bound to host:port for uvicorn to serve on (as uvicorn binds its own:
@@ -76,8 +133,13 @@ def listen(host: str, port: int) -> socket.socket:
         TwinError: the port is in use or the address cannot be bound, naming it.
     """
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_STREAM)
+    # IPPROTO_TCP, not 0: asyncio sets TCP_NODELAY on an accepted socket only when its `proto`
+    # says TCP (`asyncio.base_events._set_nodelay`), and an accepted socket inherits the
+    # listener's. With protocol 0 every keep-alive answer waited on Nagle and the client's
+    # delayed ACK: ~45 ms per request (issue 30, benchmarks/server.py `nodelay_rows`).
+    sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
     try:
         sock.bind((host, port))
     except OSError as exc:
@@ -87,6 +149,101 @@ def listen(host: str, port: int) -> socket.socket:
         ) from exc
     sock.set_inheritable(True)
     return sock
+
+
+class _StartUp(threading.Thread):
+    """What a server starts while it already answers REST (`twin.web.warmup`): the kernels,
+    compiled on every core, then the executor, the live session and the viewer; then it
+    attaches them to the app. `stop` closes what it built, also halfway through."""
+
+    def __init__(
+        self,
+        services: Services,
+        warmup: Warmup,
+        page: WarmingPage | None,
+        *,
+        executor: Callable[[], Executor],
+        viewer: Callable[[LiveSession], Any] | None,
+    ) -> None:
+        super().__init__(name="twin-start-up", daemon=True)
+        self.services, self.warmup, self.page = services, warmup, page
+        self._start_executor, self._start_viewer = executor, viewer
+        self._lock = threading.Lock()
+        self._built: list[Any] = []  # closed in reverse order by `stop`
+        self._stopped = False
+
+    def _keep(self, thing: Any) -> Any:
+        """Hand `thing` to `stop`; if it has already run, close it now and end the thread."""
+        with self._lock:
+            if not self._stopped:
+                self._built.append(thing)
+                return thing
+        _close(thing)
+        raise _Cancelled
+
+    def run(self) -> None:
+        warmup = self.warmup
+        try:
+            warmup.begin(f"compiling kernels on {os.cpu_count() or 1} cores")
+            warm_in_processes(progress=warmup.kernel_done)
+            warmup.begin("starting the executor")
+            executor = self._keep(self._start_executor())
+            warmup.say(f"executor {executor.where}, {executor.workers} workers")
+            if executor.dashboard_link:
+                warmup.say(f"Dask dashboard {executor.dashboard_link}")
+            warmup.begin("starting the live session")
+            session = self._keep(LiveSession())
+            session.start()
+            if self._start_viewer is not None and self.page is not None:
+                self.page.close()
+                handle = self._keep(self._start_viewer(session))
+                if handle.port != self.page.port:  # taken in between: say where it went
+                    warmup.say(f"3D twin moved to port {handle.port}")
+            with self._lock:
+                if self._stopped:
+                    raise _Cancelled
+                self.services.attach(session, executor)
+            freeze_startup()  # no full collection walks the start-up objects while serving
+            warmup.ready()
+        except _Cancelled:
+            return
+        except Exception as exc:  # the server answers on, saying why (health: failed)
+            log.exception("start-up failed")
+            warmup.fail(f"{type(exc).__name__}: {exc}")
+
+    def stop(self) -> None:
+        """Close what was started, newest first; a start-up still compiling stops after its
+        current step (its worker processes end with this one)."""
+        with self._lock:
+            self._stopped = True
+            built, self._built = self._built[::-1], []
+        if self.page is not None:
+            self.page.close()
+        for thing in built:
+            _close(thing)
+
+
+class _Cancelled(Exception):
+    """The server stopped while it was starting up."""
+
+
+def _close(thing: Any) -> None:
+    """Stop a viewer handle or live session, close an executor."""
+    (thing.close if isinstance(thing, Executor) else thing.stop)()
+
+
+#: the warning `quiet_resource_tracker` silences, as a PYTHONWARNINGS entry
+TRACKER_WARNING = "ignore::UserWarning:multiprocessing.resource_tracker"
+
+
+def quiet_resource_tracker() -> None:
+    """Keep multiprocessing's resource tracker from warning of "leaked semaphore objects" when
+    the server stops: a worker stopped mid-run (SIGTERM while busy) leaves numba's process lock
+    registered, and the tracker, a process of its own started later with this environment,
+    removes it either way; the warning says nothing a user can act on."""
+    current = os.environ.get("PYTHONWARNINGS", "")
+    if TRACKER_WARNING not in current.split(","):
+        os.environ["PYTHONWARNINGS"] = ",".join(filter(None, (current, TRACKER_WARNING)))
 
 
 def _terminate(sig: int, frame: FrameType | None) -> None:
@@ -107,6 +264,12 @@ def serve(
     allow_origins: tuple[str, ...] = (),
     run_budget: float = RUN_BUDGET,
     graphics: str = "full",
+    forwarded_allow_ips: tuple[str, ...] = (),
+    private: bool = False,
+    dashboard: bool = False,
+    max_store: int | None = None,
+    max_runs: int | None = None,
+    retain: bool = False,
 ) -> None:
     """Run the twin until interrupted (Ctrl-C: KeyboardInterrupt; SIGTERM: `Terminated`, each
     raised once all is stopped).
@@ -134,6 +297,14 @@ def serve(
         run_budget: [s] wall-clock budget of one run.
         graphics: what the viewer's browsers render (`twin.web.scene.GRAPHICS`): "light"
             without environment map and shadows, for browsers without a GPU.
+        forwarded_allow_ips: proxies (addresses, or "*") whose X-Forwarded-For names the
+            client; default none: the client is the socket's peer.
+        private: with a token, reading stored runs and sweeps needs it too (default: open).
+        dashboard: serve the Dask scheduler's dashboard (on 127.0.0.1, a free port, printed);
+            default off.
+        max_store: [bytes] the store's quota (`twin.web.store.Quota`); None: none.
+        max_runs: runs the store may hold; None: no limit.
+        retain: when full, delete the oldest finished unpinned results instead of refusing.
 
     Raises:
         TwinError: `host` is not loopback and there is no token, a short token, a bad
@@ -141,6 +312,7 @@ def serve(
             server (`DataDirBusy`, naming its pid), or the REST port cannot be bound
             (`listen`); nothing is started.
     """
+    quiet_resource_tracker()
     if viewer:
         # Imported here: the scene pulls in viser and the meshes, which REST-only needs not.
         from twin.web.scene import check_graphics, start_viewer
@@ -154,7 +326,7 @@ def serve(
         )
     access = Access.for_server(
         host, (port, viser_port), token=token, allow_hosts=allow_hosts,
-        allow_origins=allow_origins,
+        allow_origins=allow_origins, private=private,
     )  # fmt: skip
     lock = DataDirLock(data_dir).acquire()  # before anything starts: a second server stops here
     try:
@@ -166,51 +338,46 @@ def serve(
     main = threading.current_thread() is threading.main_thread()
     if main:  # PID 1 in a container ignores SIGTERM unless something handles it
         signal.signal(signal.SIGTERM, _terminate)
-    executor: Executor | None = None
     store: RunStore | None = None
-    session: LiveSession | None = None
-    handle: Any = None
+    startup: _StartUp | None = None
     try:
-        print(f"twin: compiled kernels ready in {warm():.1f} s", flush=True)
-        executor = Executor.start(scheduler, n_workers=workers)
-        print(f"twin: executor {executor.where}, {executor.workers} workers", flush=True)
-        store = RunStore(Path(data_dir) / DATABASE)
-        session = LiveSession()
-        session.start()
-        sweeps = SweepRunner(store)  # the REST app's, and the viewer's Operability folder's
-        if viewer:
-            handle = start_viewer(
-                session, host, viser_port, access=access, store=store, sweeps=sweeps,
-                api_url=url(host, port), graphics=graphics,
-            )  # fmt: skip
-            viser_port = handle.port  # viser moves to the next free port if this one is taken
+        # the store first: a bad file is one line before seconds of start-up (issue 30)
+        store = RunStore(Path(data_dir) / DATABASE, Quota(max_store, max_runs, retain))
+        warmup = Warmup()
+        page = WarmingPage(warmup, host, viser_port) if viewer else None
+        if page is not None:
+            viser_port = page.port  # the viewer takes it when the page closes
             access = dataclasses.replace(access, ports=frozenset({port, viser_port}))
+        sweeps = SweepRunner(store)  # the REST app's, and the viewer's Operability folder's
         app = create_app(
-            session,
+            None,
             store,
             access=access,
-            executor=executor,
             jobs=JobRunner(store, budget=run_budget),
             sweeps=sweeps,
             viewer_port=viser_port if viewer else None,
+            warmup=warmup,
         )
         print(f"twin: landing page and REST API {url(host, port)}  (docs: {url(host, port)}docs)")
         if viewer:
             print(f"twin: 3D twin {url(host, viser_port)}")
         print(f"twin: runs stored in {store.path}", flush=True)
-        freeze_startup()  # no full collection walks the start-up objects while serving
-        config = uvicorn.Config(
-            app, host=host, port=port, access_log=False, timeout_graceful_shutdown=GRACEFUL
-        )
+        startup = _StartUp(
+            app.state.services, warmup, page,
+            executor=lambda: Executor.start(scheduler, n_workers=workers, dashboard=dashboard),
+            viewer=None if page is None else lambda session: start_viewer(
+                session, host, viser_port, access=dataclasses.replace(
+                    access, ports=frozenset({port})),  # and its own actual port's
+                store=store, sweeps=sweeps, api_url=url(host, port), graphics=graphics,
+            ),
+        )  # fmt: skip
+        startup.start()
+        config = uvicorn_config(app, host, port, forwarded_allow_ips=forwarded_allow_ips)
         _Uvicorn(config, app.state.services.stopping).run(sockets=[rest])
     finally:
         rest.close()
-        if handle is not None:
-            handle.stop()
-        if session is not None:
-            session.stop()
-        if executor is not None:
-            executor.close()
+        if startup is not None:
+            startup.stop()
         if store is not None:
             store.close()
         lock.release()

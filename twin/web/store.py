@@ -3,8 +3,9 @@
 One table of runs, one row per run, and one of operability sweeps (`sweeps`). SQLite in WAL
 mode lets the web process read while a worker process writes; every change is one
 transaction, so a process killed mid-write leaves the previous state and the file reopens
-consistent. Series are a compressed npz blob (float64,
-exact), written once when the run is done.
+consistent. Series are a Parquet blob (`pack_series`: zstd, float64 exact, each column
+readable alone; older stores' npz blobs are read as before), written once when the run is
+done.
 
 Status goes queued → running → done | failed; `progress` is the fraction of steps taken, and
 only grows while a run is running (a late progress report never moves a done run back).
@@ -23,6 +24,7 @@ import sqlite3
 import threading
 import time
 import uuid
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from types import TracebackType
@@ -38,6 +40,13 @@ Status = Literal["queued", "running", "done", "failed"]
 
 #: bumped when the table changes; a newer file is refused rather than misread
 SCHEMA_VERSION = 1
+#: times a job may be started (then interrupted by a stop or a crash) before the next start
+#: fails it instead of queueing it again: a job that ties a server up must not do so forever
+MAX_ATTEMPTS = 3
+#: what a cancelled job's `error` starts with
+CANCELLED = "cancelled"
+#: SQL: the row is a cancelled job (its outcome, arriving later, is not stored over it)
+_WAS_CANCELLED = f"(status = 'failed' AND error LIKE '{CANCELLED}%')"
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (
@@ -49,7 +58,10 @@ CREATE TABLE IF NOT EXISTS runs (
     scenario  TEXT NOT NULL,
     metrics   TEXT,
     error     TEXT,
-    series    BLOB
+    series    BLOB,
+    attempts  INTEGER NOT NULL DEFAULT 0,
+    size      INTEGER NOT NULL DEFAULT 0,
+    pinned    INTEGER NOT NULL DEFAULT 0
 );
 CREATE INDEX IF NOT EXISTS runs_by_created ON runs (created);
 CREATE TABLE IF NOT EXISTS sweeps (
@@ -62,9 +74,25 @@ CREATE TABLE IF NOT EXISTS sweeps (
     spec      TEXT NOT NULL,
     result    TEXT,
     error     TEXT,
-    heatmap   BLOB
+    heatmap   BLOB,
+    attempts  INTEGER NOT NULL DEFAULT 0,
+    size      INTEGER NOT NULL DEFAULT 0,
+    pinned    INTEGER NOT NULL DEFAULT 0
 );
 """
+#: columns added after a table's first version, each with its default: added to an older file
+#: when this twin opens it (schema-1 readers name their columns, so they read it as before)
+_ADDED = {
+    table: {name: "INTEGER NOT NULL DEFAULT 0" for name in ("attempts", "size", "pinned")}
+    for table in ("runs", "sweeps")
+}
+#: [bytes] what a row holds, by table (`size` of rows written before it was kept)
+_ROW_BYTES = {
+    "runs": "LENGTH(scenario) + COALESCE(LENGTH(metrics), 0) + COALESCE(LENGTH(series), 0)",
+    "sweeps": "LENGTH(spec) + COALESCE(LENGTH(result), 0) + COALESCE(LENGTH(heatmap), 0)",
+}
+#: [bytes] a row's own overhead beside its fields (ids, times, status; an upper bound)
+ROW_OVERHEAD = 256
 # The sweeps table came after schema 1 without changing what schema-1 readers see, so the
 # version stays: IF NOT EXISTS adds it to an older file the first time this twin opens it.
 # `series` is the last column so listing runs never reads a blob's overflow pages.
@@ -76,10 +104,51 @@ class RunNotFound(TwinError):
     """No run has this id."""
 
 
+@dataclass(frozen=True)
+class Quota:
+    """How much a store may hold (`twin serve --max-store`, `--max-runs`, `--retain`).
+
+    Attributes:
+        max_bytes: [bytes] runs' and sweeps' stored fields in all (None: no limit). A queued
+            or running job counts its price (`limits.price_run`, an upper bound) until it is
+            done, then what it stored.
+        max_runs: runs stored at most (None: no limit).
+        retain: when full, delete the oldest finished (done or failed), unpinned results to
+            make room, instead of refusing.
+    """
+
+    max_bytes: int | None = None
+    max_runs: int | None = None
+    retain: bool = False
+
+
+class StoreFull(TwinError):
+    """The store's quota is reached and nothing may be deleted to make room (a 507)."""
+
+
+class QueueFull(TwinError):
+    """As many runs (or sweeps) are queued or running as allowed: nothing was stored.
+
+    Attributes:
+        pending: how many are queued or running.
+        cap: the most allowed.
+    """
+
+    def __init__(self, what: str, pending: int, cap: int) -> None:
+        super().__init__(
+            f"{pending} {what} queued or running (at most {cap}); retry once some finish"
+        )
+        self.pending, self.cap = pending, cap
+
+
 __all__ = [
+    "MAX_ATTEMPTS",
+    "QueueFull",
+    "Quota",
     "Run",
     "RunNotFound",
     "RunStore",
+    "StoreFull",
     "StoreUnavailable",
     "Sweep",
     "SweepNotFound",
@@ -121,6 +190,13 @@ class Sweep(BaseModel):
 
 
 def _sweep(row: sqlite3.Row) -> Sweep:
+    try:
+        return _sweep_fields(row)
+    except (ValueError, TypeError) as exc:
+        return Sweep(**_unreadable(row, exc), done=0, total=0, progress=0.0, spec={})
+
+
+def _sweep_fields(row: sqlite3.Row) -> Sweep:
     return Sweep(
         id=row["id"],
         created=_utc(row["created"]),
@@ -143,7 +219,24 @@ def _utc(t: float | None) -> datetime | None:
     return None if t is None else datetime.fromtimestamp(t, UTC)
 
 
+def _unreadable(row: sqlite3.Row, exc: Exception) -> dict[str, Any]:
+    """The fields of a row whose stored JSON cannot be read: failed, saying why, so one bad
+    row is that row's error and not a 500 for a whole list."""
+    return {
+        "id": row["id"], "created": _utc(row["created"]), "finished": _utc(row["finished"]),
+        "status": "failed", "error": f"stored row unreadable ({type(exc).__name__}: {exc}); "
+        "delete it (DELETE) or restore the store from a backup",
+    }  # fmt: skip
+
+
 def _run(row: sqlite3.Row) -> Run:
+    try:
+        return _run_fields(row)
+    except (ValueError, TypeError) as exc:  # json.JSONDecodeError and pydantic's are ValueErrors
+        return Run(**_unreadable(row, exc), progress=0.0, scenario={})
+
+
+def _run_fields(row: sqlite3.Row) -> Run:
     return Run(
         id=row["id"],
         created=_utc(row["created"]),
@@ -170,8 +263,9 @@ class RunStore:
         TwinError: the file was written by a newer schema.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, quota: Quota | None = None) -> None:
         self.path = Path(path)
+        self.quota = quota if quota is not None else Quota()
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # One connection guarded by a lock: FastAPI calls from its thread pool; autocommit
         # mode (isolation_level=None) so each `_write` is exactly one explicit transaction.
@@ -180,6 +274,17 @@ class RunStore:
         )
         self._conn.row_factory = sqlite3.Row
         self._lock = threading.Lock()
+        try:
+            self._open()
+        except sqlite3.DatabaseError as exc:  # not a database, or a damaged one
+            self._conn.close()
+            raise TwinError(
+                f"run store {self.path} cannot be read ({exc}): move it aside (mv {self.path} "
+                f"{self.path}.bad) to start with an empty store, or restore it from a backup"
+            ) from None
+
+    def _open(self) -> None:
+        """Pragmas, schema and the version check (sqlite3.DatabaseError: a bad file)."""
         with self._lock:
             self._conn.execute("PRAGMA journal_mode = WAL")  # readers never block the writer
             self._conn.execute("PRAGMA synchronous = FULL")  # a committed run survives power loss
@@ -193,6 +298,19 @@ class RunStore:
             self._conn.executescript(
                 f"BEGIN IMMEDIATE; {_SCHEMA} PRAGMA user_version = {SCHEMA_VERSION}; COMMIT;"
             )
+            for table, columns in _ADDED.items():
+                have = {r["name"] for r in self._conn.execute(f"PRAGMA table_info({table})")}
+                for name, kind in columns.items():
+                    if name not in have:
+                        self._conn.execute(f"ALTER TABLE {table} ADD COLUMN {name} {kind}")
+                self._conn.execute(  # rows from before sizes were kept
+                    f"UPDATE {table} SET size = {_ROW_BYTES[table]} + {ROW_OVERHEAD} "
+                    "WHERE size = 0"
+                )
+            # a damaged page shows here, at start-up, not as a 500 in the middle of a request
+            problem = self._conn.execute("PRAGMA quick_check(1)").fetchone()[0]
+            if problem != "ok":
+                raise sqlite3.DatabaseError(f"integrity check: {problem}")
             self._identity = self._stat()
 
     def _stat(self) -> tuple[int, int] | None:
@@ -245,14 +363,116 @@ class RunStore:
             self._conn.execute("COMMIT")
             return changed
 
-    def create(self, scenario: Scenario) -> Run:
-        """Store a new run of `scenario` as queued."""
+    def create(self, scenario: Scenario, max_pending: int | None = None) -> Run:
+        """Store a new run of `scenario` as queued.
+
+        Args:
+            scenario: the run's scenario.
+            max_pending: refuse if this many runs are already queued or running; checked in
+                the same transaction as the insert, so concurrent submissions cannot pass it.
+
+        Raises:
+            QueueFull: `max_pending` runs are queued or running (nothing stored).
+        """
+        from twin.web.limits import price_run
+
         run_id = uuid.uuid4().hex
-        self._write(
-            "INSERT INTO runs (id, created, status, scenario) VALUES (?, ?, 'queued', ?)",
-            (run_id, time.time(), scenario.model_dump_json()),
-        )
+        text = scenario.model_dump_json()
+        size = price_run(scenario).bytes + len(text) + ROW_OVERHEAD
+        self._insert_capped(
+            "runs", max_pending,
+            "INSERT INTO runs (id, created, status, scenario, size) VALUES (?, ?, 'queued', ?, ?)",
+            (run_id, time.time(), text, size),
+        )  # fmt: skip
         return self.get(run_id)
+
+    def _insert_capped(
+        self, table: str, cap: int | None, insert: str, parameters: tuple[Any, ...]
+    ) -> None:
+        """`insert` (its last parameter: the row's size [bytes]) only while fewer than `cap`
+        rows of `table` are queued or running and the quota has room (`_make_room`): count,
+        room and insert in one write transaction, so concurrent submissions cannot pass a cap
+        between the count and the insert."""
+        pending = f"SELECT COUNT(*) FROM {table} WHERE status IN ('queued', 'running')"
+        with self._lock:
+            self._check()
+            try:
+                self._conn.execute("BEGIN IMMEDIATE")
+            except sqlite3.OperationalError as exc:
+                raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
+            try:
+                count = self._conn.execute(pending).fetchone()[0]
+                if cap is not None and count >= cap:
+                    raise QueueFull(table, count, cap)
+                self._make_room(table, parameters[-1])
+                self._conn.execute(insert, parameters)
+            except BaseException as exc:
+                self._conn.execute("ROLLBACK")
+                if isinstance(exc, sqlite3.OperationalError):
+                    raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
+                raise
+            self._conn.execute("COMMIT")
+
+    def usage(self) -> tuple[int, int]:
+        """([bytes] stored or reserved by runs and sweeps, runs stored)."""
+        with self._lock:
+            self._check()
+            return self._usage()
+
+    def _usage(self) -> tuple[int, int]:
+        runs, size = self._conn.execute(
+            "SELECT COUNT(*), COALESCE(SUM(size), 0) FROM runs"
+        ).fetchone()
+        swept = self._conn.execute("SELECT COALESCE(SUM(size), 0) FROM sweeps").fetchone()[0]
+        return size + swept, runs
+
+    def _make_room(self, table: str, need: int) -> None:
+        """Within a write transaction: room for a new row of `need` bytes in `table` under
+        the quota, deleting the oldest finished unpinned results if it retains (runs and
+        sweeps alike, oldest first).
+
+        Raises:
+            StoreFull: over the quota, and (without retention, or nothing left to delete) no
+                room can be made.
+        """
+        quota = self.quota
+        if quota.max_bytes is None and quota.max_runs is None:
+            return
+
+        def over() -> bool:
+            used, runs = self._usage()
+            return (quota.max_bytes is not None and used + need > quota.max_bytes) or (
+                table == "runs" and quota.max_runs is not None and runs + 1 > quota.max_runs
+            )
+
+        finished = "status IN ('done', 'failed') AND pinned = 0"
+        while over():
+            victim = None
+            if quota.retain:
+                victim = self._conn.execute(
+                    f"SELECT 'runs' AS t, id, created FROM runs WHERE {finished} UNION ALL "
+                    f"SELECT 'sweeps', id, created FROM sweeps WHERE {finished} "
+                    "ORDER BY created LIMIT 1"
+                ).fetchone()
+                if table == "runs" and victim is not None and victim["t"] == "sweeps":
+                    runs = self._usage()[1]
+                    if quota.max_runs is not None and runs + 1 > quota.max_runs:
+                        # only a run's deletion frees a run's place
+                        victim = self._conn.execute(
+                            f"SELECT 'runs' AS t, id FROM runs WHERE {finished} "
+                            "ORDER BY created LIMIT 1"
+                        ).fetchone()
+            if victim is None:
+                used, runs = self._usage()
+                limit = (f"{used + need} of at most {quota.max_bytes} bytes"
+                         if quota.max_bytes is not None and used + need > quota.max_bytes
+                         else f"{runs + 1} runs of at most {quota.max_runs}")  # fmt: skip
+                raise StoreFull(
+                    f"run store full: this would make {limit} (--max-store, --max-runs); "
+                    "delete runs or sweeps (DELETE /api/runs/{id}, /api/sweeps/{id}), unpin "
+                    "some, or start the server with a larger quota or --retain"
+                )
+            self._conn.execute(f"DELETE FROM {victim['t']} WHERE id = ?", (victim["id"],))
 
     def mark_running(self, run_id: str) -> bool:
         """A queued run starts (a run in any other status stays as it is); whether it did.
@@ -261,7 +481,8 @@ class RunStore:
             RunNotFound: no run has this id.
         """
         changed = self._write(
-            "UPDATE runs SET status = 'running', progress = 0 WHERE id = ? AND status = 'queued'",
+            "UPDATE runs SET status = 'running', progress = 0, attempts = attempts + 1 "
+            "WHERE id = ? AND status = 'queued'",
             (run_id,),
         )
         if not changed:
@@ -294,33 +515,79 @@ class RunStore:
         self._changed(
             run_id,
             "UPDATE runs SET status = 'done', progress = 1, finished = ?, metrics = ?, "
-            "series = ?, error = NULL WHERE id = ?",
-            (time.time(), text, series, run_id),
+            f"series = ?, error = NULL, size = LENGTH(scenario) + ? + {ROW_OVERHEAD} "
+            "WHERE id = ? AND NOT " + _WAS_CANCELLED,
+            (time.time(), text, series, len(text) + len(series), run_id),
         )
         return self.get(run_id)
 
-    def delete(self, run_id: str) -> None:
-        """Forget a run (one refused before it ran: a refused request leaves nothing)."""
-        self._write("DELETE FROM runs WHERE id = ?", (run_id,))
+    def pin(self, table: Literal["runs", "sweeps"], job_id: str, pinned: bool = True) -> None:
+        """Keep a run (or sweep) from retention (`Quota.retain`), or let it go again.
+
+        Raises:
+            RunNotFound: no run (SweepNotFound: no sweep) has this id.
+        """
+        if not self._write(f"UPDATE {table} SET pinned = ? WHERE id = ?", (int(pinned), job_id)):
+            (self.get if table == "runs" else self.get_sweep)(job_id)
+
+    def delete(self, run_id: str) -> bool:
+        """Forget a run, its series with it; whether there was one."""
+        return bool(self._write("DELETE FROM runs WHERE id = ?", (run_id,)))
+
+    def cancel(self, run_id: str, reason: str = "by request") -> bool:
+        """A queued or running run becomes failed, `error` "cancelled …"; whether it was one.
+
+        Raises:
+            RunNotFound: no run has this id.
+        """
+        changed = self._write(
+            "UPDATE runs SET status = 'failed', finished = ?, error = ?, "
+            f"size = LENGTH(scenario) + {ROW_OVERHEAD} "
+            "WHERE id = ? AND status IN ('queued', 'running')",
+            (time.time(), f"{CANCELLED} {reason}", run_id),
+        )
+        if not changed:
+            self.get(run_id)
+        return bool(changed)
 
     def fail(self, run_id: str, error: str) -> None:
         self._changed(
             run_id,
-            "UPDATE runs SET status = 'failed', finished = ?, error = ? WHERE id = ?",
-            (time.time(), error, run_id),
+            "UPDATE runs SET status = 'failed', finished = ?, error = ?, "
+            f"size = LENGTH(scenario) + ? + {ROW_OVERHEAD} "
+            "WHERE id = ? AND NOT " + _WAS_CANCELLED,
+            (time.time(), error, len(error.encode()), run_id),
         )
 
-    def requeue_unfinished(self) -> list[str]:
-        """Runs a stopped server left queued or running, set back to queued, oldest first."""
+    def requeue_unfinished(self, max_attempts: int = MAX_ATTEMPTS) -> list[str]:
+        """Runs a stopped server left queued or running, set back to queued, oldest first;
+        those already started `max_attempts` times are failed instead, saying so."""
+        return self._requeue("runs", "progress = 0", max_attempts)
+
+    def _requeue(self, table: str, reset: str, max_attempts: int) -> list[str]:
+        unfinished = "status IN ('queued', 'running')"
         with self._lock:
             self._check()
             self._conn.execute("BEGIN IMMEDIATE")
-            rows = self._conn.execute(
-                "SELECT id FROM runs WHERE status IN ('queued', 'running') ORDER BY created, rowid"
-            ).fetchall()
-            self._conn.execute(
-                "UPDATE runs SET status = 'queued', progress = 0 WHERE status = 'running'"
-            )
+            try:
+                own = "scenario" if table == "runs" else "spec"
+                self._conn.execute(
+                    f"UPDATE {table} SET status = 'failed', finished = ?, error = 'interrupted: "
+                    "started ' || attempts || ' times, each stopped by a server stop or crash "
+                    "before it finished; not queued again (resubmit it, smaller)', "
+                    f"size = LENGTH({own}) + {ROW_OVERHEAD} "
+                    f"WHERE {unfinished} AND attempts >= ?",
+                    (time.time(), max_attempts),
+                )
+                rows = self._conn.execute(
+                    f"SELECT id FROM {table} WHERE {unfinished} ORDER BY created, rowid"
+                ).fetchall()
+                self._conn.execute(
+                    f"UPDATE {table} SET status = 'queued', {reset} WHERE status = 'running'"
+                )
+            except BaseException:
+                self._conn.execute("ROLLBACK")
+                raise
             self._conn.execute("COMMIT")
         return [row["id"] for row in rows]
 
@@ -332,8 +599,9 @@ class RunStore:
             ).fetchone()[0]
 
     def _changed(self, run_id: str, sql: str, parameters: tuple[Any, ...]) -> None:
+        """A write to one run: RunNotFound if there is none (a cancelled one stays as is)."""
         if self._write(sql, parameters) == 0:
-            raise RunNotFound(f"unknown run id {run_id!r}")
+            self.get(run_id)
 
     # -- readers -----------------------------------------------------------------------------
     def _row(self, run_id: str, columns: str) -> sqlite3.Row:
@@ -379,20 +647,77 @@ class RunStore:
         scenario = Scenario.model_construct(**json.loads(row["scenario"]))
         return SimulationResult(scenario, unpack_series(row["series"]), json.loads(row["metrics"]))
 
+    def series_blob(self, run_id: str) -> tuple[dict[str, Any], dict[str, Any], bytes]:
+        """A done run's (scenario, metrics, packed series) without decoding the series (the
+        streaming exports read them lazily, `twin.web.export.Series`).
+
+        Raises:
+            RunNotFound: no run has this id.
+            TwinError: the run is not done.
+        """
+        row = self._row(run_id, "status, scenario, metrics, series")
+        if row["status"] != "done":
+            raise TwinError(f"run {run_id} is {row['status']}; series exist once it is done")
+        return json.loads(row["scenario"]), json.loads(row["metrics"]), row["series"]
+
     # -- sweeps ------------------------------------------------------------------------------
-    def create_sweep(self, spec: dict[str, Any], total: int) -> Sweep:
-        """Store a new sweep of a validated `SweepSpec` (as a dict) of `total` runs, queued."""
+    def create_sweep(
+        self, spec: dict[str, Any], total: int, max_pending: int | None = None
+    ) -> Sweep:
+        """Store a new sweep of a validated `SweepSpec` (as a dict) of `total` runs, queued.
+
+        Raises:
+            QueueFull: `max_pending` sweeps are queued or running (checked atomically with the
+                insert, as `create` does).
+        """
+        from twin.sim.sweep import SweepSpec
+        from twin.web.limits import price_sweep
+
         sweep_id = uuid.uuid4().hex
-        self._write(
-            "INSERT INTO sweeps (id, created, status, total, spec) VALUES (?, ?, 'queued', ?, ?)",
-            (sweep_id, time.time(), total, json.dumps(spec, allow_nan=False)),
-        )
+        text = json.dumps(spec, allow_nan=False)
+        size = price_sweep(SweepSpec.model_construct(**spec)).bytes + len(text) + ROW_OVERHEAD
+        self._insert_capped(
+            "sweeps", max_pending,
+            "INSERT INTO sweeps (id, created, status, total, spec, size) "
+            "VALUES (?, ?, 'queued', ?, ?, ?)",
+            (sweep_id, time.time(), total, text, size),
+        )  # fmt: skip
         return self.get_sweep(sweep_id)
 
-    def sweep_running(self, sweep_id: str) -> None:
-        self._sweep_changed(
-            sweep_id, "UPDATE sweeps SET status = 'running', done = 0 WHERE id = ?", (sweep_id,)
+    def cancel_sweep(self, sweep_id: str, reason: str = "by request") -> bool:
+        """A queued or running sweep becomes failed, `error` "cancelled …"; whether it was.
+
+        Raises:
+            SweepNotFound: no sweep has this id.
+        """
+        changed = self._write(
+            "UPDATE sweeps SET status = 'failed', finished = ?, error = ?, "
+            f"size = LENGTH(spec) + {ROW_OVERHEAD} "
+            "WHERE id = ? AND status IN ('queued', 'running')",
+            (time.time(), f"{CANCELLED} {reason}", sweep_id),
         )
+        if not changed:
+            self.get_sweep(sweep_id)
+        return bool(changed)
+
+    def delete_sweep(self, sweep_id: str) -> bool:
+        """Forget a sweep, its table and heatmap with it; whether there was one."""
+        return bool(self._write("DELETE FROM sweeps WHERE id = ?", (sweep_id,)))
+
+    def sweep_running(self, sweep_id: str) -> bool:
+        """A queued sweep starts (one cancelled meanwhile stays as it is); whether it did.
+
+        Raises:
+            SweepNotFound: no sweep has this id.
+        """
+        changed = self._write(
+            "UPDATE sweeps SET status = 'running', done = 0, attempts = attempts + 1 "
+            "WHERE id = ? AND status IN ('queued', 'running')",
+            (sweep_id,),
+        )
+        if not changed:
+            self.get_sweep(sweep_id)
+        return bool(changed)
 
     def sweep_progress(self, sweep_id: str, done: int) -> None:
         """Runs done of a running sweep; it only grows (a late report changes nothing)."""
@@ -403,35 +728,28 @@ class RunStore:
 
     def finish_sweep(self, sweep_id: str, result: dict[str, Any], heatmap: bytes) -> Sweep:
         """Store a finished sweep's `SweepResult.to_dict()` and heatmap PNG (status done)."""
+        text = json.dumps(result, allow_nan=False)
         self._sweep_changed(
             sweep_id,
             "UPDATE sweeps SET status = 'done', done = total, finished = ?, result = ?, "
-            "heatmap = ?, error = NULL WHERE id = ?",
-            (time.time(), json.dumps(result, allow_nan=False), heatmap, sweep_id),
+            f"heatmap = ?, error = NULL, size = LENGTH(spec) + ? + {ROW_OVERHEAD} "
+            "WHERE id = ? AND NOT " + _WAS_CANCELLED,
+            (time.time(), text, heatmap, len(text) + len(heatmap), sweep_id),
         )
         return self.get_sweep(sweep_id)
 
     def fail_sweep(self, sweep_id: str, error: str) -> None:
         self._sweep_changed(
             sweep_id,
-            "UPDATE sweeps SET status = 'failed', finished = ?, error = ? WHERE id = ?",
+            "UPDATE sweeps SET status = 'failed', finished = ?, error = ?, "
+            f"size = LENGTH(spec) + {ROW_OVERHEAD} WHERE id = ? AND NOT " + _WAS_CANCELLED,
             (time.time(), error, sweep_id),
         )
 
-    def requeue_unfinished_sweeps(self) -> list[str]:
-        """Sweeps a stopped server left queued or running, set back to queued, oldest first."""
-        with self._lock:
-            self._check()
-            self._conn.execute("BEGIN IMMEDIATE")
-            rows = self._conn.execute(
-                "SELECT id FROM sweeps WHERE status IN ('queued', 'running') "
-                "ORDER BY created, rowid"
-            ).fetchall()
-            self._conn.execute(
-                "UPDATE sweeps SET status = 'queued', done = 0 WHERE status = 'running'"
-            )
-            self._conn.execute("COMMIT")
-        return [row["id"] for row in rows]
+    def requeue_unfinished_sweeps(self, max_attempts: int = MAX_ATTEMPTS) -> list[str]:
+        """Sweeps a stopped server left queued or running, set back to queued, oldest first;
+        those already started `max_attempts` times are failed instead, saying so."""
+        return self._requeue("sweeps", "done = 0", max_attempts)
 
     def get_sweep(self, sweep_id: str) -> Sweep:
         """The sweep without its heatmap.
@@ -454,8 +772,9 @@ class RunStore:
         return bytes(row["heatmap"])
 
     def _sweep_changed(self, sweep_id: str, sql: str, parameters: tuple[Any, ...]) -> None:
+        """A write to one sweep: SweepNotFound if there is none (a cancelled one stays)."""
         if self._write(sql, parameters) == 0:
-            raise SweepNotFound(f"unknown sweep id {sweep_id!r}")
+            self.get_sweep(sweep_id)
 
     def _sweep_row(self, sweep_id: str, columns: str) -> sqlite3.Row:
         with self._lock:

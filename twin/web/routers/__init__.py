@@ -1,4 +1,5 @@
-"""The REST API's routers, one per resource: registries (and health), runs, sweeps, live.
+"""The REST API's routers, one per resource: registries (and health), runs, sweeps,
+site workability, live.
 
 Each takes what it needs as dependencies (`twin.web.deps`); `twin.web.api.create_app`
 includes them.
@@ -6,6 +7,6 @@ includes them.
 
 from __future__ import annotations
 
-from twin.web.routers import live, registries, runs, sweeps
+from twin.web.routers import live, registries, runs, sweeps, workability
 
-__all__ = ["live", "registries", "runs", "sweeps"]
+__all__ = ["live", "registries", "runs", "sweeps", "workability"]

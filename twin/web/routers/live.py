@@ -41,15 +41,17 @@ def patch_live(changes: LivePatch, session: Session) -> Any:
     `compare_planner` adds a second lane: the same scenario and vessel motion under another
     planner of the mechanism (the viewer draws it as a translucent ghost, `GET` answers its
     metrics under `compare`); every later change applies to both lanes but that planner;
-    null stops it. Setting, changing or stopping it restarts at t = 0. While a stored run is
+    null stops it. Setting, changing or stopping it restarts at t = 0. The answer's `restarted`
+    says whether this change restarted live time (and `restart_reason` why). While a stored run is
     replayed, `speed` and `playing` act on the replay and any other field returns to live.
     """
     ranges = RANGES[("PATCH", "/api/live")]
+    before = session.restarts
     try:
         session.patch(changes.model_dump(exclude_unset=True))
     except ValueError as exc:
         return unprocessable(body_errors(exc, ranges), ranges)
-    return session.snapshot()
+    return {**session.snapshot(), "restarted": session.restarts != before}
 
 
 @router.post("/reset", response_model=LiveState, dependencies=GUARDED, responses=BAD_INPUT)

@@ -9,7 +9,14 @@ from fastapi.responses import FileResponse, JSONResponse
 
 import twin
 from twin.web.deps import ExecutorDep, ServicesDep, Store
-from twin.web.models import ExecutorInfo, Health, MechanismInfo, PlannerInfo, SeaStateInfo
+from twin.web.models import (
+    ExecutorInfo,
+    Health,
+    MechanismInfo,
+    PlannerInfo,
+    SeaStateInfo,
+    WarmupInfo,
+)
 
 _HERE = Path(__file__).resolve().parent.parent
 #: the landing page: `twin/_static` in a wheel (pyproject `force-include`), else the
@@ -37,6 +44,12 @@ def health(request: Request, services: ServicesDep, store: Store, executor: Exec
         message = f"run store {store.path} is gone or replaced; restart the server"
         return JSONResponse({"detail": message, "message": message}, status_code=503)
     info = None if executor is None or executor.closed else ExecutorInfo(**executor.info())
+    warmup = services.warmup
+    if warmup is not None and warmup.status != "ok":
+        return Health(
+            status=warmup.status, version=twin.__version__, viewer_port=services.viewer_port,
+            executor=info, warming=WarmupInfo(**warmup.snapshot()),
+        )  # fmt: skip
     return Health(version=twin.__version__, viewer_port=services.viewer_port, executor=info)
 
 

@@ -27,6 +27,8 @@ BAD_INPUT = {
 LIMITED = {
     **BAD_INPUT,
     **STORE,
+    507: {"description": "the run store is full (--max-store, --max-runs): delete runs or "
+          "sweeps, or start the server with a larger quota or --retain"},
     429: {"description": "too many submissions (or wrong tokens) from this client, or the "
           "queue is full: retry after the Retry-After header's seconds"},
 }  # fmt: skip

@@ -1,0 +1,526 @@
+"""Soak a real `twin serve` with the attacks of issue 30 beside ordinary use, and check it held.
+
+    python scripts/soak.py                 # 30 minutes, 100 viewers, a 5,000-connection slowloris
+    python scripts/soak.py --short         # the CI form: under 60 s, 10 viewers, 500 connections
+    python scripts/soak.py --minutes 5 --json soak.json
+
+One server (`python -m twin.cli serve`, token mode, a local cluster of `--workers` workers, in
+its own process group and data directory) is driven, all at once, by:
+
+- **mixed load** from 127.0.0.1: runs of 5-60 s submitted, listed, read back, exported (CSV
+  and JSON, part of them selected with `every`), some cancelled and deleted; small sweeps;
+- **viewers**: `--viewers` websocket clients of the 3D viewer that read every message;
+- **slowloris** from 127.0.0.2: `--slowloris` connections, each sending a header byte a
+  second and never finishing its request, opened again as soon as the server closes them;
+- **the heatmap attack**: a sweep of 5,000 headings (must be refused, 422) and one at the
+  panel limit (must finish, its heatmap drawn on the executor);
+- **a long run's exports**: a 200,000-step run (20,000 in the short form) exported as JSON
+  three times at once.
+
+`/api/health` is polled every 0.25 s from 127.0.0.1 throughout. At the end the slowloris
+stops and the server must serve again within `RECOVERY` s; then a sweep is left running and
+the server gets SIGTERM (as `docker stop` sends), which it must obey within 10 s; the store is
+opened afterwards and every run the soak was told was accepted (and did not delete) must be in
+it. Checks (exit 1 if one fails): health p99 < 1 s, the server's RSS under `--rss-bound` MB,
+nothing accepted lost, the attack refused, SIGTERM within 10 s. The figures print as a table
+(docs/reliability.md's issue-30 rows come from it) and, with `--json`, go to a file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import multiprocessing
+import os
+import random
+import resource
+import signal
+import socket
+import sqlite3
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import psutil
+
+ROOT = Path(__file__).resolve().parents[1]
+TOKEN = "soak-token-0123456789abcdef"
+AUTH = {"Authorization": f"Bearer {TOKEN}"}
+#: [s] how soon the server must serve again once a flood stops
+RECOVERY = 15.0
+#: [s] what `docker stop` allows before SIGKILL
+STOP_BUDGET = 10.0
+#: [s] the p99 of /api/health the server must stay under
+HEALTH_P99 = 1.0
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Soak:
+    """The server under test and what was measured."""
+
+    def __init__(self, folder: Path, workers: int) -> None:
+        self.port, self.viser_port = free_port(), free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.data = folder / "data"
+        self.log_path = folder / "server.log"
+        args = [
+            sys.executable, "-m", "twin.cli", "serve", "--host", "127.0.0.1",
+            "--port", str(self.port), "--viser-port", str(self.viser_port),
+            "--data-dir", str(self.data), "--workers", str(workers),
+        ]  # fmt: skip
+        with self.log_path.open("wb") as log:
+            self.process = subprocess.Popen(
+                args, cwd=folder, stdout=log, stderr=subprocess.STDOUT,
+                env={**os.environ, "TWIN_TOKEN": TOKEN}, start_new_session=True,
+            )  # fmt: skip
+        self.stop = threading.Event()
+        self.lock = threading.Lock()
+        self.health: list[float] = []
+        self.health_errors = 0
+        self.rss: list[float] = []
+        self.accepted: set[str] = set()
+        self.protected: set[str] = set()  # the long run: the mixed load leaves it alone
+        self.deleted: set[str] = set()
+        self.statuses: Counter[str] = Counter()
+        self.failures: list[str] = []
+        self.figures: dict[str, Any] = {}
+        self.ws_messages = 0
+        self.ws_connected = 0
+
+    def log(self) -> str:
+        return self.log_path.read_text(errors="replace")[-3000:]
+
+    def wait_ready(self, timeout: float = 300.0) -> float:
+        """[s] until /api/health says `ok` (not `warming`): the soak measures a running
+        server, not its start-up."""
+        start = time.monotonic()
+        while time.monotonic() - start < timeout:
+            if self.process.poll() is not None:
+                raise SystemExit(f"server exited early:\n{self.log()}")
+            try:
+                health = httpx.get(f"{self.url}/api/health", timeout=2)
+                if health.status_code == 200 and health.json().get("status", "ok") == "ok":
+                    self.viser_port = health.json().get("viewer_port") or self.viser_port
+                    return time.monotonic() - start
+            except httpx.TransportError:
+                pass
+            time.sleep(0.2)
+        raise SystemExit(f"server not ready after {timeout} s:\n{self.log()}")
+
+    def count(self, what: str) -> None:
+        with self.lock:
+            self.statuses[what] += 1
+
+
+# -- the drivers ---------------------------------------------------------------------------------
+
+
+def health_poller(soak: Soak) -> None:
+    with httpx.Client(base_url=soak.url, timeout=30) as http:
+        while not soak.stop.is_set():
+            start = time.perf_counter()
+            try:
+                ok = http.get("/api/health").status_code == 200
+            except httpx.HTTPError:
+                ok = False
+            elapsed = time.perf_counter() - start
+            with soak.lock:
+                soak.health.append(elapsed if ok else float("inf"))
+                soak.health_errors += not ok
+            soak.stop.wait(0.25)
+
+
+def rss_sampler(soak: Soak) -> None:
+    process = psutil.Process(soak.process.pid)
+    while not soak.stop.is_set():
+        try:
+            soak.rss.append(process.memory_info().rss / 2**20)
+        except psutil.Error:
+            return
+        soak.stop.wait(0.5)
+
+
+def mixed_load(soak: Soak, seed: int) -> None:
+    """Runs submitted, read, exported, cancelled and deleted; small sweeps now and then."""
+    rng = random.Random(seed)
+    with httpx.Client(base_url=soak.url, timeout=120, headers=AUTH) as http:
+        while not soak.stop.is_set():
+            try:
+                action = rng.random()
+                if action < 0.5:
+                    body = {"sea_state": rng.randint(2, 6), "duration": rng.choice([5, 20, 60])}
+                    response = http.post("/api/runs", json=body)
+                    soak.count(f"POST /api/runs {response.status_code}")
+                    if response.status_code in (201, 202):
+                        with soak.lock:
+                            soak.accepted.add(response.json()["id"])
+                elif action < 0.7:
+                    runs = http.get("/api/runs", params={"limit": 20}).json()
+                    done = [r["id"] for r in runs if r["status"] == "done"]
+                    if done:
+                        fmt = rng.choice(["csv", "json"])
+                        params = {"format": fmt, "every": rng.choice([1, 10])}
+                        response = http.get(f"/api/runs/{rng.choice(done)}/series", params=params)
+                        soak.count(f"GET series {response.status_code}")
+                elif action < 0.8:
+                    with soak.lock:
+                        mine = sorted(soak.accepted - soak.deleted - soak.protected)
+                    if mine:
+                        victim = rng.choice(mine)
+                        if rng.random() < 0.5:
+                            code = http.post(f"/api/runs/{victim}/cancel").status_code
+                            soak.count(f"cancel {code}")
+                        else:
+                            code = http.delete(f"/api/runs/{victim}").status_code
+                            soak.count(f"DELETE {code}")
+                            if code == 204:
+                                with soak.lock:
+                                    soak.deleted.add(victim)
+                elif action < 0.81:
+                    spec = {"hs": [1.0, 2.0], "tp": [8.0], "seeds": 1, "duration": 5.0}
+                    code = http.post("/api/sweeps", json=spec).status_code
+                    soak.count(f"POST /api/sweeps {code}")
+                else:
+                    soak.count(f"GET /api/live {http.get('/api/live').status_code}")
+            except (httpx.HTTPError, ValueError) as exc:  # ValueError: an answer not JSON
+                soak.count(f"error {type(exc).__name__}")
+            soak.stop.wait(rng.uniform(0.05, 0.3))
+
+
+async def _viewer(soak: Soak, index: int) -> None:
+    import viser
+    import websockets
+
+    protocol = websockets.Subprotocol(f"viser-v{viser.__version__}")
+    url = f"ws://127.0.0.1:{soak.viser_port}"
+    while not soak.stop.is_set():
+        try:
+            async with websockets.connect(url, subprotocols=[protocol], max_size=None,
+                                          open_timeout=60) as ws:  # fmt: skip
+                with soak.lock:
+                    soak.ws_connected += 1
+                while not soak.stop.is_set():
+                    try:
+                        await asyncio.wait_for(ws.recv(), 1.0)
+                        soak.ws_messages += 1
+                    except TimeoutError:
+                        continue
+        except Exception:  # refused, closed: connect again, as a browser tab would
+            await asyncio.sleep(1.0 + index % 5)
+
+
+async def _slow_connection(port: int, stop: Any, counts: dict[str, int]) -> None:
+    while not stop.is_set():
+        try:
+            reader, writer = await asyncio.open_connection(
+                "127.0.0.1", port, local_addr=("127.0.0.2", 0)
+            )
+        except OSError:
+            await asyncio.sleep(0.5)
+            continue
+        counts["opened"] += 1
+        try:
+            writer.write(b"GET /api/health HTTP/1.1\r\nHost: localhost\r\n")
+            while not stop.is_set():
+                writer.write(b"X-a: b\r\n")  # a header a second, never the blank line
+                await writer.drain()
+                try:
+                    if await asyncio.wait_for(reader.read(1024), 1.0) == b"":
+                        counts["closed"] += 1
+                        break
+                except TimeoutError:
+                    continue
+        except OSError:
+            counts["closed"] += 1
+        finally:
+            writer.close()
+        await asyncio.sleep(0.2)
+
+
+def slowloris_process(port: int, connections: int, stop: Any, opened: Any, closed: Any) -> None:
+    """The slowloris, in a process of its own: its thousands of sockets must not slow the
+    soak's own health polls (one GIL), only the server."""
+    _, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
+    counts = {"opened": 0, "closed": 0}
+
+    async def main() -> None:
+        await asyncio.gather(*(_slow_connection(port, stop, counts) for _ in range(connections)),
+                             return_exceptions=True)  # fmt: skip
+
+    asyncio.run(main())
+    opened.value, closed.value = counts["opened"], counts["closed"]
+
+
+def run_async(soak: Soak, coroutines: list[Any]) -> None:
+    async def main() -> None:
+        await asyncio.gather(*coroutines, return_exceptions=True)
+
+    asyncio.run(main())
+
+
+def heatmap_attack(soak: Soak) -> None:
+    """The sweep that held a server for over an hour, and one at the panel limit."""
+    from twin.sim.sweep import MAX_PANELS
+
+    attack = {"hs": [1.0], "tp": [8.0], "seeds": 1, "duration": 0.05,
+              "heading": [float(h) for h in range(5000)]}  # fmt: skip
+    with httpx.Client(base_url=soak.url, timeout=120, headers=AUTH) as http:
+        start = time.perf_counter()
+        refused = http.post("/api/sweeps", json=attack)
+        soak.figures["heatmap_attack_status"] = refused.status_code
+        soak.figures["heatmap_attack_answered_s"] = round(time.perf_counter() - start, 3)
+        if refused.status_code != 422:
+            soak.failures.append(f"the 5,000-heading sweep was answered {refused.status_code}")
+        at_limit = {**attack, "heading": [float(h) for h in range(MAX_PANELS)]}
+        start = time.perf_counter()
+        sweep = http.post("/api/sweeps", json=at_limit)
+        while sweep.status_code == 429 and not soak.stop.is_set():  # the queue is full: wait
+            time.sleep(1.0)
+            sweep = http.post("/api/sweeps", json=at_limit)
+        if sweep.status_code != 202:
+            soak.figures["panel_limit_sweep"] = f"answered {sweep.status_code}"
+            return
+        sweep_id = sweep.json()["id"]
+        while not soak.stop.is_set():
+            answer = http.get(f"/api/sweeps/{sweep_id}").json()
+            status = answer["status"]
+            if status in ("done", "failed"):
+                soak.figures["panel_limit_sweep"] = status
+                if status == "failed":
+                    soak.failures.append(f"the sweep at the panel limit failed: {answer['error']}")
+                soak.figures["panel_limit_sweep_s"] = round(time.perf_counter() - start, 1)
+                soak.figures["panels"] = MAX_PANELS
+                return
+            time.sleep(0.5)
+
+
+def long_exports(soak: Soak, steps: int) -> None:
+    """A run of `steps` steps (200,000: the longest allowed), its JSON series fetched three
+    times at once."""
+    body = {"sea_state": 4, "duration": steps * 0.005, "dt": 0.005, "n_components": 50}
+    with httpx.Client(base_url=soak.url, timeout=300, headers=AUTH) as http:
+        response = http.post("/api/runs", json=body)
+        if response.status_code not in (201, 202):
+            soak.figures["long_run"] = f"answered {response.status_code}"
+            return
+        run_id = response.json()["id"]
+        with soak.lock:
+            soak.accepted.add(run_id)
+            soak.protected.add(run_id)
+        while not soak.stop.is_set():
+            status = http.get(f"/api/runs/{run_id}").json()["status"]
+            if status != "queued" and status != "running":
+                break
+            time.sleep(0.5)
+        if status != "done":
+            soak.figures["long_run"] = f"{status}: {http.get(f'/api/runs/{run_id}').json()}"
+            return
+        before = psutil.Process(soak.process.pid).memory_info().rss / 2**20
+        sizes: list[int] = []
+
+        refused = Counter()
+
+        def fetch() -> None:
+            while not soak.stop.is_set():
+                with http.stream("GET", f"/api/runs/{run_id}/series") as stream:
+                    if stream.status_code == 429:  # EXPORT_SLOTS streaming: wait a turn
+                        refused["429"] += 1
+                        time.sleep(1.0)
+                        continue
+                    sizes.append(sum(len(chunk) for chunk in stream.iter_bytes()))
+                    return
+
+        threads = [threading.Thread(target=fetch) for _ in range(3)]
+        peak = before
+        for thread in threads:
+            thread.start()
+        while any(t.is_alive() for t in threads):
+            peak = max(peak, psutil.Process(soak.process.pid).memory_info().rss / 2**20)
+            time.sleep(0.05)
+        soak.figures["export_json_mb"] = round(max(sizes) / 2**20, 1) if sizes else 0
+        soak.figures["exports_done"] = len(sizes)
+        soak.figures["exports_told_to_wait"] = refused["429"]
+        soak.figures["export_rss_before_mb"] = round(before)
+        soak.figures["export_rss_peak_mb"] = round(peak)
+
+
+# -- the soak ------------------------------------------------------------------------------------
+
+
+def soak_once(args: argparse.Namespace) -> dict[str, Any]:
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))  # the slowloris needs its fds
+    with tempfile.TemporaryDirectory(prefix="twin-soak-") as folder:
+        soak = Soak(Path(folder), args.workers)
+        try:
+            soak.figures["startup_s"] = round(soak.wait_ready(), 1)
+            attacks = [
+                threading.Thread(target=heatmap_attack, args=(soak,), daemon=True),
+                threading.Thread(target=long_exports, args=(soak, args.long_steps), daemon=True),
+            ]
+            threads = [
+                threading.Thread(target=health_poller, args=(soak,), daemon=True),
+                threading.Thread(target=rss_sampler, args=(soak,), daemon=True),
+                *(threading.Thread(target=mixed_load, args=(soak, i), daemon=True)
+                  for i in range(args.clients)),
+            ]  # fmt: skip
+            viewers = threading.Thread(
+                target=run_async, daemon=True,
+                args=(soak, [_viewer(soak, i) for i in range(args.viewers)]),
+            )  # fmt: skip
+            context = multiprocessing.get_context("spawn")
+            slow_stop = context.Event()  # the slowloris stops before the rest
+            opened, closed = context.Value("q", 0), context.Value("q", 0)
+            slowloris = context.Process(
+                target=slowloris_process, daemon=True,
+                args=(soak.port, args.slowloris, slow_stop, opened, closed),
+            )  # fmt: skip
+            start = time.monotonic()
+            for thread in (*threads, *attacks, viewers, slowloris):
+                thread.start()
+            soak.stop.wait(args.seconds)
+            slow_stop.set()
+            slowloris.join(60)
+            soak.figures["slowloris_connections_opened"] = opened.value
+            soak.figures["slowloris_closed_by_server"] = closed.value
+            recovered = _recovery(soak)
+            soak.figures["served_again_after_flood_s"] = recovered
+            for thread in attacks:  # the attack sweep and the exports finish under the load
+                thread.join(300)
+            soak.figures["load_s"] = round(time.monotonic() - start, 1)
+            soak.stop.set()  # the load, the viewers and the health polls stop: then SIGTERM
+            for thread in (*threads, viewers):
+                thread.join(10)
+            stopped = _sigterm_with_a_sweep_open(soak)
+        finally:
+            soak.stop.set()
+            if soak.process.poll() is None:
+                os.killpg(soak.process.pid, signal.SIGKILL)
+                soak.process.wait(10)
+        _summarise(soak, stopped, args)
+        lost = _lost(soak)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+    soak.figures["runs_lost"] = len(lost)
+    if lost:
+        soak.failures.append(f"{len(lost)} accepted runs missing from the store: {lost[:5]}")
+    soak.figures["checks_failed"] = soak.failures
+    return soak.figures
+
+
+def _recovery(soak: Soak) -> float | None:
+    start = time.monotonic()
+    while time.monotonic() - start < RECOVERY:
+        try:
+            if httpx.get(f"{soak.url}/api/health", timeout=2).status_code == 200:
+                return round(time.monotonic() - start, 2)
+        except httpx.HTTPError:
+            pass
+        time.sleep(0.1)
+    soak.failures.append(f"not serving {RECOVERY:g} s after the slowloris stopped")
+    return None
+
+
+def _sigterm_with_a_sweep_open(soak: Soak) -> float | None:
+    spec = {"hs": [1.0, 2.0, 3.0], "tp": [6.0, 8.0], "seeds": 2, "duration": 200.0}
+    try:
+        httpx.post(f"{soak.url}/api/sweeps", json=spec, headers=AUTH, timeout=30)
+    except httpx.HTTPError:
+        pass
+    time.sleep(1.0)
+    start = time.monotonic()
+    soak.process.send_signal(signal.SIGTERM)
+    try:
+        soak.process.wait(30)
+    except subprocess.TimeoutExpired:
+        soak.failures.append("SIGTERM not obeyed within 30 s")
+        return None
+    stopped = time.monotonic() - start
+    if stopped > STOP_BUDGET:
+        soak.failures.append(f"SIGTERM took {stopped:.1f} s (docker stop allows {STOP_BUDGET:g})")
+    return round(stopped, 1)
+
+
+def _lost(soak: Soak) -> list[str]:
+    database = soak.data / "runs.sqlite"
+    with sqlite3.connect(database) as conn:
+        stored = {row[0] for row in conn.execute("SELECT id FROM runs")}
+    return sorted(soak.accepted - soak.deleted - stored)
+
+
+def _summarise(soak: Soak, stopped: float | None, args: argparse.Namespace) -> None:
+    health = np.array(soak.health) if soak.health else np.array([float("inf")])
+    finite = health[np.isfinite(health)]
+    p50, p99 = np.percentile(health, [50, 99]) if len(finite) else (float("inf"),) * 2
+    soak.figures.update({
+        "minutes": round(args.seconds / 60, 2),
+        "viewers": args.viewers,
+        "viewers_connected": soak.ws_connected,
+        "viewer_messages": soak.ws_messages,
+        "slowloris": args.slowloris,
+        "health_polls": len(health),
+        "health_failed": soak.health_errors,
+        "health_p50_s": round(float(p50), 4),
+        "health_p99_s": round(float(p99), 4),
+        "rss_max_mb": round(max(soak.rss)) if soak.rss else None,
+        "rss_bound_mb": args.rss_bound,
+        "requests": dict(sorted(soak.statuses.items())),
+        "runs_accepted": len(soak.accepted),
+        "runs_deleted": len(soak.deleted),
+        "sigterm_exit_s": stopped,
+    })  # fmt: skip
+    if not p99 < HEALTH_P99:
+        soak.failures.append(f"/api/health p99 {p99:.2f} s (allowed < {HEALTH_P99:g} s)")
+    if soak.rss and max(soak.rss) > args.rss_bound:
+        soak.failures.append(f"server RSS {max(soak.rss):.0f} MB over {args.rss_bound} MB")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--short", action="store_true", help="the CI form: under 60 s")
+    parser.add_argument("--minutes", type=float, default=30.0, help="load time (default 30)")
+    parser.add_argument("--viewers", type=int, help="viewer websocket clients (100; short 10)")
+    parser.add_argument("--slowloris", type=int, help="slow connections (5000; short 500)")
+    parser.add_argument("--clients", type=int, default=4, help="mixed-load clients")
+    parser.add_argument("--workers", type=int, default=2, help="the server's workers")
+    parser.add_argument("--rss-bound", type=int, default=1500,
+                        help="[MB] the server process's RSS must stay under it")  # fmt: skip
+    parser.add_argument("--json", type=Path, help="write the figures here")
+    args = parser.parse_args()
+    args.seconds = 20.0 if args.short else 60.0 * args.minutes
+    args.long_steps = 20_000 if args.short else 200_000
+    args.viewers = args.viewers if args.viewers is not None else (10 if args.short else 100)
+    args.slowloris = args.slowloris if args.slowloris is not None else (
+        500 if args.short else 5000
+    )
+    figures = soak_once(args)
+    log = os.environ.get("TWIN_RELIABILITY_LOG")  # scripts/reliability.py renders them
+    if log:
+        with open(log, "a", encoding="utf-8") as out:
+            out.write(json.dumps({"test": "soak", **figures}) + "\n")
+    width = max(map(len, figures))
+    for name, value in figures.items():
+        print(f"{name:<{width}}  {json.dumps(value)}")
+    if args.json:
+        args.json.write_text(json.dumps(figures, indent=2) + "\n")
+    if figures["checks_failed"]:
+        print("FAILED: " + "; ".join(figures["checks_failed"]), file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,121 @@
+"""Measure the shipped NDBC record's workability; write docs/workability/ (PNGs, measured.json).
+
+python scripts/workability_docs.py [--seeds 5] [--every 3] [--out docs/workability]
+                                   [--data-dir /tmp/twin-cells] [--workers 2]
+
+1. Cells method (linear lookup, the default), every hybrid planner, on the whole record (NDBC
+   46097, August 2019, hourly), relative heading fixed at 150° (Scenario's default), then the
+   best of 150/180/210°.
+2. Cells (conservative and linear lookup) vs direct on a sample (every `--every`-th hour) for
+   three planners: workability of each, and the share of rows whose operable flag
+   (probability ≥ 0.5) differs.
+
+Not part of the tests; prints what docs/workability.md quotes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from twin.assets import asset_path
+from twin.sim.executor import Executor
+from twin.sim.workability import WorkabilitySpec, run_workability
+from twin.site import SiteRecord, read_record
+
+ALL = ["pi", "wpi", "mtmp", "dwa", "conv1", "conv2", "qp"]
+COMPARED = ["pi", "mtmp", "qp"]
+
+
+def sample(record: SiteRecord, every: int) -> SiteRecord:
+    keep = np.arange(record.n)[::every]
+    return SiteRecord(hs=record.hs[keep], tp=record.tp[keep], time=record.time[keep],
+                      direction=record.direction[keep], kind=record.kind,
+                      source=record.source + f", every {every}th row", skipped={})  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--every", type=int, default=3)
+    parser.add_argument("--out", type=Path, default=Path("docs/workability"))
+    parser.add_argument("--data-dir", type=Path, default=Path("/tmp/twin-cells"))
+    parser.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args()
+    record = read_record(asset_path("site", "46097h2019_08.txt"))
+    measured: dict = {"record": record.summary(), "seeds": args.seeds}
+    args.out.mkdir(parents=True, exist_ok=True)
+    with Executor.start(n_workers=args.workers) as executor:
+        common = {"seeds": args.seeds, "window_hours": [6.0, 12.0], "shift": None}
+        for name, heading in (
+            ("fixed150", {"kind": "fixed", "headings": [150.0]}),
+            ("best", {"kind": "best", "headings": [150.0, 180.0, 210.0]}),
+        ):
+            spec = WorkabilitySpec(planners=ALL, heading=heading, **common)
+            start = time.perf_counter()
+            result = run_workability(spec, record, executor=executor, data_dir=args.data_dir,
+                                     progress=True)  # fmt: skip
+            took = time.perf_counter() - start
+            print(f"{name}: {result.runs} runs ({result.new_runs} new) in {took:.1f} s")
+            data = result.to_dict()
+            measured[name] = {
+                "workability": data["workability"],
+                "threshold": {k: v["workability"] for k, v in data["threshold"].items()},
+                "limiting": {k: v["limiting"] for k, v in data["planners"].items()},
+                "windows": {k: {w: {x: s[x] for x in ("count", "length_mean", "wait_mean",
+                                                      "wait_p50", "wait_p90")}
+                                for w, s in v["windows"].items()}
+                            for k, v in data["planners"].items()},
+                "runs": result.runs, "new_runs": result.new_runs, "seconds": took,
+            }  # fmt: skip
+            if name == "best":
+                measured[name]["headings_chosen"] = {
+                    k: v.get("headings_chosen") for k, v in data["planners"].items()
+                }
+            for png, blob in result.pngs().items():
+                (args.out / f"{name}_{png}").write_bytes(blob)
+        part = sample(record, args.every)
+        compare: dict = {"rows": part.n}
+        variants = {"cells": {"method": "cells", "cell_lookup": "conservative"},
+                    "linear": {"method": "cells", "cell_lookup": "linear"},
+                    "direct": {"method": "direct"}}  # fmt: skip
+        rows = {}
+        for name, fields in variants.items():
+            spec = WorkabilitySpec(planners=COMPARED, seeds=args.seeds, **fields)
+            start = time.perf_counter()
+            result = run_workability(spec, part, executor=executor, data_dir=args.data_dir,
+                                     progress=True)  # fmt: skip
+            took = time.perf_counter() - start
+            compare[name] = {
+                "workability": result.summary["workability"],
+                "runs": result.runs,
+                "seconds": took,
+            }
+            rows[name] = result.rows
+        for planner in COMPARED:
+            direct = rows["direct"][rows["direct"]["planner"] == planner]
+            compare[planner] = {"workability_direct": compare["direct"]["workability"][planner]}
+            for name in ("cells", "linear"):
+                cells = rows[name][rows[name]["planner"] == planner]
+                dp = cells["probability"].to_numpy() - direct["probability"].to_numpy()
+                flips = cells["operable"].to_numpy() != direct["operable"].to_numpy()
+                compare[planner][name] = {
+                    "workability": compare[name]["workability"][planner],
+                    "difference": compare[name]["workability"][planner]
+                    - compare["direct"]["workability"][planner],
+                    "rows_flipped": float(flips.mean()),
+                    "row_probability_mean_abs_difference": float(np.abs(dp).mean()),
+                    "rows_lower": float(np.mean(dp < 0)),
+                    "rows_higher": float(np.mean(dp > 0)),
+                }  # fmt: skip
+        measured["cells_vs_direct"] = compare
+    (args.out / "measured.json").write_text(json.dumps(measured, indent=2) + "\n")
+    print(json.dumps(measured, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,256 @@
+"""Site workability on the one engine: the threshold baseline is a hand count, rows take their
+stated cells, cells and direct runs agree within the documented tolerance, the cell cache is
+reused (no simulation, no executor), heading strategies, scatter weights, outputs."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twin.assets import asset_path
+from twin.errors import TwinError
+from twin.sim import workability
+from twin.sim.executor import Executor
+from twin.sim.workability import (
+    HeadingStrategy,
+    WorkabilitySpec,
+    run_summary,
+    run_workability,
+)
+from twin.site import SiteRecord, read_record, relative_heading
+
+#: short runs on a small grid: mtmp fails at Hs ≥ 2 m and Tp ≥ 8 s within 30 s, qp rarely
+SMALL = {"planners": ["mtmp", "qp"], "seeds": 2, "duration": 30.0, "hs_grid": [1.0, 2.0, 3.0],
+         "tp_grid": [6.0, 8.0, 10.0], "hs_limits": [1.5, 2.5], "window_hours": [2.0],
+         "cell_lookup": "conservative"}  # fmt: skip
+#: documented bounds on workability(cells) − workability(direct) for a sample of ≥ 30 rows on
+#: the default grid (docs/workability.md): conservative lookup, and |linear lookup − direct|
+CONSERVATIVE = (-0.20, 0.02)
+LINEAR = 0.08
+
+
+def hourly(hs: list[float], tp: list[float], start: str = "2024-01-31T20:00", **more) -> SiteRecord:
+    times = np.datetime64(start) + np.arange(len(hs)) * np.timedelta64(1, "h")
+    return SiteRecord(hs=hs, tp=tp, time=times, direction=np.full(len(hs), 270.0), **more)
+
+
+#: 8 hours over the end of January and the start of February
+RECORD = hourly([0.5, 1.2, 1.9, 2.6, 3.4, 1.0, 2.0, 0.8], [6.3, 7.4, 8.6, 9.1, 8.0, 10.0, 8.0, 5.0])
+
+
+@pytest.fixture(scope="module")
+def executor() -> Iterator[Executor]:
+    with Executor.start("in-process") as own:
+        yield own
+
+
+def test_threshold_baseline_is_a_hand_count(executor: Executor) -> None:
+    result = run_workability(SMALL, RECORD, executor=executor)
+    threshold = result.summary["threshold"]
+    hs = RECORD.hs
+    for limit in (1.5, 2.5):
+        assert threshold[f"{limit:g}"]["workability"] == pytest.approx(np.mean(hs < limit))
+    # January: the first 4 hours (20-23 h); February the rest
+    assert threshold["1.5"]["monthly"] == pytest.approx({"Jan": 0.5, "Feb": 2 / 4})
+    assert threshold["2.5"]["monthly"] == pytest.approx({"Jan": 3 / 4, "Feb": 3 / 4})
+    windows = threshold["2.5"]["windows"]["2"]
+    assert windows["lengths"] == [3.0, 3.0]  # 20-22 h, then 01-03 h of the next day
+
+
+def test_rows_take_the_next_hs_nearest_tp_and_above_the_grid_is_not_operable(
+    executor: Executor,
+) -> None:
+    result = run_workability(SMALL, RECORD, executor=executor)
+    rows = result.rows[result.rows["planner"] == "qp"]
+    assert rows["cell_hs"].tolist()[:4] == [1.0, 2.0, 2.0, 3.0]  # 1.9 → 2, 2.6 → 3
+    assert rows["cell_tp"].tolist()[:4] == [6.0, 8.0, 8.0, 10.0]  # 8.6 → 8, 9.1 → 10
+    above = rows.iloc[4]  # Hs 3.4 m over a grid ending at 3 m
+    assert above["probability"] == 0.0 and above["limiting"] == "Hs above the cell grid"
+    assert any("above the cell grid" in note for note in result.notes)
+    # every other row's probability is its cell's share of operable seeds
+    assert set(rows["probability"]) <= {0.0, 0.5, 1.0}
+
+
+def test_rows_on_grid_points_run_exactly_their_cells(executor: Executor) -> None:
+    on_grid = hourly([1.0, 2.0, 3.0, 2.0], [6.0, 8.0, 10.0, 10.0])
+    cells = run_workability(SMALL, on_grid, executor=executor)
+    direct = run_workability({**SMALL, "method": "direct"}, on_grid, executor=executor)
+    linear = run_workability({**SMALL, "cell_lookup": "linear"}, on_grid, executor=executor)
+    np.testing.assert_array_equal(cells.rows["probability"], direct.rows["probability"])
+    np.testing.assert_array_equal(linear.rows["probability"], direct.rows["probability"])
+
+
+def test_cells_and_direct_agree_within_the_documented_tolerance(executor: Executor) -> None:
+    """A sample of the shipped record (every 25th hour, 30 rows), the default grid, 60 s runs:
+    conservative cells sit below direct runs by at most CONSERVATIVE (their bias, one-sided
+    up to seed noise), linear lookup within LINEAR of them (docs/workability.md)."""
+    record = read_record(asset_path("site", "46097h2019_08.txt"))
+    keep = np.arange(0, record.n, 25)
+    sample = SiteRecord(hs=record.hs[keep], tp=record.tp[keep], time=record.time[keep])
+    spec = {"planners": ["pi", "mtmp"], "seeds": 3, "duration": 60.0}
+    direct = run_workability({**spec, "method": "direct"}, sample, executor=executor)
+    cells = run_workability({**spec, "cell_lookup": "conservative"}, sample, executor=executor)
+    linear = run_workability(spec, sample, executor=executor)  # the default lookup
+    for planner in spec["planners"]:
+        truth = direct.summary["workability"][planner]
+        low, high = CONSERVATIVE
+        assert low <= cells.summary["workability"][planner] - truth <= high, planner
+        assert abs(linear.summary["workability"][planner] - truth) <= LINEAR, planner
+    assert direct.rows["cell_hs"].nunique() > cells.rows["cell_hs"].nunique()  # other seas ran
+
+
+def test_cache_reuse_runs_nothing_and_starts_no_executor(
+    tmp_path: Path, executor: Executor, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    seen: list[tuple[int, int]] = []
+    first = run_workability(SMALL, RECORD, executor=executor, data_dir=tmp_path,
+                            on_progress=lambda done, total: seen.append((done, total)))  # fmt: skip
+    assert first.new_runs == first.runs > 0 and seen[0] == (0, first.runs)
+    assert seen[-1] == (first.runs, first.runs)
+    # all cached: no executor is started (this address would fail to connect)
+    again = run_workability(SMALL, RECORD, scheduler="tcp://127.0.0.1:9", data_dir=tmp_path)
+    assert again.new_runs == 0 and again.runs == first.runs and again.scheduler == ""
+    np.testing.assert_array_equal(again.rows["probability"], first.rows["probability"])
+    # another site whose rows fall in the same cells reuses them too
+    other = hourly([0.9, 1.8, 2.9], [6.1, 7.9, 9.8], start="2025-06-01T00:00")
+    assert run_workability(SMALL, other, scheduler="tcp://127.0.0.1:9",
+                           data_dir=tmp_path).new_runs == 0  # fmt: skip
+    # one more seed runs that seed alone: cells × planners
+    more = run_workability({**SMALL, "seeds": 3}, RECORD, executor=executor, data_dir=tmp_path)
+    assert more.new_runs == first.runs // 2
+    # another engine version is another key
+    monkeypatch.setattr(workability, "ENGINE_VERSION", "twin test / cells 0")
+    assert run_workability(SMALL, RECORD, executor=executor,
+                           data_dir=tmp_path).new_runs == first.runs  # fmt: skip
+
+
+def test_best_heading_is_the_best_of_the_fixed_ones(executor: Executor) -> None:
+    spec = {**SMALL, "planners": ["mtmp"]}
+    fixed = {h: run_workability({**spec, "heading": {"kind": "fixed", "headings": [h]}}, RECORD,
+                                executor=executor).rows["probability"].to_numpy()
+             for h in (150.0, 90.0)}  # fmt: skip
+    best = run_workability({**spec, "heading": HeadingStrategy.parse("best:150,90")}, RECORD,
+                           executor=executor)  # fmt: skip
+    np.testing.assert_array_equal(best.rows["probability"], np.maximum(fixed[150.0], fixed[90.0]))
+    chosen = best.rows["heading"].to_numpy()
+    better = fixed[90.0] > fixed[150.0]
+    assert np.all(chosen[better] == 90.0) and np.all(chosen[~better] == 150.0)
+    assert sum(best.summary["planners"]["mtmp"]["headings_chosen"].values()) == int(
+        best.rows["operable"].sum()
+    )
+
+
+def test_record_heading_strategy(executor: Executor) -> None:
+    with pytest.raises(TwinError, match="needs the record's wave direction and vessel heading"):
+        run_workability({**SMALL, "heading": {"kind": "record"}}, RECORD, executor=executor)
+    record = hourly([1.0, 2.0], [8.0, 8.0], heading=np.array([0.0, 100.0]))
+    spec = {**SMALL, "heading": {"kind": "record"}, "heading_grid": [0.0, 90.0, 180.0, 270.0]}
+    rows = run_workability(spec, record, executor=executor).rows
+    beta = relative_heading(record.direction, record.heading)  # waves from the west: 270, 10
+    np.testing.assert_allclose(rows["heading"].to_numpy()[:2], beta)
+    assert rows["cell_heading"].tolist()[:2] == [270.0, 0.0]
+
+
+def test_scatter_is_weighted_by_occurrence(executor: Executor) -> None:
+    scatter = SiteRecord(hs=[1.0, 3.0], tp=[6.0, 10.0], weight=[3.0, 1.0], kind="scatter")
+    result = run_workability(SMALL, scatter, executor=executor)
+    p = result.rows[result.rows["planner"] == "mtmp"]["probability"].to_numpy()
+    assert result.summary["workability"]["mtmp"] == pytest.approx(0.75 * p[0] + 0.25 * p[1])
+    assert result.summary["threshold"]["1.5"]["workability"] == pytest.approx(0.75)
+    assert set(result.pngs()) == {"monthly.png"}
+
+
+def test_outputs_are_json_csv_and_pngs(tmp_path: Path, executor: Executor) -> None:
+    forecast = hourly([1.0, 2.0, 3.0, 2.0], [6.0, 8.0, 10.0, 8.0], kind="forecast")
+    result = run_workability(SMALL, forecast, executor=executor)
+    data = json.loads(json.dumps(result.to_dict()))
+    assert set(data["workability"]) == {"mtmp", "qp"} and data["criterion"].startswith("operable")
+    assert data["record"]["kind"] == "forecast"
+    written = {p.name for p in result.write(tmp_path)}
+    assert written == {"workability.csv", "workability.json", "monthly.png", "windows.png",
+                       "strip.png", "forecast.png"}  # fmt: skip
+    assert all((tmp_path / n).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for n in written
+               if n.endswith(".png"))  # fmt: skip
+    # each non-operable row names what bound it
+    bad = result.rows[~result.rows["operable"]]
+    assert bad["limiting"].str.len().gt(0).all()
+
+
+def test_limiting_constraint_is_the_one_passed_furthest() -> None:
+    joints = {name: {"min": 0.0, "max": 0.0, "margin": 1.0} for name in
+              ("x", "y", "roll", "pitch", "yaw", "q1", "q2", "d3")}  # fmt: skip
+    # z [m] range 1.525 … 3.595: 0.1 m over the top is 4.8 % of its range
+    joints["z"] = {"min": 2.0, "max": 3.695, "margin": -0.1}
+    metrics = {"violations": 5, "tip_position_error_max": 0.2, "joints": joints,
+               "leg_margin": -0.05, "table7": {"legs_min": 3.0, "legs_max": 4.23}}  # fmt: skip
+    # legs 0.05 m over a 1.6 m stroke: 3.1 %, less than z's share
+    assert run_summary(metrics, "hybrid")["limit"] == "joint z (upper)"
+    metrics["leg_margin"] = -0.1  # 6.3 %: now the legs
+    assert run_summary(metrics, "hybrid")["limit"] == "leg stroke (upper)"
+    platform = {"violations": 3, "tip_position_error_max": 0.0,
+                "limit_violations": {"stroke_min": 1, "stroke_max": 3, "clamped": 0}}  # fmt: skip
+    assert run_summary(platform, "upr4")["limit"] == "leg stroke (upper)"
+    assert run_summary({**metrics, "violations": 0}, "hybrid")["limit"] is None
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"planners": ["pid"]}, "pid"),
+        ({"scenario": {"hs": 1.0}}, r"\['hs'\] are set by the workability spec"),
+        ({"hs_grid": [1.0, 0.5]}, "must increase strictly"),
+        ({"heading": {"kind": "fixed", "headings": [150, 180]}}, "a fixed strategy has one"),
+        ({"shift": (19, 7)}, "0 ≤ start < end ≤ 24"),
+    ],
+)
+def test_bad_specs_are_named(fields: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        WorkabilitySpec(**fields)
+
+
+def test_heading_strategy_parse() -> None:
+    assert HeadingStrategy.parse("fixed:180").headings == [180.0]
+    assert HeadingStrategy.parse("best:150,180,-150").headings == [150.0, 180.0, 210.0]
+    assert HeadingStrategy.parse("record").kind == "record"
+    with pytest.raises(TwinError, match="allowed fixed:DEG"):
+        HeadingStrategy.parse("north")
+
+
+def test_cli_writes_csv_json_and_pngs(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from twin.cli import main
+
+    record = tmp_path / "site.csv"
+    record.write_text("time,hs,tp,direction\n2024-03-01T00:00Z,1.0,6.0,0\n"
+                      "2024-03-01T01:00Z,,6.0,0\n2024-03-01T02:00Z,3.0,10.0,0\n")  # fmt: skip
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({k: v for k, v in SMALL.items() if k != "planners"}))
+    out = tmp_path / "out"
+    args = ["workability", str(record), "--planner", "mtmp", "qp", "--spec", str(spec),
+            "--scheduler", "in-process", "--data-dir", str(tmp_path / "data"), "--out", str(out),
+            "--heading-strategy", "best:150,180"]  # fmt: skip
+    assert main(args) == 0
+    printed = capsys.readouterr()
+    assert "mtmp:" in printed.out and "Hs < 1.5 m:" in printed.out
+    assert "1 skipped" in printed.err
+    data = json.loads((out / "workability.json").read_text())
+    assert data["spec"]["heading"] == {"kind": "best", "headings": [150.0, 180.0]}
+    assert {"monthly.png", "windows.png", "strip.png", "workability.csv"} <= {
+        p.name for p in out.iterdir()
+    }
+    assert (tmp_path / "data" / "cells.sqlite").is_file()
+    with pytest.raises(SystemExit) as exit_:
+        main(["workability", str(record), "--heading-strategy", "north", "--out", str(out)])
+    assert exit_.value.code == 2 and "allowed fixed:DEG" in capsys.readouterr().err
+
+
+def test_stop_cancels_the_remaining_chunks(executor: Executor, tmp_path: Path) -> None:
+    with pytest.raises(workability.WorkabilityStopped, match="stopped before its end"):
+        run_workability({**SMALL, "chunk_size": 2}, RECORD, executor=executor,
+                        data_dir=tmp_path, stop=lambda: True)  # fmt: skip
+    # stopped at its first chunk, before caching it: a full evaluation runs every run
+    again = run_workability(SMALL, RECORD, executor=executor, data_dir=tmp_path)
+    assert again.new_runs == again.runs > 2

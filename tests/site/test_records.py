@@ -1,0 +1,177 @@
+"""Site record readers: hand-made NDBC, time-series, Parquet, scatter and forecast files; missing
+values skipped and counted; malformed input named by file, line and column."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from twin.assets import asset_path
+from twin.errors import TwinError
+from twin.site import read_forecast, read_ndbc, read_record, read_scatter, read_timeseries
+
+NDBC = """\
+#YY  MM DD hh mm WDIR WSPD GST  WVHT   DPD   APD MWD   PRES
+#yr  mo dy hr mn degT m/s  m/s     m   sec   sec deg    hPa
+2019 08 01 01 10 222  1.7 99.0  1.07  8.30 99.00 295 1017.2
+2019 08 01 00 10 231  1.6 99.0  1.20  9.10 99.00 300 1017.3
+2019 08 01 02 10 227  1.6 99.0 99.00 99.00 99.00 999 1017.2
+2019 08 01 03 10 227  1.6 99.0  1.30    MM 99.00 310 1017.2
+2019 08 01 04 10 227  1.6 99.0  1.40 10.00 99.00 999 1017.2
+2019 08 01 05 10 227  1.6 99.0  1.50 11.00 99.00 360 1017.2
+"""
+
+
+def write(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_ndbc_keeps_complete_rows_sorted_and_counts_each_missing_marker(tmp_path: Path) -> None:
+    record = read_ndbc(write(tmp_path, "b.txt", NDBC))
+    # rows 00:10, 01:10 and 05:10 are complete; sorted by time
+    assert record.n == 3
+    np.testing.assert_allclose(record.hs, [1.20, 1.07, 1.50])
+    np.testing.assert_allclose(record.tp, [9.10, 8.30, 11.00])
+    np.testing.assert_allclose(record.direction, [300.0, 295.0, 0.0])  # 360° is north, 0°
+    assert record.time[0] == np.datetime64("2019-08-01T00:10")
+    # the all-missing row counts once, under its first missing column; MM is missing too
+    assert record.skipped == {"WVHT missing": 1, "DPD missing": 1, "MWD missing": 1}
+    assert record.kind == "timeseries" and read_record(tmp_path / "b.txt").n == 3
+
+
+def test_ndbc_old_header_with_two_digit_years_and_no_minutes(tmp_path: Path) -> None:
+    text = "YY MM DD hh WD   WSPD GST  WVHT  DPD   APD  MWD\n" \
+           "96 01 01 00 270  5.0 6.0  2.10  12.0  8.0  280\n"  # fmt: skip
+    record = read_record(write(tmp_path, "old.txt", text))
+    assert record.time[0] == np.datetime64("1996-01-01T00:00") and record.hs[0] == 2.1
+
+
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ("2019 08 01 06 10 227  1.6 99.0  1.50 11.00 99.00 360", "line 9: 12 fields"),
+        ("2019 08 01 06 10 227  1.6 99.0  1.5x 11.00 99.00 360 1017.2", "line 9, column WVHT"),
+        ("2019 13 01 06 10 227  1.6 99.0  1.50 11.00 99.00 360 1017.2", "line 9"),
+        ("2019 08 01 06 10 227  1.6 99.0 -1.50 11.00 99.00 360 1017.2", "allowed hs ≥ 0"),
+        ("2019 08 01 06 10 227  1.6 99.0  1.50 11.00 99.00 400 1017.2", "column MWD"),
+    ],
+)
+def test_ndbc_malformed_lines_are_named(tmp_path: Path, line: str, message: str) -> None:
+    path = write(tmp_path, "bad.txt", NDBC + line + "\n")
+    with pytest.raises(TwinError, match=message.replace("(", r"\(")) as error:
+        read_ndbc(path)
+    assert "bad.txt" in str(error.value) and "allowed" in str(error.value)
+
+
+def test_ndbc_header_must_name_the_wave_columns(tmp_path: Path) -> None:
+    with pytest.raises(TwinError, match=r"columns \['WVHT'"):
+        read_ndbc(write(tmp_path, "w.txt", "#YY MM DD hh mm DPD MWD\n2019 1 1 0 0 8 200\n"))
+    with pytest.raises(TwinError, match="not an NDBC"):
+        read_ndbc(write(tmp_path, "x.txt", "time,hs\n"))
+
+
+def test_shipped_ndbc_record_reads_a_month_hourly() -> None:
+    record = read_record(asset_path("site", "46097h2019_08.txt"))
+    assert record.n == 744  # every hour of August 2019
+    steps = np.diff(record.time).astype("timedelta64[m]").astype(int)
+    assert set(steps.tolist()) == {60}
+    assert record.skipped == {"WVHT missing": 4464 - 744}  # the 10-minute rows in between
+
+
+CSV = """time,hs,tp,direction,heading
+2024-01-01T00:00Z,1.0,8.0,270,0
+2024-01-01T01:00,1.5,,270,0
+2024-01-01T02:00+01:00,2.0,9.0,90,
+2024-01-01T03:00,2.5,10.0,180,45
+"""
+
+
+def test_timeseries_csv_times_in_utc_and_missing_cells_skipped(tmp_path: Path) -> None:
+    record = read_timeseries(write(tmp_path, "s.csv", CSV))
+    assert record.n == 2 and record.skipped == {"tp missing": 1, "heading missing": 1}
+    np.testing.assert_allclose(record.hs, [1.0, 2.5])
+    np.testing.assert_allclose(record.heading, [0.0, 45.0])
+    assert record.time.tolist() == [np.datetime64("2024-01-01T00:00", "ns").item(),
+                                    np.datetime64("2024-01-01T03:00", "ns").item()]  # fmt: skip
+    # "02:00+01:00" was 01:00 UTC: its row was skipped for its heading, not misplaced
+    forecast = read_forecast(tmp_path / "s.csv")
+    assert forecast.kind == "forecast" and forecast.n == 2
+
+
+def test_timeseries_zone_is_converted_to_utc(tmp_path: Path) -> None:
+    text = "time,hs,tp,direction\n2024-01-01T02:00+01:00,1.0,8.0,10\n"
+    record = read_timeseries(write(tmp_path, "z.csv", text))
+    assert record.time[0] == np.datetime64("2024-01-01T01:00")
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("time,hs,tp\n2024-01-01,1,8\n", r"columns \['direction'\] missing"),
+        (
+            "time,hs,tp,direction\n2024-01-01,1,8,10\n2024-01-01T01,abc,8,10\n",
+            "line 3, column hs: 'abc'",
+        ),
+        ("time,hs,tp,direction\nyesterday,1,8,10\n", "line 2, column time"),
+        ("time,hs,tp,direction\n2024-01-01,1,0,10\n", "line 2, column tp: 0; allowed tp > 0"),
+        ("time,hs,tp,direction\n2024-01-01,1,8,10,5\n", "more values than the header"),
+    ],
+)
+def test_timeseries_malformed_input_is_named(tmp_path: Path, text: str, message: str) -> None:
+    with pytest.raises(TwinError, match=message):
+        read_timeseries(write(tmp_path, "m.csv", text))
+
+
+def test_parquet_time_series(tmp_path: Path) -> None:
+    frame = pd.DataFrame({
+        "time": pd.date_range("2024-01-01", periods=3, freq="h", tz="UTC"),
+        "Hs [m]": [1.0, np.nan, 2.0], "tp": [8.0, 8.0, 9.0], "direction": [0.0, 10.0, 20.0],
+        "spreading": [5.0, 5.0, 5.0],
+    })  # fmt: skip
+    frame.to_parquet(tmp_path / "p.parquet")
+    record = read_record(tmp_path / "p.parquet")
+    assert record.n == 2 and record.skipped == {"hs missing": 1}
+    np.testing.assert_allclose(record.spreading, [5.0, 5.0])
+
+
+WIDE = """hs,4.5,6.5,8.5
+0.5,10,20,
+1.5,5,40,10
+2.5,,3,2
+"""
+
+
+def test_scatter_wide_and_long_give_the_same_cells(tmp_path: Path) -> None:
+    wide = read_record(write(tmp_path, "wide.csv", WIDE))
+    assert wide.kind == "scatter" and wide.time is None and wide.n == 7  # 2 empty cells
+    assert wide.weight.sum() == 90 and np.isclose(wide.weights.sum(), 1.0)
+    rows = [(h, t, w) for h, t, w in zip(wide.hs, wide.tp, wide.weight, strict=True)]
+    long = "hs,tp,occurrence\n" + "".join(f"{h},{t},{w}\n" for h, t, w in rows)
+    again = read_record(write(tmp_path, "long.csv", long))
+    assert again.kind == "scatter"
+    np.testing.assert_allclose(again.weight, wide.weight)
+    np.testing.assert_allclose(again.tp, wide.tp)
+
+
+def test_scatter_with_direction_and_bad_cells(tmp_path: Path) -> None:
+    text = "direction,hs,6,8\n0,1.0,5,5\n90,1.0,1,0\n"
+    record = read_scatter(write(tmp_path, "d.csv", text))
+    np.testing.assert_allclose(record.direction, [0.0, 90.0, 0.0])
+    with pytest.raises(TwinError, match=r"line 3: occurrence -1"):
+        read_scatter(write(tmp_path, "n.csv", "hs,6\n1,2\n2,-1\n"))
+    with pytest.raises(TwinError, match="'x' is not a Tp value"):
+        read_scatter(write(tmp_path, "x.csv", "hs,6,x\n1,2,3\n"))
+    with pytest.raises(TwinError, match="every occurrence is zero"):
+        read_scatter(write(tmp_path, "z.csv", "hs,6\n1,0\n"))
+
+
+def test_read_record_rejects_unknown_kinds_and_missing_files(tmp_path: Path) -> None:
+    with pytest.raises(TwinError, match="allowed ndbc, timeseries, scatter, forecast"):
+        read_record(write(tmp_path, "a.csv", CSV), kind="grib")
+    with pytest.raises(TwinError, match="no such file"):
+        read_record(tmp_path / "none.csv")

@@ -1,0 +1,238 @@
+"""Site workability over REST (issue 28): a job with progress, its result equal to the library's,
+its PNG plots, validation (422 naming the field or the record's line), pricing, cancel, delete,
+the token, and a restart that queues an interrupted job again."""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from fastapi.testclient import TestClient
+
+from tests.web.support import TOKEN, access, wait_for
+from twin.assets import asset_path
+from twin.sim.executor import IN_PROCESS, Executor
+from twin.sim.live import LiveSession
+from twin.sim.workability import WorkabilitySpec, run_workability
+from twin.site import read_record
+from twin.web import RunStore, create_app
+from twin.web.routers.workability import MAX_RUNS
+from twin.web.warmup import Warmup
+from twin.web.workability_store import WorkabilityStore
+
+SHIPPED = "46097h2019_08.txt"
+#: a tiny evaluation of the shipped record: 4 Hs × 2 Tp cells, 1 seed, 2 s runs (8 runs)
+TINY = {"record": SHIPPED, "planners": ["mtmp"], "seeds": 1, "duration": 2.0,
+        "hs_grid": [1.0, 2.0, 3.0, 4.0], "tp_grid": [8.0, 12.0], "window_hours": [6.0]}  # fmt: skip
+#: a hand-made 24 h forecast at 3 h steps, calm then rough
+FORECAST = "time,hs,tp,direction\n" + "".join(
+    f"2026-01-01T{3 * i:02d}:00,{hs},8.0,270\n"
+    for i, hs in enumerate([0.5, 0.5, 1.0, 1.5, 2.5, 3.5, 3.5, 1.0])
+)
+
+
+@pytest.fixture(scope="module")
+def executor() -> Iterator[Executor]:
+    with Executor.start(IN_PROCESS) as executor:
+        yield executor
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory: pytest.TempPathFactory, executor: Executor) -> Iterator[TestClient]:
+    store = RunStore(tmp_path_factory.mktemp("data") / "runs.sqlite")
+    app = create_app(LiveSession(), store, access=access(), executor=executor)
+    with TestClient(app) as client:
+        yield client
+    store.close()
+
+
+def wait_finished(
+    client: TestClient, path: str, timeout: float = 120.0, headers: dict[str, str] | None = None
+) -> dict[str, Any]:
+    """GET `path` until the job is done or failed; its last answer."""
+    answer: dict[str, Any] = {}
+
+    def finished() -> bool:
+        nonlocal answer
+        answer = client.get(path, headers=headers).json()
+        return answer["status"] in ("done", "failed")
+
+    assert wait_for(finished, timeout, poll=0.1), f"{path} not done after {timeout} s: {answer}"
+    return answer
+
+
+def test_records_lists_the_shipped_ones(client: TestClient) -> None:
+    assert client.get("/api/workability/records").json() == [SHIPPED]
+
+
+def test_a_job_has_progress_the_librarys_result_and_png_plots(
+    client: TestClient, tmp_path: Path
+) -> None:
+    response = client.post("/api/workability", json=TINY)
+    assert response.status_code == 202, response.text
+    queued = response.json()
+    assert response.headers["location"] == f"/api/workability/{queued['id']}"
+    assert queued["record"] == {"name": SHIPPED} and queued["spec"]["seeds"] == 1
+    assert queued["total"] == 8  # priced: 4 × 2 cells × 1 seed × 1 planner
+    job = wait_finished(client, response.headers["location"])
+    assert job["status"] == "done", job["error"]
+    assert job["progress"] == 1.0 and job["done"] == job["total"]
+    # the same evaluation through the library (the job's cells are cached: same summaries)
+    spec = WorkabilitySpec(**{k: v for k, v in TINY.items() if k != "record"})
+    expected = run_workability(spec, read_record(asset_path("site", SHIPPED)), data_dir=tmp_path,
+                               scheduler=IN_PROCESS).to_dict()  # fmt: skip
+    assert job["result"]["workability"] == expected["workability"]
+    assert job["result"]["planners"]["mtmp"]["monthly"] == expected["planners"]["mtmp"]["monthly"]
+    assert job["result"]["record"]["rows"] == 744
+    assert set(job["plots"]) >= {"monthly.png", "windows.png", "strip.png"}
+    for name in job["plots"]:
+        png = client.get(f"/api/workability/{job['id']}/{name}")
+        assert png.status_code == 200 and png.headers["content-type"] == "image/png"
+        assert png.content[:8] == b"\x89PNG\r\n\x1a\n"
+    assert client.get(f"/api/workability/{job['id']}/forecast.png").status_code == 404
+    assert client.get(f"/api/workability/{job['id']}/nope.png").status_code == 404
+
+
+def test_an_uploaded_forecast_lists_each_step_with_its_limiting_constraint(
+    client: TestClient,
+) -> None:
+    body = {**TINY, "record": None, "record_csv": FORECAST, "record_kind": "forecast"}
+    response = client.post("/api/workability", json=body)
+    assert response.status_code == 202, response.text
+    assert response.json()["record"] == {"kind": "forecast", "bytes": len(FORECAST.encode())}
+    job = wait_finished(client, response.headers["location"])
+    assert job["status"] == "done", job["error"]
+    steps = job["result"]["steps"]
+    assert [s["hs"] for s in steps] == [0.5, 0.5, 1.0, 1.5, 2.5, 3.5, 3.5, 1.0]
+    for s in steps:  # a non-operable step names what limited it; an operable one need not
+        assert 0.0 <= s["probability"] <= 1.0
+        assert s["operable"] == (s["probability"] >= 0.5)
+        if not s["operable"]:
+            assert s["limiting"]
+    assert "forecast.png" in job["plots"]
+    assert client.get(f"/api/workability/{job['id']}/forecast.png").status_code == 200
+
+
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [
+        ({"seeds": 0}, "seeds"),
+        ({"planners": ["nope"]}, "planners"),
+        ({"hs_grid": [2.0, 1.0]}, "hs_grid"),
+        ({"unknown": 1}, "unknown"),
+        ({"record": "nope.txt"}, "record"),
+        ({"record": None}, "record"),
+        ({"scenario": {"vessel": "/etc/passwd"}}, "vessel"),
+    ],
+)
+def test_bad_requests_are_422_naming_the_field(
+    client: TestClient, change: dict[str, Any], field: str
+) -> None:
+    response = client.post("/api/workability", json={**TINY, **change})
+    assert response.status_code == 422, response.text
+    assert field in response.json()["message"]
+
+
+def test_a_malformed_record_is_422_naming_its_line(client: TestClient) -> None:
+    bad = FORECAST.replace("2026-01-01T06:00,1.0", "2026-01-01T06:00,abc")
+    response = client.post("/api/workability", json={**TINY, "record": None, "record_csv": bad})
+    assert response.status_code == 422, response.text
+    message = response.json()["message"]
+    assert "record_csv" in message and "line 4" in message and "hs" in message
+
+
+def test_a_job_over_the_run_cap_is_refused_naming_the_limit(client: TestClient) -> None:
+    body = {**TINY, "method": "direct", "seeds": 30}  # 744 rows × 30 seeds > MAX_RUNS
+    assert 744 * 30 > MAX_RUNS
+    response = client.post("/api/workability", json=body)
+    assert response.status_code == 422, response.text
+    assert "MAX_RUNS" in response.json()["message"]
+
+
+def test_cancel_stops_a_job_and_delete_forgets_it(client: TestClient) -> None:
+    body = {**TINY, "method": "direct", "seeds": 3, "duration": 10.0, "chunk_size": 8}
+    location = client.post("/api/workability", json=body).headers["location"]
+    cancelled = client.post(location + "/cancel")
+    assert cancelled.status_code == 200
+    assert cancelled.json()["status"] == "failed"
+    assert cancelled.json()["error"].startswith("cancelled")
+    job = wait_finished(client, location)  # it stays cancelled: no late result over it
+    assert job["status"] == "failed" and job["result"] is None
+    assert client.get(location + "/strip.png").status_code == 409
+    assert client.delete(location).status_code == 204
+    assert client.get(location).status_code == 404
+    assert client.post(location + "/cancel").status_code == 404
+
+
+def test_with_a_token_a_post_needs_it(tmp_path: Path, executor: Executor) -> None:
+    store = RunStore(tmp_path / "runs.sqlite")
+    app = create_app(LiveSession(), store, access=access(TOKEN), executor=executor)
+    with TestClient(app) as client:
+        assert client.post("/api/workability", json=TINY).status_code == 401
+        response = client.post("/api/workability", json=TINY,
+                               headers={"Authorization": f"Bearer {TOKEN}"})  # fmt: skip
+        assert response.status_code == 202, response.text
+        location = response.headers["location"]
+        assert client.delete(location).status_code == 401
+        assert client.get(location).status_code == 200  # reading is open (not --private)
+        auth = {"Authorization": f"Bearer {TOKEN}"}
+        assert client.delete(location, headers=auth).status_code == 204
+    store.close()
+
+
+def test_an_interrupted_job_is_queued_again_at_the_next_start(
+    tmp_path: Path, executor: Executor
+) -> None:
+    path = tmp_path / "runs.sqlite"
+    jobs = WorkabilityStore(path)
+    spec = WorkabilitySpec(**{k: v for k, v in TINY.items() if k != "record"})
+    interrupted = jobs.create(spec.model_dump(mode="json"), {"name": SHIPPED}, 8).id
+    jobs.running(interrupted)  # as if the server died mid-job
+    jobs.close()
+    store = RunStore(path)
+    with TestClient(create_app(LiveSession(), store, access=access(), executor=executor)) as c:
+        job = wait_finished(c, f"/api/workability/{interrupted}")
+    store.close()
+    assert job["status"] == "done", job["error"]
+    assert job["result"]["record"]["rows"] == 744
+
+
+def test_a_private_server_wants_the_token_to_read_jobs_and_plots(
+    tmp_path: Path, executor: Executor
+) -> None:
+    store = RunStore(tmp_path / "runs.sqlite")
+    app = create_app(LiveSession(), store, access=access(TOKEN, private=True), executor=executor)
+    auth = {"Authorization": f"Bearer {TOKEN}"}
+    with TestClient(app) as client:
+        location = client.post("/api/workability", json=TINY, headers=auth).headers["location"]
+        assert client.get(location).status_code == 401
+        assert client.get("/api/workability/records").status_code == 401
+        job = wait_finished(client, location, headers=auth)
+        assert job["status"] == "done", job["error"]
+        assert client.get(f"{location}/strip.png").status_code == 401
+        assert client.get(f"{location}/strip.png", headers=auth).status_code == 200
+    store.close()
+
+
+def test_a_job_posted_while_the_server_warms_up_runs_once_attached(tmp_path: Path) -> None:
+    """`Services.attach` (what `twin serve` calls after its warm-up) starts the workability
+    runner too: a job stored while warming runs then."""
+    warmup = Warmup(out=io.StringIO())
+    with RunStore(tmp_path / "runs.sqlite") as store:
+        app = create_app(None, store, access=access(), warmup=warmup)
+        with TestClient(app) as client, Executor.start(IN_PROCESS) as executor:
+            response = client.post("/api/workability", json=TINY)
+            assert response.status_code == 202, response.text
+            location = response.headers["location"]
+            assert client.get(location).json()["status"] == "queued"
+            session = LiveSession()
+            try:
+                app.state.services.attach(session, executor)
+                warmup.ready()
+                job = wait_finished(client, location)
+            finally:
+                session.stop()
+    assert job["status"] == "done", job["error"]

@@ -1,0 +1,770 @@
+"""Site workability: from a site's wave record to the share of time a planner can work.
+
+For every record row (a sea state: Hs, Tp, direction, time or occurrence) and every planner, the
+probability that a run is *operable* — the criterion of operability sweeps (`twin.sim.sweep`):
+no joint or leg limit violated and the tip position error under `tip_error_threshold` — over
+`seeds` sea seeds (0 … seeds − 1, the same for every row and planner, so planners are compared
+on the same wave records). Runs are ordinary `Scenario`s stepped by `simulate_many` on the one
+executor (`twin.sim.executor`) in chunks, below the priority of single runs, like sweeps.
+
+    spec = WorkabilitySpec(planners=["mtmp", "qp"], seeds=5)
+    record = read_record(asset_path("site", "46097h2019_08.txt"))
+    result = run_workability(spec, record, data_dir="data")   # cells cached in data/cells.sqlite
+    result.summary["workability"]          # {"mtmp": 0.71, "qp": 0.93}
+    result.write("out/")                   # workability.csv, workability.json, *.png
+    result.pngs()                          # {"monthly.png": b"...", ...}
+
+Two methods:
+
+- `cells` (default): each row is evaluated on a stated grid of operability cells (Hs × Tp ×
+  relative heading). In Hs, the row's probability is **interpolated linearly between the
+  cells below and above its Hs** (`cell_lookup="linear"`, the default: measured within one
+  percentage point of direct runs on the shipped record), or taken from **the cell at or above
+  its Hs** (`cell_lookup="conservative"`: operability falls with Hs, so the row is never
+  credited with a calmer cell; a lower bound, measured ~10 points under direct runs). In Tp it
+  takes the **nearest cell** (operability is not monotonic in Tp, so no side is safe), and in
+  heading the **nearest relative heading** on the circle (exact for the fixed and best-of
+  strategies, whose headings are the grid). A row above the highest Hs of the grid is not
+  operable. Cells are run once per (scenario, seed) and cached on disk, keyed by every scenario
+  field and `ENGINE_VERSION`, so another record, a longer one, or more seeds reuse them.
+- `direct`: each row is run at its own Hs, Tp and heading (also cached, by the same keys).
+
+Heading strategies (`HeadingStrategy`, `twin.site.heading` for the conventions): a fixed
+relative heading; the best of a set (the captain picks the heading that keeps every limit: a
+row's probability is the largest over the set, and the heading that gave it is reported); or the
+vessel heading from the record (β from the record's wave direction and vessel heading).
+
+The limiting constraint of a non-operable run is read from its metrics (`twin.sim.metrics`): with
+a limit violated, the joint or leg stroke (hybrid system) whose margin, as a share of its range,
+is the smallest (most negative: passed furthest), or for a small platform the limit with the most
+violating samples (`limit_violations`); with no violation, the tip error. The metrics keep
+extrema, not the first time a limit was reached, so this is the constraint that bound hardest,
+which is the one that bound first unless two are passed within one run.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import io
+import itertools
+import json
+import math
+import sqlite3
+import time
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from tqdm import tqdm
+
+import twin
+from twin.errors import TwinError
+from twin.planners import get_planner
+from twin.sim.executor import SWEEP_PRIORITY, Executor
+from twin.sim.scenario import DEFAULT_PLANNER, TP_RANGE, Scenario
+from twin.site.heading import angular_distance, relative_heading
+from twin.site.records import SiteRecord
+from twin.site.windows import regular_series, window_stats
+
+#: what a cached cell depends on besides its scenario: the package version and this module's
+#: reduction of a run (bump CELL_FORMAT when `run_summary` changes)
+CELL_FORMAT = 1
+ENGINE_VERSION = f"twin {twin.__version__} / cells {CELL_FORMAT}"
+#: the cache file in a data dir
+CELL_DATABASE = "cells.sqlite"
+#: most runs one evaluation may need (new or cached)
+MAX_RUNS = 2_000_000
+#: most rows a record may have (10 years hourly is 87 600)
+MAX_ROWS = 200_000
+#: a row counts as operable (windows, strips) when its probability reaches this
+OPERABLE_LEVEL = 0.5
+MONTHS = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
+#: Scenario fields `WorkabilitySpec` sets itself (not through `scenario`)
+OWN_FIELDS = {"mechanism", "planner", "hs", "tp", "heading", "seed", "duration", "dt",
+              "sea_state", "regular_waves"}  # fmt: skip
+
+
+class WorkabilityStopped(RuntimeError):
+    """An evaluation was stopped before its end (`run_workability`'s `stop`)."""
+
+
+class HeadingStrategy(BaseModel):
+    """How the vessel meets the waves.
+
+    kind:
+        fixed: every row at `headings[0]`, a relative heading (`Scenario.heading`, deg: 180 head
+            seas, 90 waves travelling to port); the vessel turns with the waves.
+        best: each row at every heading of `headings`; the captain takes the one that keeps
+            every limit (the row's probability is the largest over them).
+        record: the row's own relative heading, from the record's wave direction (from, deg true)
+            and vessel heading (deg true), `twin.site.heading.relative_heading`.
+    """
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    kind: Literal["fixed", "best", "record"] = "fixed"
+    headings: list[float] = Field(
+        [150.0], min_length=1, max_length=36,
+        description="[deg] relative headings (Scenario.heading): one for fixed, a set for best",
+    )  # fmt: skip
+
+    @field_validator("headings")
+    @classmethod
+    def _distinct(cls, values: list[float]) -> list[float]:
+        for v in values:
+            if not -360.0 <= v <= 360.0:
+                raise ValueError(f"headings: {v:g} outside -360 … 360 deg")
+        values = [float(np.mod(v, 360.0)) for v in values]
+        if len(set(values)) != len(values):
+            raise ValueError(f"headings: repeated values {values}")
+        return values
+
+    @model_validator(mode="after")
+    def _one_if_fixed(self) -> HeadingStrategy:
+        if self.kind == "fixed" and len(self.headings) != 1:
+            raise TwinError(f"headings: a fixed strategy has one heading, got {self.headings}")
+        return self
+
+    @classmethod
+    def parse(cls, text: str) -> HeadingStrategy:
+        """`"fixed:150"`, `"best:150,180,210"` or `"record"` (the CLI's form)."""
+        kind, _, rest = text.strip().partition(":")
+        if kind not in ("fixed", "best", "record"):
+            raise TwinError(f"heading strategy {text!r}: allowed fixed:DEG, best:DEG,DEG,… or "
+                            "record")  # fmt: skip
+        if kind == "record":
+            return cls(kind="record")
+        try:
+            headings = [float(v) for v in rest.split(",") if v.strip()]
+        except ValueError:
+            raise TwinError(f"heading strategy {text!r}: headings must be numbers [deg]") from None
+        if not headings:
+            raise TwinError(f"heading strategy {text!r}: give the heading(s), e.g. {kind}:150")
+        return cls(kind=kind, headings=headings)  # type: ignore[arg-type]
+
+    def label(self) -> str:
+        if self.kind == "record":
+            return "vessel heading from the record"
+        heads = ", ".join(f"{h:g}°" for h in self.headings)
+        return f"fixed relative heading {heads}" if self.kind == "fixed" else f"best of {heads}"
+
+
+class WorkabilitySpec(BaseModel):
+    """A workability request: mechanism, planners and knobs, seeds, runs, headings, cell grid.
+
+    Units as `Scenario`. `scenario` sets any other `Scenario` field for every run (e.g.
+    `{"beta": 0.7, "spreading": 10, "vessel": "sov"}`).
+    """
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    mechanism: Literal["hybrid", "upu3up", "upr4"] = "hybrid"
+    planners: list[str] | None = Field(
+        None, description="planners of the mechanism; default its Scenario default (mtmp, pid)"
+    )
+    scenario: dict[str, Any] = Field(
+        default_factory=dict, description="other Scenario fields (knobs), the same for every run"
+    )
+    seeds: int = Field(3, ge=1, le=50, description="[-] runs per cell or row, sea seeds 0 … N−1")
+    duration: float = Field(200.0, gt=0.0, le=3600.0, description="[s] simulated time per run")
+    dt: float = Field(0.05, ge=0.005, le=0.2, description="[s] control period")
+    heading: HeadingStrategy = Field(default_factory=HeadingStrategy)
+    hs_grid: list[float] = Field(
+        [0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 3.0, 3.5, 4.0, 5.0],
+        min_length=1, max_length=60, description="[m] Hs of the cells, increasing",
+    )  # fmt: skip
+    tp_grid: list[float] = Field(
+        [3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 16.0, 18.0, 20.0],
+        min_length=1, max_length=60, description="[s] Tp of the cells, increasing",
+    )  # fmt: skip
+    heading_grid: list[float] = Field(
+        [float(v) for v in range(0, 360, 15)], min_length=1, max_length=72,
+        description="[deg] relative headings of the cells for the record strategy",
+    )  # fmt: skip
+    hs_limits: list[float] = Field(
+        [1.5, 2.0, 2.5], max_length=12, description="[m] Hs limits of the threshold baseline"
+    )
+    tip_error_threshold: float = Field(
+        0.05, gt=0.0, le=10.0, description="[m] largest tip position error of an operable run"
+    )
+    method: Literal["cells", "direct"] = "cells"
+    cell_lookup: Literal["linear", "conservative"] = Field(
+        "linear",
+        description="cells: linear interpolates a row's probability in Hs between the cells "
+        "below and above it (measured within 1 point of direct runs, docs/workability.md); "
+        "conservative takes the cell at or above its Hs (a lower bound, ~10 points under)",
+    )
+    window_hours: list[float] = Field(
+        [6.0, 12.0], max_length=8, description="[h] window lengths W of the weather windows"
+    )
+    shift: tuple[int, int] | None = Field(
+        None, description="daily work shift (start, end) hours, e.g. (7, 19); None: all day"
+    )
+    chunk_size: int = Field(64, ge=1, le=4096, description="runs per executor task")
+
+    @field_validator("hs_grid", "tp_grid")
+    @classmethod
+    def _increasing(cls, values: list[float], info: Any) -> list[float]:
+        if any(b <= a for a, b in itertools.pairwise(values)):
+            raise ValueError(f"{info.field_name}: must increase strictly, got {values}")
+        low, high = (0.0, 20.0) if info.field_name == "hs_grid" else TP_RANGE
+        if values[0] < low or values[-1] > high:
+            raise ValueError(f"{info.field_name}: values within {low:g} … {high:g}")
+        return values
+
+    @field_validator("heading_grid")
+    @classmethod
+    def _circle(cls, values: list[float]) -> list[float]:
+        values = [float(np.mod(v, 360.0)) for v in values]
+        if len(set(values)) != len(values):
+            raise ValueError(f"heading_grid: repeated directions {values}")
+        return values
+
+    @field_validator("window_hours")
+    @classmethod
+    def _positive(cls, values: list[float]) -> list[float]:
+        if any(v <= 0 for v in values):
+            raise ValueError(f"window_hours: each > 0 h, got {values}")
+        return values
+
+    @model_validator(mode="after")
+    def _consistent(self) -> WorkabilitySpec:
+        if self.planners is None:
+            self.planners = [DEFAULT_PLANNER[self.mechanism]]
+        if not self.planners or len(set(self.planners)) != len(self.planners):
+            raise TwinError(f"planners: a non-empty list of distinct names, got {self.planners}")
+        for planner in self.planners:
+            get_planner(planner, self.mechanism)  # names the allowed ones
+        clash = sorted(set(self.scenario) & OWN_FIELDS)
+        if clash:
+            raise TwinError(f"scenario: {clash} are set by the workability spec itself")
+        Scenario(**self.scenario, mechanism=self.mechanism, duration=self.duration, dt=self.dt)
+        if round(self.duration / self.dt) < 1:
+            raise TwinError(f"duration: {self.duration:g} s at dt = {self.dt:g} s is zero steps")
+        if self.shift is not None and not 0 <= self.shift[0] < self.shift[1] <= 24:
+            raise TwinError(f"shift: got {self.shift}; allowed (start, end), 0 ≤ start < end ≤ 24")
+        return self
+
+    @property
+    def criterion(self) -> str:
+        return (
+            "operable run: no joint or leg limit violation and tip position error ≤ "
+            f"{self.tip_error_threshold:g} m (largest over the run after the first 10 samples)"
+        )
+
+
+# -- what a worker runs ---------------------------------------------------------------------------
+
+
+@functools.lru_cache(maxsize=1)
+def _hybrid_limits() -> dict[str, tuple[float, float]]:
+    """Each hybrid joint's (lower, upper) limit in the units its metrics report (deg, m), and
+    the legs' stroke [m]."""
+    from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
+
+    model = HybridBoardingSystem()
+    angles = {"roll", "pitch", "yaw", "q1", "q2"}
+    out = {}
+    for name, low, high in zip(JOINT_NAMES, model.lower, model.upper, strict=True):
+        scale = math.degrees(1.0) if name in angles else 1.0
+        out[name] = (float(low) * scale, float(high) * scale)
+    out["legs"] = (float(model.stewart.leg_min), float(model.stewart.leg_max))
+    return out
+
+
+def run_summary(metrics: dict[str, Any], mechanism: str) -> dict[str, Any]:
+    """What a cell keeps of a run's metrics: violations, the tip's largest position error [m]
+    and, if a limit was violated, the constraint that bound hardest (module docstring)."""
+    out = {
+        "violations": int(metrics["violations"]),
+        "tip_error": float(metrics["tip_position_error_max"]),
+        "limit": None,
+    }
+    if out["violations"] == 0:
+        return out
+    if mechanism == "hybrid":
+        limits = _hybrid_limits()
+        worst, share = None, math.inf
+        for name, joint in metrics["joints"].items():
+            low, high = limits[name]
+            side = "lower" if joint["min"] - low <= high - joint["max"] else "upper"
+            s = joint["margin"] / (high - low)
+            if s < share:
+                worst, share = f"joint {name} ({side})", s
+        low, high = limits["legs"]
+        table7 = metrics["table7"]
+        side = "lower" if table7["legs_min"] - low <= high - table7["legs_max"] else "upper"
+        if metrics["leg_margin"] / (high - low) < share:
+            worst = f"leg stroke ({side})"
+        out["limit"] = worst
+    else:
+        counts = metrics.get("limit_violations", {})
+        name = max(counts, key=counts.get) if counts else None
+        names = {"stroke_min": "leg stroke (lower)", "stroke_max": "leg stroke (upper)",
+                 "u_joint": "U-joint angle", "collision": "collision",
+                 "clamped": "demand clamped (rate or range)", "state": "state range"}  # fmt: skip
+        out["limit"] = names.get(name, name) if name and counts[name] > 0 else "state range"
+    return out
+
+
+def run_cells_chunk(
+    scenarios: list[dict[str, Any]], *, threads: int | None = 1
+) -> list[dict[str, Any]]:
+    """One executor task: run scenarios with `simulate_many`, keep each one's `run_summary`."""
+    from twin.sim.engine import simulate_many
+    from twin.sim.kernels.compile import limit_threads
+
+    with limit_threads(threads):
+        results = simulate_many(scenarios)
+    return [run_summary(r.metrics, r.scenario.mechanism) for r in results]
+
+
+# -- the cell cache -------------------------------------------------------------------------------
+
+
+def cell_key(fields: dict[str, Any]) -> str:
+    """The cache key of a run: every `Scenario` field (defaults filled in) and `ENGINE_VERSION`,
+    hashed."""
+    full = Scenario(**fields).model_dump(mode="json")
+    text = json.dumps({"engine": ENGINE_VERSION, "scenario": full}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+class CellCache:
+    """Run summaries by `cell_key`, in SQLite (`<data_dir>/cells.sqlite`, a table of its own)
+    or, without a data dir, in memory for one evaluation."""
+
+    def __init__(self, data_dir: str | Path | None) -> None:
+        self.path = None if data_dir is None else Path(data_dir) / CELL_DATABASE
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._memory: dict[str, dict[str, Any]] = {}
+        if self.path is not None:
+            with self._connect() as db:
+                db.execute("CREATE TABLE IF NOT EXISTS cells (key TEXT PRIMARY KEY, engine TEXT, "
+                           "summary TEXT NOT NULL, created REAL)")  # fmt: skip
+
+    def _connect(self) -> sqlite3.Connection:
+        return sqlite3.connect(self.path, timeout=30.0)
+
+    def get(self, keys: Sequence[str]) -> dict[str, dict[str, Any]]:
+        """The summaries of those keys that are cached."""
+        if self.path is None:
+            return {k: self._memory[k] for k in keys if k in self._memory}
+        found: dict[str, dict[str, Any]] = {}
+        with self._connect() as db:
+            unique = list(dict.fromkeys(keys))
+            for start in range(0, len(unique), 500):  # SQLite's bound on parameters
+                part = unique[start : start + 500]
+                marks = ",".join("?" * len(part))
+                for key, summary in db.execute(
+                    f"SELECT key, summary FROM cells WHERE key IN ({marks})", part
+                ):
+                    found[key] = json.loads(summary)
+        return found
+
+    def put(self, items: dict[str, dict[str, Any]]) -> None:
+        if self.path is None:
+            self._memory.update(items)
+            return
+        now = time.time()
+        with self._connect() as db:
+            db.executemany(
+                "INSERT OR REPLACE INTO cells VALUES (?, ?, ?, ?)",
+                [(k, ENGINE_VERSION, json.dumps(v), now) for k, v in items.items()],
+            )
+
+    def __len__(self) -> int:
+        if self.path is None:
+            return len(self._memory)
+        with self._connect() as db:
+            return int(db.execute("SELECT COUNT(*) FROM cells").fetchone()[0])
+
+
+# -- evaluation -----------------------------------------------------------------------------------
+
+
+@dataclass
+class WorkabilityResult:
+    """A finished evaluation.
+
+    Attributes:
+        spec: what was asked.
+        record: the record evaluated.
+        rows: one row per record row and planner: `time` (time series), `hs`, `tp`,
+            `direction`, `planner`, `heading` (the relative heading used, deg), `cell_hs`,
+            `cell_tp`, `cell_heading` (cells method; the run's own values in direct mode),
+            `probability` [0-1], `operable` (probability ≥ OPERABLE_LEVEL), `limiting` (the
+            most frequent limiting constraint of its non-operable runs; "" if none) and
+            `weight`.
+        summary: workability per planner (overall, per month), the Hs-threshold baseline,
+            limiting constraints, weather windows (`to_dict` has them all).
+        runs: runs evaluated (cached or new); new_runs: runs simulated now.
+        elapsed: [s] wall time; scheduler: where new runs ran ("" if none).
+    """
+
+    spec: WorkabilitySpec
+    record: SiteRecord
+    rows: pd.DataFrame
+    summary: dict[str, Any]
+    runs: int
+    new_runs: int
+    elapsed: float
+    scheduler: str
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: spec, record, criterion, summary, notes (rows: `to_csv`)."""
+        return _plain({
+            "spec": self.spec.model_dump(mode="json"),
+            "record": self.record.summary(),
+            "criterion": self.spec.criterion,
+            "engine": ENGINE_VERSION,
+            "runs": self.runs, "new_runs": self.new_runs, "elapsed": self.elapsed,
+            "scheduler": self.scheduler, "notes": self.notes,
+            **self.summary,
+        })  # fmt: skip
+
+    def to_csv(self, path: str | Path) -> Path:
+        path = Path(path)
+        self.rows.to_csv(path, index=False, float_format="%.6g")
+        return path
+
+    def to_json(self, path: str | Path) -> Path:
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        return path
+
+    def pngs(self) -> dict[str, bytes]:
+        """The plots as PNG bytes by file name: `monthly.png` (time series with months),
+        `windows.png`, `strip.png` (time series, forecasts) and `forecast.png` (forecasts)."""
+        from twin.sim import workability_plots as plots
+
+        out: dict[str, bytes] = {}
+        figures = plots.figures(self)
+        for name, figure in figures.items():
+            buffer = io.BytesIO()
+            figure.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
+            out[name] = buffer.getvalue()
+        return out
+
+    def write(self, out: str | Path) -> list[Path]:
+        """`workability.csv`, `workability.json` and every PNG into folder `out`."""
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        written = [self.to_csv(out / "workability.csv"), self.to_json(out / "workability.json")]
+        for name, data in self.pngs().items():
+            (out / name).write_bytes(data)
+            written.append(out / name)
+        return written
+
+
+def run_workability(
+    spec: WorkabilitySpec | dict,
+    record: SiteRecord,
+    *,
+    executor: Executor | None = None,
+    on_progress: Callable[[int, int], None] | None = None,
+    scheduler: str | None = None,
+    n_workers: int | None = None,
+    data_dir: str | Path | None = None,
+    progress: bool = False,
+    stop: Callable[[], bool] | None = None,
+) -> WorkabilityResult:
+    """Workability of every planner on a site record (module docstring).
+
+    Args:
+        spec: a `WorkabilitySpec` or a dict of its fields (validated).
+        record: the site's record (`twin.site.read_record`).
+        executor: where new runs go (e.g. a server's); None starts one from `scheduler` and
+            `n_workers` only if some run is not cached, and closes it at the end.
+        on_progress: called with (runs done, runs in all) after the cache lookup and after each
+            chunk (cached runs count as done).
+        scheduler: without `executor`: None (a LocalCluster), "tcp://HOST:PORT" or "in-process".
+        n_workers: workers of that LocalCluster.
+        data_dir: folder of the cell cache (`cells.sqlite`); None: no cache beyond this call.
+        progress: a tqdm bar over runs.
+        stop: polled after each chunk; True cancels the rest and raises `WorkabilityStopped`.
+
+    Raises:
+        ValueError: a bad spec or a record the strategy cannot use (TwinError, naming it).
+        WorkabilityStopped: `stop` returned True.
+    """
+    spec = spec if isinstance(spec, WorkabilitySpec) else WorkabilitySpec(**spec)
+    start = time.perf_counter()
+    if record.n == 0:
+        raise TwinError("record: no rows left to evaluate (every row was skipped)")
+    if record.n > MAX_ROWS:
+        raise TwinError(f"record: {record.n} rows; allowed at most {MAX_ROWS}")
+    notes: list[str] = []
+    betas = _row_headings(spec, record)  # (n, options)
+    cell_hs, cell_tp, cell_beta, above, low_hs, upper = _cells(spec, record, betas, notes)
+    planners = list(spec.planners or [])
+    # every distinct run: (planner, hs, tp, heading, seed); the lower cells only where weighed
+    k = betas.shape[1]
+    combos = np.unique(np.concatenate([
+        np.stack([h[:, None].repeat(k, 1).ravel(), cell_tp[:, None].repeat(k, 1).ravel(),
+                  cell_beta.ravel()], axis=1)[(~above & use).repeat(k)]
+        for h, use in ((cell_hs, np.ones(record.n, bool)), (low_hs, upper < 1.0))
+    ]), axis=0)  # fmt: skip
+    fields_of: dict[tuple, dict[str, Any]] = {}
+    for planner in planners:
+        for h, p, b in combos.tolist():
+            for seed in range(spec.seeds):
+                fields_of[(planner, h, p, b, seed)] = {
+                    **spec.scenario, "mechanism": spec.mechanism, "planner": planner,
+                    "hs": h, "tp": p, "heading": b, "seed": seed,
+                    "duration": spec.duration, "dt": spec.dt,
+                }  # fmt: skip
+    if len(fields_of) > MAX_RUNS:
+        raise TwinError(f"{len(fields_of)} runs needed; allowed at most {MAX_RUNS} (coarsen the "
+                        "grid, fewer seeds or the cells method)")  # fmt: skip
+    keys = {combo: cell_key(fields) for combo, fields in fields_of.items()}
+    cache = CellCache(data_dir)
+    summaries_by_key = cache.get(list(keys.values()))
+    todo = [combo for combo, key in keys.items() if key not in summaries_by_key]
+    total = len(keys)
+    if on_progress is not None:
+        on_progress(total - len(todo), total)
+    where = ""
+    if todo:
+        where = _run(spec, todo, fields_of, keys, cache, summaries_by_key, executor, scheduler,
+                     n_workers, progress, on_progress, stop, total)  # fmt: skip
+    summaries = {combo: summaries_by_key[key] for combo, key in keys.items()}
+    rows = _evaluate(spec, record, betas, cell_hs, cell_tp, cell_beta, above, low_hs, upper,
+                     summaries)  # fmt: skip
+    summary = _summarise(spec, record, rows)
+    return WorkabilityResult(spec, record, rows, summary, total, len(todo),
+                             time.perf_counter() - start, where, notes)  # fmt: skip
+
+
+def _row_headings(spec: WorkabilitySpec, record: SiteRecord) -> np.ndarray:
+    """(n, options) relative headings [deg] each row is evaluated at."""
+    strategy = spec.heading
+    if strategy.kind == "record":
+        if record.direction is None or record.heading is None:
+            raise TwinError(
+                "heading strategy 'record' needs the record's wave direction and vessel heading "
+                f"columns ({record.source} has direction: {record.direction is not None}, "
+                f"heading: {record.heading is not None}); allowed: fixed:DEG or best:DEG,DEG,…"
+            )
+        return np.asarray(relative_heading(record.direction, record.heading)).reshape(-1, 1)
+    return np.tile(np.asarray(strategy.headings, dtype=float), (record.n, 1))
+
+
+def _cells(
+    spec: WorkabilitySpec, record: SiteRecord, betas: np.ndarray, notes: list[str]
+) -> tuple[np.ndarray, ...]:
+    """Each row's cell (or, direct, its own Hs and Tp clipped to TP_RANGE) values, whether
+    it is above the grid, and for `cell_lookup` "linear" the lower Hs cell and the upper cell's
+    weight (1: the upper cell alone)."""
+    hs = record.hs.copy()
+    tp = np.clip(record.tp, *TP_RANGE)
+    clipped = int(np.sum(tp != record.tp))
+    if clipped:
+        notes.append(f"{clipped} rows had Tp outside {TP_RANGE[0]:g}-{TP_RANGE[1]:g} s (the "
+                     "periods a scenario allows) and were clipped to it")  # fmt: skip
+    if record.spreading is not None:
+        notes.append("the record's spreading column is not used: every run takes the spec's "
+                     "scenario spreading (long-crested unless set)")  # fmt: skip
+    if spec.method == "direct":
+        above = hs > 20.0
+        cell_hs = np.round(hs, 4)
+        return (cell_hs, np.round(tp, 4), np.round(np.mod(betas, 360.0), 3), above, cell_hs,
+                np.ones(hs.size))  # fmt: skip
+    grid_hs = np.asarray(spec.hs_grid)
+    grid_tp = np.asarray(spec.tp_grid)
+    # conservative in Hs: the next grid value at or above (to float noise) the row's
+    index = np.searchsorted(grid_hs, hs - 1e-9, side="left")
+    above = index >= grid_hs.size
+    cell_hs = grid_hs[np.minimum(index, grid_hs.size - 1)]
+    if above.any():
+        notes.append(f"{int(above.sum())} rows have Hs above the cell grid's {grid_hs[-1]:g} m "
+                     "and count as not operable")  # fmt: skip
+    cell_tp = grid_tp[np.argmin(np.abs(tp[:, None] - grid_tp[None, :]), axis=1)]
+    if spec.heading.kind == "record":
+        grid_b = np.asarray(spec.heading_grid)
+        nearest = np.argmin(angular_distance(betas[:, :, None], grid_b[None, None, :]), axis=2)
+        cell_beta = grid_b[nearest]
+    else:
+        cell_beta = betas
+    low_hs, upper = cell_hs.copy(), np.ones(hs.size)
+    if spec.cell_lookup == "linear":  # between the cells below and above, linear in Hs
+        inside = (index > 0) & ~above
+        low_hs[inside] = grid_hs[index[inside] - 1]
+        span = cell_hs[inside] - low_hs[inside]
+        upper[inside] = np.clip((hs[inside] - low_hs[inside]) / span, 0.0, 1.0)
+    return cell_hs, cell_tp, cell_beta, above, low_hs, upper
+
+
+def _run(
+    spec: WorkabilitySpec, todo: list[tuple], fields_of: dict[tuple, dict[str, Any]],
+    keys: dict[tuple, str], cache: CellCache, found: dict[str, dict[str, Any]],
+    executor: Executor | None, scheduler: str | None, n_workers: int | None, progress: bool,
+    on_progress: Callable[[int, int], None] | None, stop: Callable[[], bool] | None, total: int,
+) -> str:  # fmt: skip
+    """Run the runs `todo` on the executor in chunks (one planner each), caching each chunk."""
+    if executor is None:
+        with Executor.start(scheduler, n_workers=n_workers) as own:
+            return _run(spec, todo, fields_of, keys, cache, found, own, None, None, progress,
+                        on_progress, stop, total)  # fmt: skip
+    todo = sorted(todo, key=lambda c: (c[0], c[1], c[2], c[3], c[4]))
+    size = spec.chunk_size
+    chunks = [todo[s : s + size] for s in range(0, len(todo), size)]
+    futures = {
+        executor.submit(run_cells_chunk, [fields_of[c] for c in chunk],
+                        threads=executor.numba_threads, priority=SWEEP_PRIORITY): chunk
+        for chunk in chunks
+    }  # fmt: skip
+    done = total - len(todo)
+    try:
+        with tqdm(total=total, initial=done, disable=not progress, unit="run") as bar:
+            for future in executor.as_completed(futures):
+                if stop is not None and stop():
+                    raise WorkabilityStopped("workability stopped before its end; its chunks "
+                                             "were cancelled")  # fmt: skip
+                chunk = futures[future]
+                new = {keys[c]: s for c, s in zip(chunk, future.result(), strict=True)}
+                cache.put(new)  # a stopped evaluation keeps what it ran
+                found.update(new)
+                done += len(chunk)
+                bar.update(len(chunk))
+                if on_progress is not None:
+                    on_progress(done, total)
+    finally:
+        executor.cancel(futures)
+    return executor.where
+
+
+def _evaluate(
+    spec: WorkabilitySpec, record: SiteRecord, betas: np.ndarray, cell_hs: np.ndarray,
+    cell_tp: np.ndarray, cell_beta: np.ndarray, above: np.ndarray, low_hs: np.ndarray,
+    upper: np.ndarray, summaries: dict[tuple, dict[str, Any]],
+) -> pd.DataFrame:  # fmt: skip
+    """One row per record row and planner: probability, heading chosen, limiting constraint."""
+    threshold = spec.tip_error_threshold
+    seeds = range(spec.seeds)
+    # per distinct run set: (probability, most frequent limiting constraint)
+    memo: dict[tuple, tuple[float, str]] = {}
+
+    def judge(planner: str, h: float, p: float, b: float) -> tuple[float, str]:
+        key = (planner, h, p, b)
+        if key not in memo:
+            ok, limits = 0, Counter()
+            for seed in seeds:
+                s = summaries[(planner, h, p, b, seed)]
+                if s["violations"] == 0 and s["tip_error"] <= threshold:
+                    ok += 1
+                else:
+                    limits[s["limit"] or "tip error"] += 1
+            memo[key] = (ok / spec.seeds, limits.most_common(1)[0][0] if limits else "")
+        return memo[key]
+
+    frames = []
+    weight = record.weights
+    for planner in spec.planners or []:
+        prob = np.zeros(record.n)
+        chosen = np.zeros(record.n, dtype=int)
+        limiting = np.full(record.n, "", dtype=object)
+        for i in range(record.n):
+            if above[i]:
+                limiting[i] = "Hs above the cell grid"
+                continue
+            best, best_j, best_limit = -1.0, 0, ""
+            for j in range(betas.shape[1]):
+                tp_i, beta_ij = float(cell_tp[i]), float(cell_beta[i, j])
+                p, limit = judge(planner, float(cell_hs[i]), tp_i, beta_ij)
+                if upper[i] < 1.0:  # linear in Hs; the upper cell's constraint named
+                    p_low, limit_low = judge(planner, float(low_hs[i]), tp_i, beta_ij)
+                    p = upper[i] * p + (1.0 - upper[i]) * p_low
+                    limit = limit or (limit_low if p < 1.0 else "")
+                if p > best:
+                    best, best_j, best_limit = p, j, limit
+            prob[i], chosen[i], limiting[i] = best, best_j, best_limit
+        columns: dict[str, Any] = {}
+        if record.time is not None:
+            columns["time"] = record.time
+        columns |= {"hs": record.hs, "tp": record.tp}
+        if record.direction is not None:
+            columns["direction"] = record.direction
+        rows = np.arange(record.n)
+        columns |= {
+            "planner": planner, "heading": betas[rows, chosen],
+            "cell_hs": cell_hs, "cell_tp": cell_tp, "cell_heading": cell_beta[rows, chosen],
+            "probability": prob, "operable": prob >= OPERABLE_LEVEL, "limiting": limiting,
+            "weight": weight,
+        }  # fmt: skip
+        frames.append(pd.DataFrame(columns))
+    return pd.concat(frames, ignore_index=True)
+
+
+def _summarise(spec: WorkabilitySpec, record: SiteRecord, rows: pd.DataFrame) -> dict[str, Any]:
+    """Workability overall and per month per planner, the Hs-threshold baseline beside it,
+    limiting constraints, heading choices and weather windows."""
+    weight = record.weights
+    month = None
+    if record.time is not None:
+        month = pd.DatetimeIndex(record.time).month.to_numpy()
+    out: dict[str, Any] = {"mechanism": spec.mechanism, "heading_strategy": spec.heading.label(),
+                           "planners": {}, "threshold": {}}  # fmt: skip
+    for limit in spec.hs_limits:
+        operable = record.hs < limit  # the estimate users make today
+        entry: dict[str, Any] = {"workability": float(np.sum(weight * operable))}
+        if month is not None:
+            entry["monthly"] = _monthly(operable.astype(float), weight, month)
+            entry["windows"] = _windows(spec, record, operable)
+        out["threshold"][f"{limit:g}"] = entry
+    for planner, group in rows.groupby("planner", sort=False):
+        p = group["probability"].to_numpy()
+        limiting = group.loc[~group["operable"], "limiting"]
+        w = group.loc[~group["operable"], "weight"]
+        shares = w.groupby(limiting.to_numpy()).sum() / max(float(w.sum()), 1e-300)
+        entry = {
+            "workability": float(np.sum(weight * p)),
+            "operable_share": float(np.sum(weight * group["operable"].to_numpy())),
+            "limiting": {str(k): float(v) for k, v in shares.sort_values(ascending=False).items()},
+        }
+        if spec.heading.kind == "best":
+            chosen = group.loc[group["operable"], "heading"].round(3)
+            entry["headings_chosen"] = {f"{k:g}": int(v) for k, v in
+                                        chosen.value_counts().sort_index().items()}  # fmt: skip
+        if month is not None:
+            entry["monthly"] = _monthly(p, weight, month)
+            entry["windows"] = _windows(spec, record, group["operable"].to_numpy())
+        out["planners"][str(planner)] = entry
+    out["workability"] = {k: v["workability"] for k, v in out["planners"].items()}
+    return out
+
+
+def _monthly(values: np.ndarray, weight: np.ndarray, month: np.ndarray) -> dict[str, float]:
+    """Weighted mean of `values` per calendar month present in the record (all years)."""
+    out = {}
+    for m in range(1, 13):
+        mask = month == m
+        if mask.any():
+            out[MONTHS[m - 1]] = float(np.sum(values[mask] * weight[mask]) / np.sum(weight[mask]))
+    return out
+
+
+def _windows(spec: WorkabilitySpec, record: SiteRecord, operable: np.ndarray) -> dict[str, Any]:
+    series = regular_series(record.time, operable)  # type: ignore[arg-type]
+    return {
+        f"{w:g}": window_stats(series.operable, series.step_hours, w, times=series.times,
+                               shift=spec.shift).to_dict()
+        for w in spec.window_hours
+    }  # fmt: skip
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars → Python scalars, recursively (json.dumps cannot take numpy types)."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    return value.item() if isinstance(value, np.generic) else value
