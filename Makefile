@@ -12,7 +12,7 @@ REQUIREMENTS ?= locked
 export TWIN_REQUIREMENTS := $(REQUIREMENTS)
 COMPILE := $(UV) pip compile --quiet --generate-hashes --python-version 3.11
 
-.PHONY: install serve test test-loaded test-latest lint lock demo urdf raos bench reliability clean
+.PHONY: install serve test test-loaded test-latest lint lock demo urdf raos bench soak reliability clean
 
 # uv (itself pinned with hashes) installs the locked set in seconds where pip took minutes.
 $(BIN)/python:
@@ -99,6 +99,10 @@ raos: $(STAMP)
 ## bench: benchmarks against the Pinocchio peer; rewrites docs/performance.md (~3 min)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+
+## soak: 30 minutes of mixed load, viewers, a slowloris and the heatmap attack (scripts/soak.py)
+soak: $(STAMP)
+	$(BIN)/python scripts/soak.py
 
 ## reliability: fuzz, fault, load and crash tests; rewrites docs/reliability.md (~5 min)
 reliability: $(STAMP)

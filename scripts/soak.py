@@ -397,7 +397,7 @@ def soak_once(args: argparse.Namespace) -> dict[str, Any]:
             slowloris.join(60)
             soak.figures["slowloris_connections_opened"] = opened.value
             soak.figures["slowloris_closed_by_server"] = closed.value
-            recovered = _recovery(soak)
+            recovered = _recovery(soak, args.stretch)
             soak.figures["served_again_after_flood_s"] = recovered
             for thread in attacks:  # the attack sweep and the exports finish under the load
                 thread.join(300)
@@ -405,7 +405,7 @@ def soak_once(args: argparse.Namespace) -> dict[str, Any]:
             soak.stop.set()  # the load, the viewers and the health polls stop: then SIGTERM
             for thread in (*threads, viewers):
                 thread.join(10)
-            stopped = _sigterm_with_a_sweep_open(soak)
+            stopped = _sigterm_with_a_sweep_open(soak, args.stretch)
         finally:
             soak.stop.set()
             if soak.process.poll() is None:
@@ -421,20 +421,20 @@ def soak_once(args: argparse.Namespace) -> dict[str, Any]:
     return soak.figures
 
 
-def _recovery(soak: Soak) -> float | None:
+def _recovery(soak: Soak, stretch: float) -> float | None:
     start = time.monotonic()
-    while time.monotonic() - start < RECOVERY:
+    while time.monotonic() - start < RECOVERY * stretch:
         try:
             if httpx.get(f"{soak.url}/api/health", timeout=2).status_code == 200:
                 return round(time.monotonic() - start, 2)
         except httpx.HTTPError:
             pass
         time.sleep(0.1)
-    soak.failures.append(f"not serving {RECOVERY:g} s after the slowloris stopped")
+    soak.failures.append(f"not serving {RECOVERY * stretch:g} s after the slowloris stopped")
     return None
 
 
-def _sigterm_with_a_sweep_open(soak: Soak) -> float | None:
+def _sigterm_with_a_sweep_open(soak: Soak, stretch: float) -> float | None:
     spec = {"hs": [1.0, 2.0, 3.0], "tp": [6.0, 8.0], "seeds": 2, "duration": 200.0}
     try:
         httpx.post(f"{soak.url}/api/sweeps", json=spec, headers=AUTH, timeout=30)
@@ -449,8 +449,10 @@ def _sigterm_with_a_sweep_open(soak: Soak) -> float | None:
         soak.failures.append("SIGTERM not obeyed within 30 s")
         return None
     stopped = time.monotonic() - start
-    if stopped > STOP_BUDGET:
-        soak.failures.append(f"SIGTERM took {stopped:.1f} s (docker stop allows {STOP_BUDGET:g})")
+    if stopped > STOP_BUDGET * stretch:
+        soak.failures.append(
+            f"SIGTERM took {stopped:.1f} s (docker stop allows {STOP_BUDGET:g}, × {stretch:.2g})"
+        )
     return round(stopped, 1)
 
 
@@ -482,8 +484,10 @@ def _summarise(soak: Soak, stopped: float | None, args: argparse.Namespace) -> N
         "runs_deleted": len(soak.deleted),
         "sigterm_exit_s": stopped,
     })  # fmt: skip
-    if not p99 < HEALTH_P99:
-        soak.failures.append(f"/api/health p99 {p99:.2f} s (allowed < {HEALTH_P99:g} s)")
+    if not p99 < HEALTH_P99 * args.stretch:
+        soak.failures.append(
+            f"/api/health p99 {p99:.2f} s (allowed < {HEALTH_P99 * args.stretch:g} s)"
+        )
     if soak.rss and max(soak.rss) > args.rss_bound:
         soak.failures.append(f"server RSS {max(soak.rss):.0f} MB over {args.rss_bound} MB")
 
@@ -499,6 +503,11 @@ def main() -> int:
     parser.add_argument("--rss-bound", type=int, default=1500,
                         help="[MB] the server process's RSS must stay under it")  # fmt: skip
     parser.add_argument("--json", type=Path, help="write the figures here")
+    parser.add_argument(
+        "--stretch", type=float, default=1.0,
+        help="multiply the time limits (health p99, recovery, SIGTERM) by this: the CI test "
+        "passes the load it measured (tests/timing.py), as every time limit of the suite does",
+    )  # fmt: skip
     args = parser.parse_args()
     args.seconds = 20.0 if args.short else 60.0 * args.minutes
     args.long_steps = 20_000 if args.short else 200_000

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 #: modules of tests/web whose tests hold a running process to a time budget
-SERIAL = {"test_browser", "test_cli", "test_crash", "test_load", "test_scene"}
+SERIAL = {"test_browser", "test_cli", "test_crash", "test_load", "test_scene", "test_soak"}
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
