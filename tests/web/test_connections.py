@@ -33,7 +33,11 @@ def served_sockets(port: int) -> list[Any]:
     """The server side of every live connection to `port` in this process."""
     found = []
     for obj in gc.get_objects():
-        if isinstance(obj, asyncio.BaseTransport) and not obj.is_closing():
+        try:
+            transport = isinstance(obj, asyncio.BaseTransport) and not obj.is_closing()
+        except ReferenceError:  # a weakref.proxy whose object is gone: not a transport
+            continue
+        if transport:
             sock = obj.get_extra_info("socket")
             try:
                 if sock is not None and sock.getsockname()[1] == port and sock.getpeername():

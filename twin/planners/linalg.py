@@ -38,4 +38,6 @@ def weighted_pinv(
     gain = np.where(kept, 1.0 / (safe + lam2[..., None] / safe), 0.0)  # s / (s² + λ²)
     VG = np.swapaxes(Vt, -1, -2) * gain[..., None, :]  # (..., n, k)
     pinv = sqrt_w[..., :, None] * (VG @ np.swapaxes(U, -1, -2))  # (..., n, m)
-    return pinv, np.sqrt(lam2)
+    # λ itself from √(1 − r²) λ_max, not √λ²: for a λ_max under 1e-154, λ_max² is subnormal
+    # and its square root came back above λ_max (hypothesis found 1.31119e-158)
+    return pinv, np.sqrt(1.0 - ratio**2) * damping_max
