@@ -271,7 +271,159 @@ class JobRunner:
                     done.set_exception(exc)
 
 
-class SweepRunner:
+def wait_polling(executor: Executor, draw: Any, result: Any, stop: Any, what: str) -> Any:
+    """`draw(result)` as a task on `executor` (a worker process draws the figure), waited for in
+    steps of `POLL` seconds so a stop or a cancel does not wait for it; the task is cancelled
+    however the wait ends.
+
+    Args:
+        executor: where the task runs.
+        draw: a picklable function of `result`.
+        result: its argument.
+        stop: () -> bool, true when the job was stopped or cancelled.
+        what: what is drawn, for the error a stop raises ("the heatmap").
+
+    Raises:
+        RuntimeError: `stop()` became true before the task ended.
+    """
+    future = executor.submit(draw, result)
+    try:
+        while True:
+            if stop():
+                raise RuntimeError(f"stopped while {what} was drawn")
+            try:
+                return future.result(timeout=POLL)
+            except TimeoutError:
+                continue
+    finally:
+        executor.cancel([future])
+
+
+class QueuedJobs:
+    """Stored jobs one at a time from a daemon thread on the server's executor: the queue,
+    submit, cancel, shutdown and the error handling shared by `SweepRunner` and
+    `twin.web.workability_jobs.WorkabilityRunner`. A subclass names its thread and jobs and
+    says how its store requeues, cancels and fails a job (`_requeue`, `_store_cancel`,
+    `_store_fail`) and what running one does (`_work`).
+
+    Args:
+        store: where jobs are read from and written to.
+    """
+
+    #: name of the daemon thread
+    thread_name = "twin-jobs"
+    #: what a job is called in log messages, one and many
+    kind = "job"
+    kinds = "jobs"
+
+    def __init__(self, store: Any) -> None:
+        self.store = store
+        self.executor: Executor | None = None
+        self._queue: queue.Queue[str | None] = queue.Queue()
+        self._thread: threading.Thread | None = None
+        self._stopping = threading.Event()
+        self._cancelled: set[str] = set()
+        self._lock = threading.Lock()
+
+    def _requeue(self) -> list[str]:
+        """Ids of the stored jobs a stopped server left unfinished, queued again in the store."""
+        raise NotImplementedError
+
+    def _store_cancel(self, job_id: str, reason: str) -> bool:
+        """Store a job as cancelled; whether it was queued or running."""
+        raise NotImplementedError
+
+    def _store_fail(self, job_id: str, error: str) -> None:
+        """Store a job as failed with `error`."""
+        raise NotImplementedError
+
+    def _work(self, job_id: str, stop: Any) -> None:
+        """Run one stored job to the end (`stop()` true: stop early by raising)."""
+        raise NotImplementedError
+
+    def start(self, executor: Executor) -> list[str]:
+        """Start the thread on `executor`; queue jobs a previous server left unfinished.
+
+        Returns:
+            The ids queued again.
+        """
+        self.executor = executor
+        self._stopping.clear()
+        if self._thread is None or not self._thread.is_alive():
+            self._thread = threading.Thread(target=self._loop, name=self.thread_name,
+                                            daemon=True)  # fmt: skip
+            self._thread.start()
+        recovered = self._requeue()
+        for job_id in recovered:
+            self.submit(job_id)
+        return recovered
+
+    def submit(self, job_id: str) -> None:
+        """Run a stored job after the ones already queued (not started yet, as while a server
+        warms up: `start` takes it from the store with the others)."""
+        if self.executor is not None:
+            self._queue.put(job_id)
+
+    def cancel(self, job_id: str, reason: str = "by request") -> bool:
+        """Cancel a queued or running job: stored failed ("cancelled …"); the one in hand stops
+        after its running chunk, its other chunks and its plots cancelled. Whether it was queued
+        or running.
+
+        Raises:
+            SweepNotFound / WorkabilityNotFound: no job has this id (the store's error).
+        """
+        cancelled = self._store_cancel(job_id, reason)
+        if cancelled:
+            with self._lock:
+                self._cancelled.add(job_id)
+        return cancelled
+
+    def _stopped(self, job_id: str) -> bool:
+        with self._lock:
+            return self._stopping.is_set() or job_id in self._cancelled
+
+    def shutdown(self, timeout: float = 2.0) -> None:
+        """Cancel the job in hand; it and the queued ones stay queued in the store."""
+        self._stopping.set()
+        self._queue.put(None)
+        if self._thread is not None:
+            self._thread.join(timeout)
+            self._thread = None
+        try:
+            self._requeue()
+        except StoreUnavailable:
+            log.warning("run store unavailable at shutdown: unfinished %s not requeued", self.kinds)
+
+    def _loop(self) -> None:
+        while (job_id := self._queue.get()) is not None:
+            if self._stopping.is_set():
+                return
+            if self._stopped(job_id):  # cancelled while queued: nothing to run
+                with self._lock:
+                    self._cancelled.discard(job_id)
+                continue
+            self.execute(job_id)
+
+    def execute(self, job_id: str) -> None:
+        """Run one stored job to the end (`_work`), storing its error if it fails."""
+        stop = lambda: self._stopped(job_id)  # noqa: E731
+        try:
+            self._work(job_id, stop)
+        except Exception as exc:  # a thread has no caller to raise to: the store is its report
+            if stop():
+                # a shutdown leaves it queued (run again on the next start); a cancel has
+                # stored it as cancelled already
+                return
+            try:
+                self._store_fail(job_id, f"{type(exc).__name__}: {exc}")
+            except Exception:
+                log.exception("%s %s failed and could not be stored as failed", self.kind, job_id)
+        finally:
+            with self._lock:
+                self._cancelled.discard(job_id)
+
+
+class SweepRunner(QueuedJobs):
     """Operability sweeps, one at a time, from a daemon thread that drives `run_sweep` on the
     server's executor (the workers simulate; the thread only collects). Progress and the result
     go to the store, so status survives a restart; `start` queues again whatever a stopped
@@ -281,121 +433,42 @@ class SweepRunner:
         store: where sweeps are read from and written to.
     """
 
+    thread_name = "twin-sweeps"
+    kind = "sweep"
+    kinds = "sweeps"
+    store: RunStore
+
     def __init__(self, store: RunStore) -> None:
-        self.store = store
-        self.executor: Executor | None = None
-        self._queue: queue.Queue[str | None] = queue.Queue()
-        self._thread: threading.Thread | None = None
-        self._stopping = threading.Event()
-        self._cancelled: set[str] = set()
-        self._lock = threading.Lock()
+        super().__init__(store)
 
-    def start(self, executor: Executor) -> list[str]:
-        """Start the thread on `executor`; queue sweeps a previous server left unfinished.
+    def _requeue(self) -> list[str]:
+        return self.store.requeue_unfinished_sweeps()
 
-        Returns:
-            The ids queued again.
-        """
-        self.executor = executor
-        self._stopping.clear()
-        if self._thread is None or not self._thread.is_alive():
-            self._thread = threading.Thread(target=self._loop, name="twin-sweeps", daemon=True)
-            self._thread.start()
-        recovered = self.store.requeue_unfinished_sweeps()
-        for sweep_id in recovered:
-            self.submit(sweep_id)
-        return recovered
+    def _store_cancel(self, job_id: str, reason: str) -> bool:
+        return self.store.cancel_sweep(job_id, reason)
 
-    def submit(self, sweep_id: str) -> None:
-        """Run a stored sweep after the ones already queued (not started yet, as while a server
-        warms up: `start` takes it from the store with the others)."""
-        if self.executor is not None:
-            self._queue.put(sweep_id)
+    def _store_fail(self, job_id: str, error: str) -> None:
+        self.store.fail_sweep(job_id, error)
 
-    def cancel(self, sweep_id: str, reason: str = "by request") -> bool:
-        """Cancel a queued or running sweep: stored failed ("cancelled …"); the one in hand
-        stops after its running chunk, its other chunks and its heatmap cancelled. Whether it
-        was queued or running.
-
-        Raises:
-            SweepNotFound: no sweep has this id.
-        """
-        cancelled = self.store.cancel_sweep(sweep_id, reason)
-        if cancelled:
-            with self._lock:
-                self._cancelled.add(sweep_id)
-        return cancelled
-
-    def _stopped(self, sweep_id: str) -> bool:
-        with self._lock:
-            return self._stopping.is_set() or sweep_id in self._cancelled
-
-    def shutdown(self, timeout: float = 2.0) -> None:
-        """Cancel the sweep in hand; it and the queued ones stay queued in the store."""
-        self._stopping.set()
-        self._queue.put(None)
-        if self._thread is not None:
-            self._thread.join(timeout)
-            self._thread = None
-        try:
-            self.store.requeue_unfinished_sweeps()
-        except StoreUnavailable:
-            log.warning("run store unavailable at shutdown: unfinished sweeps not requeued")
-
-    def _loop(self) -> None:
-        while (sweep_id := self._queue.get()) is not None:
-            if self._stopping.is_set():
-                return
-            if self._stopped(sweep_id):  # cancelled while queued: nothing to run
-                with self._lock:
-                    self._cancelled.discard(sweep_id)
-                continue
-            self.execute(sweep_id)
-
-    def execute(self, sweep_id: str) -> None:
-        """Run one stored sweep to the end, storing progress, table and heatmap (or the error)."""
+    def _work(self, job_id: str, stop: Any) -> None:
+        """Run one stored sweep to the end, storing progress, table and heatmap."""
         from twin.sim.sweep import SweepSpec, heatmap_bytes, run_sweep
 
-        stop = lambda: self._stopped(sweep_id)  # noqa: E731
-        try:
-            spec = SweepSpec(**self.store.get_sweep(sweep_id).spec)
-            if not self.store.sweep_running(sweep_id):
-                return  # cancelled before it started
-            result = run_sweep(
-                spec,
-                executor=self.executor,
-                progress=False,
-                on_progress=lambda done, _total: self.store.sweep_progress(sweep_id, done),
-                stop=stop,
-            )
-            png = self._render(heatmap_bytes, result, stop)
-            self.store.finish_sweep(sweep_id, result.to_dict(), png)
-        except Exception as exc:  # a thread has no caller to raise to: the store is its report
-            if stop():
-                # a shutdown leaves it queued (run again on the next start); a cancel has
-                # stored it as cancelled already
-                return
-            try:
-                self.store.fail_sweep(sweep_id, f"{type(exc).__name__}: {exc}")
-            except Exception:
-                log.exception("sweep %s failed and could not be stored as failed", sweep_id)
-        finally:
-            with self._lock:
-                self._cancelled.discard(sweep_id)
+        spec = SweepSpec(**self.store.get_sweep(job_id).spec)
+        if not self.store.sweep_running(job_id):
+            return  # cancelled before it started
+        result = run_sweep(
+            spec,
+            executor=self.executor,
+            progress=False,
+            on_progress=lambda done, _total: self.store.sweep_progress(job_id, done),
+            stop=stop,
+        )
+        png = self._render(heatmap_bytes, result, stop)
+        self.store.finish_sweep(job_id, result.to_dict(), png)
 
     def _render(self, draw: Any, result: Any, stop: Any) -> bytes:
-        """`draw(result)` as a task on the executor (a worker process draws the figure),
-        waited for in short steps so a stop or a cancel does not wait for it."""
+        """`draw(result)` as a task on the executor, waited for in short steps."""
         if self.executor is None:
             raise RuntimeError("SweepRunner.start(executor) first")
-        future = self.executor.submit(draw, result)
-        try:
-            while True:
-                if stop():
-                    raise RuntimeError("stopped while the heatmap was drawn")
-                try:
-                    return future.result(timeout=POLL)
-                except TimeoutError:
-                    continue
-        finally:
-            self.executor.cancel([future])
+        return wait_polling(self.executor, draw, result, stop, "the heatmap")

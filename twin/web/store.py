@@ -24,6 +24,8 @@ import sqlite3
 import threading
 import time
 import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -229,6 +231,76 @@ def _unreadable(row: sqlite3.Row, exc: Exception) -> dict[str, Any]:
     }  # fmt: skip
 
 
+def connect(path: Path) -> sqlite3.Connection:
+    """The one connection of a store to the file `path` (its folder made if missing), rows as
+    `sqlite3.Row`. One connection guarded by a lock (the caller's): FastAPI calls from its
+    thread pool; autocommit mode (isolation_level=None) so each write is exactly one explicit
+    transaction (`transaction`)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    conn = sqlite3.connect(path, timeout=10.0, isolation_level=None, check_same_thread=False)
+    conn.row_factory = sqlite3.Row
+    return conn
+
+
+@contextmanager
+def transaction(conn: sqlite3.Connection, path: Path) -> Iterator[None]:
+    """One write transaction on `conn` (the caller holds its lock): BEGIN IMMEDIATE, COMMIT at
+    the end, ROLLBACK on any error. SQLite's operational errors (locked, disk full, file gone)
+    become `StoreUnavailable` (a 503), naming the store file `path`."""
+    try:
+        conn.execute("BEGIN IMMEDIATE")
+    except sqlite3.OperationalError as exc:
+        raise StoreUnavailable(f"run store {path}: {exc}") from exc
+    try:
+        yield
+    except BaseException as exc:
+        conn.execute("ROLLBACK")
+        if isinstance(exc, sqlite3.OperationalError):
+            raise StoreUnavailable(f"run store {path}: {exc}") from exc
+        raise
+    conn.execute("COMMIT")
+
+
+def cancel_sql(table: str, size: str | None = None) -> str:
+    """The UPDATE that fails a queued or running job of `table` as cancelled (parameters:
+    finished [s since the epoch], error, id); `size` is the SQL the row's size [bytes] becomes,
+    None for a table without one."""
+    resize = "" if size is None else f", size = {size}"
+    return (
+        f"UPDATE {table} SET status = 'failed', finished = ?, error = ?{resize} "
+        "WHERE id = ? AND status IN ('queued', 'running')"
+    )
+
+
+def requeue(
+    conn: sqlite3.Connection, table: str, reset: str, max_attempts: int, size: str | None = None
+) -> list[str]:
+    """Jobs of `table` a stopped server left queued or running, set back to queued (`reset`:
+    the SQL assignments that undo their progress), oldest first, in one transaction (the
+    caller holds the lock); those already started `max_attempts` times are failed instead,
+    saying so (`size`: as in `cancel_sql`)."""
+    unfinished = "status IN ('queued', 'running')"
+    resize = "" if size is None else f", size = {size}"
+    conn.execute("BEGIN IMMEDIATE")
+    try:
+        conn.execute(
+            f"UPDATE {table} SET status = 'failed', finished = ?, error = 'interrupted: "
+            "started ' || attempts || ' times, each stopped by a server stop or crash "
+            f"before it finished; not queued again (resubmit it, smaller)'{resize} "
+            f"WHERE {unfinished} AND attempts >= ?",
+            (time.time(), max_attempts),
+        )
+        rows = conn.execute(
+            f"SELECT id FROM {table} WHERE {unfinished} ORDER BY created, rowid"
+        ).fetchall()
+        conn.execute(f"UPDATE {table} SET status = 'queued', {reset} WHERE status = 'running'")
+    except BaseException:
+        conn.execute("ROLLBACK")
+        raise
+    conn.execute("COMMIT")
+    return [row["id"] for row in rows]
+
+
 def _run(row: sqlite3.Row) -> Run:
     try:
         return _run_fields(row)
@@ -266,13 +338,7 @@ class RunStore:
     def __init__(self, path: str | Path, quota: Quota | None = None) -> None:
         self.path = Path(path)
         self.quota = quota if quota is not None else Quota()
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        # One connection guarded by a lock: FastAPI calls from its thread pool; autocommit
-        # mode (isolation_level=None) so each `_write` is exactly one explicit transaction.
-        self._conn = sqlite3.connect(
-            self.path, timeout=10.0, isolation_level=None, check_same_thread=False
-        )
-        self._conn.row_factory = sqlite3.Row
+        self._conn = connect(self.path)
         self._lock = threading.Lock()
         try:
             self._open()
@@ -349,18 +415,8 @@ class RunStore:
         """One statement in one transaction; returns the number of rows changed."""
         with self._lock:
             self._check()
-            try:
-                self._conn.execute("BEGIN IMMEDIATE")
-            except sqlite3.OperationalError as exc:
-                raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
-            try:
+            with transaction(self._conn, self.path):
                 changed = self._conn.execute(sql, parameters).rowcount
-            except BaseException as exc:
-                self._conn.execute("ROLLBACK")
-                if isinstance(exc, sqlite3.OperationalError):
-                    raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
-                raise
-            self._conn.execute("COMMIT")
             return changed
 
     def create(self, scenario: Scenario, max_pending: int | None = None) -> Run:
@@ -396,22 +452,12 @@ class RunStore:
         pending = f"SELECT COUNT(*) FROM {table} WHERE status IN ('queued', 'running')"
         with self._lock:
             self._check()
-            try:
-                self._conn.execute("BEGIN IMMEDIATE")
-            except sqlite3.OperationalError as exc:
-                raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
-            try:
+            with transaction(self._conn, self.path):
                 count = self._conn.execute(pending).fetchone()[0]
                 if cap is not None and count >= cap:
                     raise QueueFull(table, count, cap)
                 self._make_room(table, parameters[-1])
                 self._conn.execute(insert, parameters)
-            except BaseException as exc:
-                self._conn.execute("ROLLBACK")
-                if isinstance(exc, sqlite3.OperationalError):
-                    raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
-                raise
-            self._conn.execute("COMMIT")
 
     def usage(self) -> tuple[int, int]:
         """([bytes] stored or reserved by runs and sweeps, runs stored)."""
@@ -480,13 +526,21 @@ class RunStore:
         Raises:
             RunNotFound: no run has this id.
         """
-        changed = self._write(
+        return self._write_one(
+            "runs", run_id,
             "UPDATE runs SET status = 'running', progress = 0, attempts = attempts + 1 "
             "WHERE id = ? AND status = 'queued'",
             (run_id,),
-        )
+        )  # fmt: skip
+
+    def _write_one(
+        self, table: Literal["runs", "sweeps"], job_id: str, sql: str, parameters: tuple[Any, ...]
+    ) -> bool:
+        """A write to one run or sweep; whether it changed the row (none changed: RunNotFound /
+        SweepNotFound if there is no such row, else it was in another status)."""
+        changed = self._write(sql, parameters)
         if not changed:
-            self.get(run_id)  # RunNotFound for an unknown id
+            (self.get if table == "runs" else self.get_sweep)(job_id)
         return bool(changed)
 
     def set_progress(self, run_id: str, progress: float) -> None:
@@ -540,15 +594,16 @@ class RunStore:
         Raises:
             RunNotFound: no run has this id.
         """
-        changed = self._write(
-            "UPDATE runs SET status = 'failed', finished = ?, error = ?, "
-            f"size = LENGTH(scenario) + {ROW_OVERHEAD} "
-            "WHERE id = ? AND status IN ('queued', 'running')",
-            (time.time(), f"{CANCELLED} {reason}", run_id),
-        )
-        if not changed:
-            self.get(run_id)
-        return bool(changed)
+        return self._cancel("runs", run_id, reason)
+
+    def _cancel(self, table: Literal["runs", "sweeps"], job_id: str, reason: str) -> bool:
+        """`cancel` or `cancel_sweep`: the row's size shrinks to its scenario or spec."""
+        own = "scenario" if table == "runs" else "spec"
+        return self._write_one(
+            table, job_id,
+            cancel_sql(table, f"LENGTH({own}) + {ROW_OVERHEAD}"),
+            (time.time(), f"{CANCELLED} {reason}", job_id),
+        )  # fmt: skip
 
     def fail(self, run_id: str, error: str) -> None:
         self._changed(
@@ -565,31 +620,12 @@ class RunStore:
         return self._requeue("runs", "progress = 0", max_attempts)
 
     def _requeue(self, table: str, reset: str, max_attempts: int) -> list[str]:
-        unfinished = "status IN ('queued', 'running')"
+        own = "scenario" if table == "runs" else "spec"
         with self._lock:
             self._check()
-            self._conn.execute("BEGIN IMMEDIATE")
-            try:
-                own = "scenario" if table == "runs" else "spec"
-                self._conn.execute(
-                    f"UPDATE {table} SET status = 'failed', finished = ?, error = 'interrupted: "
-                    "started ' || attempts || ' times, each stopped by a server stop or crash "
-                    "before it finished; not queued again (resubmit it, smaller)', "
-                    f"size = LENGTH({own}) + {ROW_OVERHEAD} "
-                    f"WHERE {unfinished} AND attempts >= ?",
-                    (time.time(), max_attempts),
-                )
-                rows = self._conn.execute(
-                    f"SELECT id FROM {table} WHERE {unfinished} ORDER BY created, rowid"
-                ).fetchall()
-                self._conn.execute(
-                    f"UPDATE {table} SET status = 'queued', {reset} WHERE status = 'running'"
-                )
-            except BaseException:
-                self._conn.execute("ROLLBACK")
-                raise
-            self._conn.execute("COMMIT")
-        return [row["id"] for row in rows]
+            return requeue(
+                self._conn, table, reset, max_attempts, f"LENGTH({own}) + {ROW_OVERHEAD}"
+            )
 
     def pending(self, table: Literal["runs", "sweeps"] = "runs") -> int:
         """How many runs (or sweeps) are queued or running."""
@@ -690,15 +726,7 @@ class RunStore:
         Raises:
             SweepNotFound: no sweep has this id.
         """
-        changed = self._write(
-            "UPDATE sweeps SET status = 'failed', finished = ?, error = ?, "
-            f"size = LENGTH(spec) + {ROW_OVERHEAD} "
-            "WHERE id = ? AND status IN ('queued', 'running')",
-            (time.time(), f"{CANCELLED} {reason}", sweep_id),
-        )
-        if not changed:
-            self.get_sweep(sweep_id)
-        return bool(changed)
+        return self._cancel("sweeps", sweep_id, reason)
 
     def delete_sweep(self, sweep_id: str) -> bool:
         """Forget a sweep, its table and heatmap with it; whether there was one."""
@@ -710,14 +738,12 @@ class RunStore:
         Raises:
             SweepNotFound: no sweep has this id.
         """
-        changed = self._write(
+        return self._write_one(
+            "sweeps", sweep_id,
             "UPDATE sweeps SET status = 'running', done = 0, attempts = attempts + 1 "
             "WHERE id = ? AND status IN ('queued', 'running')",
             (sweep_id,),
-        )
-        if not changed:
-            self.get_sweep(sweep_id)
-        return bool(changed)
+        )  # fmt: skip
 
     def sweep_progress(self, sweep_id: str, done: int) -> None:
         """Runs done of a running sweep; it only grows (a late report changes nothing)."""

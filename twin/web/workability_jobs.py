@@ -1,8 +1,8 @@
 """Workability jobs of the REST API: one at a time, on the server's one executor.
 
-`WorkabilityRunner` is modelled on `twin.web.jobs.SweepRunner`: a daemon thread drives
-`twin.sim.workability.run_workability` on the server's executor (the workers simulate in chunks,
-below single runs' priority; the thread only collects), stores progress (runs done of those
+`WorkabilityRunner` extends `twin.web.jobs.QueuedJobs`, as `SweepRunner` does: a daemon thread
+drives `twin.sim.workability.run_workability` on the server's executor (the workers simulate in
+chunks, below single runs' priority; the thread only collects), stores progress (runs done of those
 needed, cached ones counting as done), then draws the plots as a task on the executor (never in
 the process that answers requests) and stores the result and its PNGs. Cancel marks the job
 failed and stops the evaluation after the chunk in hand (`run_workability`'s `stop`). A stopped
@@ -19,9 +19,7 @@ same readers as the CLI (`twin.site.read_record`).
 from __future__ import annotations
 
 import logging
-import queue
 import tempfile
-import threading
 from pathlib import Path
 from typing import Any
 
@@ -29,9 +27,9 @@ import pandas as pd
 
 from twin.assets import asset_path
 from twin.errors import TwinError
-from twin.sim.executor import Executor
 from twin.site import SiteRecord, read_record
-from twin.web.store import StoreUnavailable
+from twin.web.jobs import POLL as POLL  # [s] the plots' stop poll, one value for both runners
+from twin.web.jobs import QueuedJobs, wait_polling
 from twin.web.workability_store import WorkabilityStore
 
 log = logging.getLogger(__name__)
@@ -42,8 +40,6 @@ log = logging.getLogger(__name__)
 MAX_RECORD_BYTES = 60_000
 #: most forecast steps a job's result lists (`forecast_steps`): 7 days at 3 h steps, and more
 MAX_STEPS = 500
-#: [s] how often the thread waiting for the plots looks whether to stop
-POLL = 0.2
 #: files of assets/site that are not records
 _NOT_RECORDS = {"README.md"}
 
@@ -101,125 +97,51 @@ def draw(result: Any) -> dict[str, bytes]:
     return result.pngs()
 
 
-class WorkabilityRunner:
-    """Workability jobs one at a time from a daemon thread on the server's executor.
+class WorkabilityRunner(QueuedJobs):
+    """Workability jobs one at a time from a daemon thread on the server's executor
+    (`twin.web.jobs.QueuedJobs`).
 
     Args:
         store: where jobs are read from and written to.
         data_dir: folder of the cell cache (default: the store file's folder).
     """
 
+    thread_name = "twin-workability"
+    kind = "workability"
+    kinds = "workability jobs"
+    store: WorkabilityStore
+
     def __init__(self, store: WorkabilityStore, data_dir: str | Path | None = None) -> None:
-        self.store = store
+        super().__init__(store)
         self.data_dir = Path(data_dir) if data_dir is not None else store.path.parent
-        self.executor: Executor | None = None
-        self._queue: queue.Queue[str | None] = queue.Queue()
-        self._thread: threading.Thread | None = None
-        self._stopping = threading.Event()
-        self._cancelled: set[str] = set()
-        self._lock = threading.Lock()
 
-    def start(self, executor: Executor) -> list[str]:
-        """Start the thread on `executor`; queue jobs a previous server left unfinished.
+    def _requeue(self) -> list[str]:
+        return self.store.requeue_unfinished()
 
-        Returns:
-            The ids queued again.
-        """
-        self.executor = executor
-        self._stopping.clear()
-        if self._thread is None or not self._thread.is_alive():
-            self._thread = threading.Thread(target=self._loop, name="twin-workability",
-                                            daemon=True)  # fmt: skip
-            self._thread.start()
-        recovered = self.store.requeue_unfinished()
-        for job_id in recovered:
-            self.submit(job_id)
-        return recovered
+    def _store_cancel(self, job_id: str, reason: str) -> bool:
+        return self.store.cancel(job_id, reason)
 
-    def submit(self, job_id: str) -> None:
-        """Run a stored job after those queued (before `start`: `start` takes it from the store)."""
-        if self.executor is not None:
-            self._queue.put(job_id)
+    def _store_fail(self, job_id: str, error: str) -> None:
+        self.store.fail(job_id, error)
 
-    def cancel(self, job_id: str, reason: str = "by request") -> bool:
-        """Cancel a queued or running job (stored failed, "cancelled …"); the one in hand stops
-        after its running chunk. Whether it was queued or running.
-
-        Raises:
-            WorkabilityNotFound: no job has this id.
-        """
-        cancelled = self.store.cancel(job_id, reason)
-        if cancelled:
-            with self._lock:
-                self._cancelled.add(job_id)
-        return cancelled
-
-    def _stopped(self, job_id: str) -> bool:
-        with self._lock:
-            return self._stopping.is_set() or job_id in self._cancelled
-
-    def shutdown(self, timeout: float = 2.0) -> None:
-        """Stop the job in hand; it and the queued ones stay queued in the store."""
-        self._stopping.set()
-        self._queue.put(None)
-        if self._thread is not None:
-            self._thread.join(timeout)
-            self._thread = None
-        try:
-            self.store.requeue_unfinished()
-        except StoreUnavailable:
-            log.warning("run store unavailable at shutdown: workability jobs not requeued")
-
-    def _loop(self) -> None:
-        while (job_id := self._queue.get()) is not None:
-            if self._stopping.is_set():
-                return
-            if self._stopped(job_id):  # cancelled while queued
-                with self._lock:
-                    self._cancelled.discard(job_id)
-                continue
-            self.execute(job_id)
-
-    def execute(self, job_id: str) -> None:
-        """Run one stored job to the end, storing progress, result and plots (or the error)."""
+    def _work(self, job_id: str, stop: Any) -> None:
+        """Run one stored job to the end, storing progress, result and plots."""
         from twin.sim.workability import WorkabilitySpec, run_workability
 
-        stop = lambda: self._stopped(job_id)  # noqa: E731
-        try:
-            fields, source = self.store.request(job_id)
-            spec = WorkabilitySpec(**fields)
-            record = load_record(source)
-            if not self.store.running(job_id):
-                return  # cancelled before it started
-            result = run_workability(
-                spec, record, executor=self.executor, data_dir=self.data_dir, stop=stop,
-                on_progress=lambda done, total: self.store.progress(job_id, done, total),
-            )  # fmt: skip
-            plots = self._render(result, stop)
-            self.store.finish(job_id, {**result.to_dict(), **forecast_steps(result)}, plots)
-        except Exception as exc:  # a thread has no caller: the store is its report
-            if stop():
-                return  # a shutdown leaves it queued; a cancel has stored it already
-            try:
-                self.store.fail(job_id, f"{type(exc).__name__}: {exc}")
-            except Exception:
-                log.exception("workability %s failed and could not be stored as failed", job_id)
-        finally:
-            with self._lock:
-                self._cancelled.discard(job_id)
+        fields, source = self.store.request(job_id)
+        spec = WorkabilitySpec(**fields)
+        record = load_record(source)
+        if not self.store.running(job_id):
+            return  # cancelled before it started
+        result = run_workability(
+            spec, record, executor=self.executor, data_dir=self.data_dir, stop=stop,
+            on_progress=lambda done, total: self.store.progress(job_id, done, total),
+        )  # fmt: skip
+        plots = self._render(result, stop)
+        self.store.finish(job_id, {**result.to_dict(), **forecast_steps(result)}, plots)
 
     def _render(self, result: Any, stop: Any) -> dict[str, bytes]:
         """The plots drawn by a task on the executor, waited for in short steps."""
         if self.executor is None:
             raise RuntimeError("WorkabilityRunner.start(executor) first")
-        future = self.executor.submit(draw, result)
-        try:
-            while True:
-                if stop():
-                    raise RuntimeError("stopped while the plots were drawn")
-                try:
-                    return future.result(timeout=POLL)
-                except TimeoutError:
-                    continue
-        finally:
-            self.executor.cancel([future])
+        return wait_polling(self.executor, draw, result, stop, "the plots")

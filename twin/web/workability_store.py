@@ -40,6 +40,10 @@ from twin.web.store import (
     RunNotFound,
     Status,
     StoreUnavailable,
+    cancel_sql,
+    connect,
+    requeue,
+    transaction,
 )
 
 _SCHEMA = """
@@ -105,12 +109,8 @@ class WorkabilityStore:
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         # as RunStore: one connection under a lock, autocommit, one transaction per write
-        self._conn = sqlite3.connect(
-            self.path, timeout=10.0, isolation_level=None, check_same_thread=False
-        )
-        self._conn.row_factory = sqlite3.Row
+        self._conn = connect(self.path)
         self._lock = threading.Lock()
         try:
             with self._lock:
@@ -127,20 +127,10 @@ class WorkabilityStore:
         with self._lock:
             if not self.path.exists():
                 raise StoreUnavailable(f"run store {self.path} was deleted while the server runs")
-            try:
-                self._conn.execute("BEGIN IMMEDIATE")
-            except sqlite3.OperationalError as exc:
-                raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
-            try:
+            with transaction(self._conn, self.path):
                 changed = self._conn.execute(*statements[0]).rowcount
                 for sql, parameters in statements[1:]:
                     self._conn.execute(sql, parameters)
-            except BaseException as exc:
-                self._conn.execute("ROLLBACK")
-                if isinstance(exc, sqlite3.OperationalError):
-                    raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
-                raise
-            self._conn.execute("COMMIT")
             return changed
 
     def _read(self, sql: str, parameters: tuple[Any, ...] = ()) -> list[sqlite3.Row]:
@@ -227,11 +217,9 @@ class WorkabilityStore:
         Raises:
             WorkabilityNotFound: no job has this id.
         """
-        changed = self._write((
-            "UPDATE workability SET status = 'failed', finished = ?, error = ? "
-            "WHERE id = ? AND status IN ('queued', 'running')",
-            (time.time(), f"{CANCELLED} {reason}", job_id),
-        ))  # fmt: skip
+        changed = self._write(
+            (cancel_sql("workability"), (time.time(), f"{CANCELLED} {reason}", job_id))
+        )
         if not changed:
             self.get(job_id)
         return bool(changed)
@@ -246,28 +234,8 @@ class WorkabilityStore:
     def requeue_unfinished(self, max_attempts: int = MAX_ATTEMPTS) -> list[str]:
         """Jobs a stopped server left queued or running, queued again, oldest first; those
         started `max_attempts` times already are failed instead, saying so."""
-        unfinished = "status IN ('queued', 'running')"
         with self._lock:
-            self._conn.execute("BEGIN IMMEDIATE")
-            try:
-                self._conn.execute(
-                    "UPDATE workability SET status = 'failed', finished = ?, error = "
-                    "'interrupted: started ' || attempts || ' times, each stopped by a server "
-                    "stop or crash before it finished; not queued again (resubmit it, smaller)' "
-                    f"WHERE {unfinished} AND attempts >= ?",
-                    (time.time(), max_attempts),
-                )
-                rows = self._conn.execute(
-                    f"SELECT id FROM workability WHERE {unfinished} ORDER BY created, rowid"
-                ).fetchall()
-                self._conn.execute(
-                    "UPDATE workability SET status = 'queued', done = 0 WHERE status = 'running'"
-                )
-            except BaseException:
-                self._conn.execute("ROLLBACK")
-                raise
-            self._conn.execute("COMMIT")
-        return [row["id"] for row in rows]
+            return requeue(self._conn, "workability", "done = 0", max_attempts)
 
     # -- readers -----------------------------------------------------------------------------
     def pending(self) -> int:
