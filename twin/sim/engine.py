@@ -31,6 +31,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -621,15 +622,26 @@ def _warm_group(shares: list[int], done: Any) -> None:
     warm("auto", shares, progress=done.put)
 
 
-#: [s] how long this process's first share may take before the others go to processes of
-#: their own: loading every kernel from numba's cache takes 1-6 s (6 s at load 6), compiling
-#: them minutes
-SPAWN_AFTER = 8.0
+#: [s] with numba's cache filled, how long this process's first share may take before the
+#: others go to processes of their own (a cache gone stale compiles): loading every kernel
+#: from the cache takes 1-6 s, 13 s at load 13, compiling share 0 40-80 s. With the cache
+#: empty they go at once.
+SPAWN_AFTER = 30.0
+
+
+def kernel_cache_filled() -> bool:
+    """Whether numba's disk cache holds compiled kernels of this package (any index file):
+    where it does not, a warm-up compiles and its other shares go to processes at once."""
+    import numba
+
+    root = Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else Path(__file__).parents[1]
+    return any(root.rglob("*.nbi"))
 
 
 def warm_in_processes(processes: int | None = None, progress: WarmProgress | None = None) -> float:
     """`warm` with its shares spread over processes that compile at once: share 0 in this one
-    and, if it is still compiling after `SPAWN_AFTER` s, the others in new processes (numba
+    and, if numba's cache is empty (or share 0 still compiles after `SPAWN_AFTER` s), the
+    others in new processes (numba
     writes what each compiles to its disk cache, where this process then loads it). On a first
     start with 2 cores, the time of the costliest share instead of the sum; with the cache
     full, `warm`'s second: no process is started.
@@ -675,7 +687,7 @@ def warm_in_processes(processes: int | None = None, progress: WarmProgress | Non
     def relay() -> None:
         """After `SPAWN_AFTER` s of share 0, the other shares in processes of their own."""
         try:
-            if first_done.wait(SPAWN_AFTER):
+            if first_done.wait(SPAWN_AFTER if kernel_cache_filled() else 0.0):
                 return  # loaded from the cache: no process needed
             # spawned, not forked: a fork would copy this process's numba and thread state
             context = multiprocessing.get_context("spawn")
