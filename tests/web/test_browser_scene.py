@@ -149,16 +149,21 @@ def test_a_software_renderer_gets_light_graphics_and_every_view_shows_the_mechan
                         lambda m=mechanism: viewer.scene.mechanism_name == m, timeout=30.0
                     )
                 for view in VIEWS:
-                    viewer.scene.set_camera(view, [client])
-                    position, look_at = viewer.scene.camera_pose(view, viewer.scene.last)
                     # the browser reports the view it was given (from the latest frame: the
-                    # vessel, and the view with it, has moved a little since)
-                    assert wait_for(
-                        lambda w=position - look_at: np.linalg.norm(
-                            client.camera.position - client.camera.look_at - w
-                        ) < 0.05 * np.linalg.norm(w),
-                        timeout=20.0,
-                    ), (mechanism, view, client.camera.position, position)
+                    # vessel, and the view with it, has moved a little since); sent again if
+                    # the switch's own camera move reached the browser after it
+                    for _ in range(3):
+                        viewer.scene.set_camera(view, [client])
+                        position, look_at = viewer.scene.camera_pose(view, viewer.scene.last)
+                        if wait_for(
+                            lambda w=position - look_at: np.linalg.norm(
+                                client.camera.position - client.camera.look_at - w
+                            ) < 0.05 * np.linalg.norm(w),
+                            timeout=10.0,
+                        ):
+                            break
+                    else:
+                        raise AssertionError((mechanism, view, client.camera.position, position))
                     fs = read_frame(session)
                     assert fs is not None and fs.scenario.mechanism == mechanism
                     if view == "walkway" and mechanism == "hybrid":
