@@ -49,11 +49,11 @@ from server import live_rows, nodelay_rows, rest_rows
 from workability_bench import workability_rows
 
 import twin
+from twin.compiled import numba_threads
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import PLANNERS
 from twin.sim import PAPER_PRESETS, Scenario, Simulation, simulate, simulate_many
 from twin.sim.base_motion import BaseMotion
-from twin.sim.kernels.compile import numba_threads
 from twin.sim.lanes import HybridLanes, PlatformLanes, numba_available
 from twin.sim.live import LiveSession
 from twin.sim.sweep import SweepSpec, run_sweep

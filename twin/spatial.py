@@ -8,7 +8,11 @@ Quaternions, where they appear, are `wxyz` (viser's order).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from twin.compiled import register_borrowing, register_inline
 
 
 def skew(v: np.ndarray) -> np.ndarray:
@@ -174,3 +178,102 @@ def se3_log(T: np.ndarray) -> np.ndarray:
     )
     V_inv = np.eye(3) - 0.5 * K + d * (K @ K)
     return np.concatenate([(V_inv @ T[..., :3, 3, None])[..., 0], w], -1)
+
+
+# One lane at a time, compiled (numba) or plain Python: the engine's kernels compose these.
+# ---------------------------------------------------------------------------------------------
+
+
+@register_inline
+def rpy_to_matrix_lane(roll: float, pitch: float, yaw: float, R_out: np.ndarray) -> None:
+    """ᴮR_P = Rz(yaw) Ry(pitch) Rx(roll) (seed 000 eq (3), `twin.spatial.rpy_to_matrix`).
+
+    Args:
+        roll, pitch, yaw: [rad].
+        R_out: (3, 3) written.
+    """
+    cf, ct, cp = math.cos(roll), math.cos(pitch), math.cos(yaw)
+    sf, st, sp = math.sin(roll), math.sin(pitch), math.sin(yaw)
+    R_out[0, 0] = cp * ct
+    R_out[0, 1] = cp * st * sf - sp * cf
+    R_out[0, 2] = cp * st * cf + sp * sf
+    R_out[1, 0] = sp * ct
+    R_out[1, 1] = sp * st * sf + cp * cf
+    R_out[1, 2] = sp * st * cf - cp * sf
+    R_out[2, 0] = -st
+    R_out[2, 1] = ct * sf
+    R_out[2, 2] = ct * cf
+
+
+@register_inline
+def so3_log_lane(R: np.ndarray, w_out: np.ndarray) -> None:
+    """Rotation vector [rad] of the rotation matrix R (3, 3), angle in [0, π]
+    (`twin.spatial.so3_log`, including its near-π branch); written to w_out (3,)."""
+    cos = (R[0, 0] + R[1, 1] + R[2, 2] - 1.0) / 2.0
+    cos = min(max(cos, -1.0), 1.0)
+    theta = math.acos(cos)
+    v0, v1, v2 = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
+    if theta < 1e-6:
+        scale = 0.5 + theta**2 / 12.0
+    else:
+        scale = theta / (2.0 * math.sin(theta))
+    w_out[0], w_out[1], w_out[2] = scale * v0, scale * v1, scale * v2
+    if theta > math.pi - 1e-4:
+        # the antisymmetric part vanishes near π: the axis is the symmetric part's largest row
+        s00, s11, s22 = R[0, 0] - cos, R[1, 1] - cos, R[2, 2] - cos
+        s01, s02 = (R[0, 1] + R[1, 0]) / 2.0, (R[0, 2] + R[2, 0]) / 2.0
+        s12 = (R[1, 2] + R[2, 1]) / 2.0
+        a0, a1, a2 = s00, s01, s02  # np.argmax: the first largest diagonal entry
+        if s11 > s00 and s11 >= s22:
+            a0, a1, a2 = s01, s11, s12
+        elif s22 > s00 and s22 > s11:
+            a0, a1, a2 = s02, s12, s22
+        norm = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        a0, a1, a2 = a0 / norm, a1 / norm, a2 / norm
+        sign = -1.0 if a0 * v0 + a1 * v1 + a2 * v2 < 0 else 1.0
+        w_out[0], w_out[1], w_out[2] = sign * a0 * theta, sign * a1 * theta, sign * a2 * theta
+
+
+@register_borrowing
+def matrix_to_rpy_lane(R: np.ndarray, out: np.ndarray) -> None:
+    """[roll, pitch, yaw] [rad] of R (3, 3) on pitch ∈ (−π/2, π/2) (`twin.spatial.matrix_to_rpy`);
+    written to out (3,)."""
+    out[0] = math.atan2(R[2, 1], R[2, 2])
+    out[1] = math.atan2(-R[2, 0], math.hypot(R[2, 1], R[2, 2]))
+    out[2] = math.atan2(R[1, 0], R[0, 0])
+
+
+@register_borrowing
+def so3_exp_lane(w0: float, w1: float, w2: float, R_out: np.ndarray) -> None:
+    """Rodrigues (`twin.spatial.so3_exp`): rotation vector [rad] → R_out (3, 3)."""
+    theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    if theta < 1e-8:
+        a, b = 1.0 - theta**2 / 6.0, 0.5 - theta**2 / 24.0
+    else:
+        a, b = math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta**2
+    # I + a K + b K², K = skew(w), K² = w wᵀ − |w|² I
+    R_out[0, 0] = 1.0 + b * (-w2 * w2 - w1 * w1)
+    R_out[1, 1] = 1.0 + b * (-w2 * w2 - w0 * w0)
+    R_out[2, 2] = 1.0 + b * (-w1 * w1 - w0 * w0)
+    R_out[0, 1], R_out[1, 0] = -a * w2 + b * w0 * w1, a * w2 + b * w0 * w1
+    R_out[0, 2], R_out[2, 0] = a * w1 + b * w0 * w2, -a * w1 + b * w0 * w2
+    R_out[1, 2], R_out[2, 1] = -a * w0 + b * w1 * w2, a * w0 + b * w1 * w2
+
+
+@register_borrowing
+def se3_log_lane(R: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """`twin.spatial.se3_log` of the transform [R (3, 3), p (3,) [m]]: body twist [v; ω]
+    (6,) [m, rad] into out, with V⁻¹ of Lynch & Park eq (3.92)."""
+    so3_log_lane(R, out[3:])  # ω first: out's rotation rows
+    w0, w1, w2 = out[3], out[4], out[5]
+    theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    if theta < 1e-6:
+        d = 1.0 / 12.0 + theta**2 / 720.0
+    else:
+        d = (1.0 - theta * math.sin(theta) / (2.0 * (1.0 - math.cos(theta)))) / theta**2
+    # V⁻¹ = I − K/2 + d K², K = skew(w)
+    k00, k11, k22 = -w2 * w2 - w1 * w1, -w2 * w2 - w0 * w0, -w1 * w1 - w0 * w0
+    k01, k02, k12 = w0 * w1, w0 * w2, w1 * w2
+    out[0] = (1.0 + d * k00) * p[0] + (0.5 * w2 + d * k01) * p[1] + (-0.5 * w1 + d * k02) * p[2]
+    out[1] = (-0.5 * w2 + d * k01) * p[0] + (1.0 + d * k11) * p[1] + (0.5 * w0 + d * k12) * p[2]
+    out[2] = (0.5 * w1 + d * k02) * p[0] + (-0.5 * w0 + d * k12) * p[1] + (1.0 + d * k22) * p[2]

@@ -251,7 +251,7 @@ def test_guided_lane_parts(size: int, threads: int, sizes: list[int]) -> None:
 @pytest.mark.skipif(not numba_available(), reason="numba not installed")
 def test_one_thread_picks_the_serial_runners() -> None:
     """Under `limit_threads(1)` a many-lane runner is the serial one, and the count returns."""
-    from twin.sim.kernels.compile import limit_threads, numba_threads, pick_runner
+    from twin.compiled import limit_threads, numba_threads, pick_runner
 
     def factory(parallel: bool) -> str:
         return "parallel" if parallel else "serial"

@@ -122,7 +122,7 @@ class BaseMotion:
         """
         if first < 0:
             raise TwinError(f"first: got {first}; allowed a sample index ≥ 0")
-        from twin.sim.kernels.compile import pick_runner
+        from twin.compiled import pick_runner
         from twin.sim.kernels.sea import compiled_base_poses, run_base_poses
 
         # lanes with fewer components are padded with silent ones (zero response)

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from twin.compiled import limit_threads, numba_threads
 from twin.errors import TwinError
 from twin.mechanisms import MECHANISMS
 from twin.sim.base_motion import BaseMotion
@@ -50,7 +51,6 @@ from twin.sim.faults import (
 )
 from twin.sim.history import History
 from twin.sim.kernels import layout
-from twin.sim.kernels.compile import limit_threads, numba_threads
 from twin.sim.lanes import HybridLanes, PlatformLanes, runner, use_numba
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import DEFAULT_PLANNER, Scenario

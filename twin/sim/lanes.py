@@ -17,6 +17,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from twin.compiled import pick_runner
 from twin.errors import TwinError
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import (
@@ -29,7 +30,6 @@ from twin.planners import (
     get_planner,
 )
 from twin.sim.kernels import layout
-from twin.sim.kernels.compile import pick_runner
 from twin.sim.metrics import hybrid_metrics, hybrid_metrics_lanes, platform_metrics
 from twin.sim.records import (
     hybrid_records,

@@ -15,10 +15,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from twin.compiled import pick_runner
 from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
 from twin.planners.platform import PlatformModel
 from twin.sim.kernels import metrics as kernel
-from twin.sim.kernels.compile import pick_runner
 from twin.sim.kernels.metrics import SETTLE
 
 _ANGLES = {"roll", "pitch", "yaw", "q1", "q2"}

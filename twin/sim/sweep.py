@@ -34,11 +34,11 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from tqdm import tqdm
 
+from twin.compiled import limit_threads
 from twin.errors import TwinError
 from twin.planners import get_planner
 from twin.sim.engine import simulate_many
 from twin.sim.executor import SWEEP_PRIORITY, Executor
-from twin.sim.kernels.compile import limit_threads
 from twin.sim.scenario import DEFAULT_PLANNER, TP_RANGE, Scenario
 
 #: most grid cells (Hs × Tp × heading × planner × β × k_e × k_c) one sweep may ask for

@@ -51,7 +51,7 @@ def held_targets(
         (N, B + end, 18): ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ; ᴮω] [m/s, rad/s] at samples
         k … k + B − 1 (+ end) (rows `twin.sim.kernels.layout.TARGET_*`).
     """
-    from twin.sim.kernels.compile import pick_runner
+    from twin.compiled import pick_runner
     from twin.sim.kernels.target import compiled_targets, run_held_targets
 
     poses, held = np.ascontiguousarray(poses, dtype=float), np.ascontiguousarray(held, dtype=float)

@@ -317,8 +317,8 @@ def run_cells_chunk(
     scenarios: list[dict[str, Any]], *, threads: int | None = 1
 ) -> list[dict[str, Any]]:
     """One executor task: run scenarios with `simulate_many`, keep each one's `run_summary`."""
+    from twin.compiled import limit_threads
     from twin.sim.engine import simulate_many
-    from twin.sim.kernels.compile import limit_threads
 
     with limit_threads(threads):
         results = simulate_many(scenarios)

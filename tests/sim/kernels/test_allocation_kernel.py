@@ -22,9 +22,9 @@ from twin.planners.target import TipTarget
 from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.kernels import allocation as ak
 from twin.sim.kernels import layout as lay
-from twin.sim.kernels.hybrid import hybrid_constants, rpy_to_matrix_lane
+from twin.sim.kernels.hybrid import hybrid_constants
 from twin.sim.scenario import Scenario
-from twin.spatial import invert_transform, pose_to_transform, se3_log, so3_exp
+from twin.spatial import invert_transform, pose_to_transform, rpy_to_matrix_lane, se3_log, so3_exp
 
 DT = 0.05  # [s]
 N_STEPS = 100

@@ -35,8 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from twin.sim.kernels.compile import register_borrowing, register_inline, register_jitable
-from twin.sim.kernels.hybrid import matrix_to_rpy_lane, rpy_to_matrix_lane, so3_log_lane
+from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.sim.kernels.layout import (
     C_A1,
     C_BASE_HINGES,
@@ -57,7 +56,13 @@ from twin.sim.kernels.layout import (
     TARGET_V,
     TARGET_W,
 )
-from twin.spatial import matrix_to_rpy
+from twin.spatial import (
+    matrix_to_rpy,
+    matrix_to_rpy_lane,
+    rpy_to_matrix_lane,
+    se3_log_lane,
+    so3_exp_lane,
+)
 
 if TYPE_CHECKING:
     from twin.planners.allocation import AllocationPlanner
@@ -87,40 +92,6 @@ assert N_ALLOCATION_PARAMETERS <= N_PARAMETERS and N_ALLOCATION_MEMORY <= N_MEMO
 # ---------------------------------------------------------------------------------------------
 
 
-@register_borrowing
-def so3_exp_lane(w0: float, w1: float, w2: float, R_out: np.ndarray) -> None:
-    """Rodrigues (`twin.spatial.so3_exp`): rotation vector [rad] → R_out (3, 3)."""
-    theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-    if theta < 1e-8:
-        a, b = 1.0 - theta**2 / 6.0, 0.5 - theta**2 / 24.0
-    else:
-        a, b = math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta**2
-    # I + a K + b K², K = skew(w), K² = w wᵀ − |w|² I
-    R_out[0, 0] = 1.0 + b * (-w2 * w2 - w1 * w1)
-    R_out[1, 1] = 1.0 + b * (-w2 * w2 - w0 * w0)
-    R_out[2, 2] = 1.0 + b * (-w1 * w1 - w0 * w0)
-    R_out[0, 1], R_out[1, 0] = -a * w2 + b * w0 * w1, a * w2 + b * w0 * w1
-    R_out[0, 2], R_out[2, 0] = a * w1 + b * w0 * w2, -a * w1 + b * w0 * w2
-    R_out[1, 2], R_out[2, 1] = -a * w0 + b * w1 * w2, a * w0 + b * w1 * w2
-
-
-@register_borrowing
-def se3_log_lane(R: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """`twin.spatial.se3_log` of the transform [R (3, 3), p (3,) [m]]: body twist [v; ω]
-    (6,) [m, rad] into out, with V⁻¹ of Lynch & Park eq (3.92)."""
-    so3_log_lane(R, out[3:])  # ω first: out's rotation rows
-    w0, w1, w2 = out[3], out[4], out[5]
-    theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-    if theta < 1e-6:
-        d = 1.0 / 12.0 + theta**2 / 720.0
-    else:
-        d = (1.0 - theta * math.sin(theta) / (2.0 * (1.0 - math.cos(theta)))) / theta**2
-    # V⁻¹ = I − K/2 + d K², K = skew(w)
-    k00, k11, k22 = -w2 * w2 - w1 * w1, -w2 * w2 - w0 * w0, -w1 * w1 - w0 * w0
-    k01, k02, k12 = w0 * w1, w0 * w2, w1 * w2
-    out[0] = (1.0 + d * k00) * p[0] + (0.5 * w2 + d * k01) * p[1] + (-0.5 * w1 + d * k02) * p[2]
-    out[1] = (-0.5 * w2 + d * k01) * p[0] + (1.0 + d * k11) * p[1] + (0.5 * w0 + d * k12) * p[2]
-    out[2] = (0.5 * w1 + d * k02) * p[0] + (-0.5 * w0 + d * k12) * p[1] + (1.0 + d * k22) * p[2]
 
 
 @register_borrowing

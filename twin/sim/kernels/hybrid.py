@@ -49,7 +49,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from twin.sim.kernels.compile import (
+from twin.compiled import (
     register_borrowing,
     register_inline,
     register_jitable,
@@ -76,6 +76,7 @@ from twin.sim.kernels.layout import (
     P_HOLD,
     P_KIND,
 )
+from twin.spatial import rpy_to_matrix_lane, so3_log_lane
 
 if TYPE_CHECKING:
     from twin.mechanisms.hybrid import HybridBoardingSystem
@@ -121,26 +122,6 @@ def hybrid_constants(mechanism: HybridBoardingSystem, rate_limit: np.ndarray) ->
 # ---------------------------------------------------------------------------------------------
 
 
-@register_inline
-def rpy_to_matrix_lane(roll: float, pitch: float, yaw: float, R_out: np.ndarray) -> None:
-    """ᴮR_P = Rz(yaw) Ry(pitch) Rx(roll) (seed 000 eq (3), `twin.spatial.rpy_to_matrix`).
-
-    Args:
-        roll, pitch, yaw: [rad].
-        R_out: (3, 3) written.
-    """
-    cf, ct, cp = math.cos(roll), math.cos(pitch), math.cos(yaw)
-    sf, st, sp = math.sin(roll), math.sin(pitch), math.sin(yaw)
-    R_out[0, 0] = cp * ct
-    R_out[0, 1] = cp * st * sf - sp * cf
-    R_out[0, 2] = cp * st * cf + sp * sf
-    R_out[1, 0] = sp * ct
-    R_out[1, 1] = sp * st * sf + cp * cf
-    R_out[1, 2] = sp * st * cf - cp * sf
-    R_out[2, 0] = -st
-    R_out[2, 1] = ct * sf
-    R_out[2, 2] = ct * cf
-
 
 @register_inline
 def gangway_tip_lane(q1: float, q2: float, d3: float, const: np.ndarray, G_out: np.ndarray) -> None:
@@ -183,42 +164,6 @@ def tip_transform(
     T_out[3, 0], T_out[3, 1], T_out[3, 2], T_out[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@register_inline
-def so3_log_lane(R: np.ndarray, w_out: np.ndarray) -> None:
-    """Rotation vector [rad] of the rotation matrix R (3, 3), angle in [0, π]
-    (`twin.spatial.so3_log`, including its near-π branch); written to w_out (3,)."""
-    cos = (R[0, 0] + R[1, 1] + R[2, 2] - 1.0) / 2.0
-    cos = min(max(cos, -1.0), 1.0)
-    theta = math.acos(cos)
-    v0, v1, v2 = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
-    if theta < 1e-6:
-        scale = 0.5 + theta**2 / 12.0
-    else:
-        scale = theta / (2.0 * math.sin(theta))
-    w_out[0], w_out[1], w_out[2] = scale * v0, scale * v1, scale * v2
-    if theta > math.pi - 1e-4:
-        # the antisymmetric part vanishes near π: the axis is the symmetric part's largest row
-        s00, s11, s22 = R[0, 0] - cos, R[1, 1] - cos, R[2, 2] - cos
-        s01, s02 = (R[0, 1] + R[1, 0]) / 2.0, (R[0, 2] + R[2, 0]) / 2.0
-        s12 = (R[1, 2] + R[2, 1]) / 2.0
-        a0, a1, a2 = s00, s01, s02  # np.argmax: the first largest diagonal entry
-        if s11 > s00 and s11 >= s22:
-            a0, a1, a2 = s01, s11, s12
-        elif s22 > s00 and s22 > s11:
-            a0, a1, a2 = s02, s12, s22
-        norm = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-        a0, a1, a2 = a0 / norm, a1 / norm, a2 / norm
-        sign = -1.0 if a0 * v0 + a1 * v1 + a2 * v2 < 0 else 1.0
-        w_out[0], w_out[1], w_out[2] = sign * a0 * theta, sign * a1 * theta, sign * a2 * theta
-
-
-@register_borrowing
-def matrix_to_rpy_lane(R: np.ndarray, out: np.ndarray) -> None:
-    """[roll, pitch, yaw] [rad] of R (3, 3) on pitch ∈ (−π/2, π/2) (`twin.spatial.matrix_to_rpy`);
-    written to out (3,)."""
-    out[0] = math.atan2(R[2, 1], R[2, 2])
-    out[1] = math.atan2(-R[2, 0], math.hypot(R[2, 1], R[2, 2]))
-    out[2] = math.atan2(R[1, 0], R[0, 0])
 
 
 @register_inline

@@ -25,8 +25,8 @@ from functools import cache
 
 import numpy as np
 
+from twin.compiled import compile_runner, prange, register_borrowing
 from twin.sim.kernels.allocation import allocation_velocity, allocation_work
-from twin.sim.kernels.compile import compile_runner, prange, register_borrowing
 from twin.sim.kernels.hybrid import (
     NEEDS_SVD,
     W_ERROR,
@@ -36,7 +36,6 @@ from twin.sim.kernels.hybrid import (
     integrate_hybrid,
     limit_scale_lane,
     limit_work,
-    rpy_to_matrix_lane,
 )
 from twin.sim.kernels.layout import (
     D_LIMIT_SCALE,
@@ -48,6 +47,7 @@ from twin.sim.kernels.layout import (
     P_KIND,
 )
 from twin.sim.kernels.records import hand_over
+from twin.spatial import rpy_to_matrix_lane
 
 
 @register_borrowing

@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twin.sim.kernels.compile import compile_runner, prange, register_borrowing
+from twin.compiled import compile_runner, prange, register_borrowing
 
 #: samples left out at the start of min/max and error statistics (seed 000 §5.3: "the first 10
 #: data points are removed")

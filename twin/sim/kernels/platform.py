@@ -41,6 +41,7 @@ from functools import cache
 
 import numpy as np
 
+from twin.compiled import compile_runner, prange, register_jitable
 from twin.mechanisms.upu3up import _STATE_SLACK, Upu3Up
 from twin.planners.platform import (
     EFFORT_KD,
@@ -52,7 +53,6 @@ from twin.planners.platform import (
     PlatformModel,
     PlatformPlanner,
 )
-from twin.sim.kernels.compile import compile_runner, prange, register_jitable
 from twin.sim.kernels.layout import (
     FAULT_JOINT_LIMIT,
     FAULT_KINEMATICS,

@@ -38,14 +38,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from twin.sim.kernels.compile import compile_runner, register_jitable
+from twin.compiled import compile_runner, register_jitable
 from twin.sim.kernels.hybrid import (
     hybrid_constants,
     hybrid_tip_task,
     integrate_hybrid,
     limit_scale_lane,
     limit_work,
-    rpy_to_matrix_lane,
     tip_task_lane,
 )
 from twin.sim.kernels.layout import (
@@ -67,6 +66,7 @@ from twin.sim.kernels.layout import (
     P_HOLD,
     P_KIND,
 )
+from twin.spatial import rpy_to_matrix_lane
 
 if TYPE_CHECKING:
     from twin.planners.qp import QPPlanner

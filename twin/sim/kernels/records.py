@@ -26,15 +26,16 @@ from functools import cache
 
 import numpy as np
 
-from twin.sim.kernels.allocation import leg_vectors_lane, manipulability_lane
-from twin.sim.kernels.compile import (
+from twin.compiled import (
     compile_runner,
     prange,
     register_borrowing,
     register_inline,
     register_jitable,
 )
-from twin.sim.kernels.hybrid import rpy_to_matrix_lane, tip_error_lane
+from twin.sim.kernels.allocation import leg_vectors_lane, manipulability_lane
+from twin.sim.kernels.hybrid import tip_error_lane
+from twin.spatial import rpy_to_matrix_lane
 
 #: Scalar record rows (`run_hybrid_records`' `scalars`).
 S_MANIPULABILITY, S_PHI_E, S_THETA_E, S_ALPHA_TOP, S_ALPHA_BOTTOM = 0, 1, 2, 3, 4

@@ -43,8 +43,8 @@ from functools import cache
 
 import numpy as np
 
-from twin.sim.kernels.compile import compile_runner, prange, register_borrowing
-from twin.sim.kernels.hybrid import rpy_to_matrix_lane
+from twin.compiled import compile_runner, prange, register_borrowing
+from twin.spatial import rpy_to_matrix_lane
 
 #: samples per block: the span of the table P_jm = e^{−iω_j m dt}
 BLOCK = 64

@@ -15,9 +15,9 @@ from functools import cache
 
 import numpy as np
 
-from twin.sim.kernels.compile import compile_runner, prange, register_borrowing
-from twin.sim.kernels.hybrid import rpy_to_matrix_lane, so3_log_lane
+from twin.compiled import compile_runner, prange, register_borrowing
 from twin.sim.kernels.layout import TARGET_P, TARGET_R, TARGET_V, TARGET_W
+from twin.spatial import rpy_to_matrix_lane, so3_log_lane
 
 
 @register_borrowing

@@ -62,9 +62,10 @@ except ImportError:  # pragma: no cover - exercised where numba is not installed
 
 
 def source_stamp(modules: Sequence[str]) -> str:
-    """First 12 hex digits of the SHA-256 of the modules' sources (those found)."""
+    """First 12 hex digits of the SHA-256 of the modules' sources (those found), with this
+    module's and `twin.spatial`'s (the lane primitives every kernel composes)."""
     digest = hashlib.sha256()
-    for name in (*modules, __name__):
+    for name in (*modules, __name__, "twin.spatial"):
         spec = importlib.util.find_spec(name)
         if spec is not None and spec.origin is not None and Path(spec.origin).is_file():
             digest.update(Path(spec.origin).read_bytes())
