@@ -9,6 +9,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
@@ -19,8 +20,10 @@ from twin.sim.live import LiveSession
 from twin.sim.workability import WorkabilitySpec, run_workability
 from twin.site import read_record
 from twin.web import RunStore, create_app
+from twin.web.limits import MAX_BODY
 from twin.web.routers.workability import MAX_RUNS
 from twin.web.warmup import Warmup
+from twin.web.workability_jobs import MAX_RECORD_BYTES, UPLOAD_BODY
 from twin.web.workability_store import WorkabilityStore
 
 SHIPPED = "46097h2019_08.txt"
@@ -142,6 +145,45 @@ def test_a_malformed_record_is_422_naming_its_line(client: TestClient) -> None:
     assert response.status_code == 422, response.text
     message = response.json()["message"]
     assert "record_csv" in message and "line 4" in message and "hs" in message
+
+
+def hourly_record(rows: int) -> str:
+    """A time-series record of `rows` hours from 2020-01-01, Hs and Tp varying by the hour."""
+    start = np.datetime64("2020-01-01T00:00")
+    times = start + np.arange(rows).astype("timedelta64[h]")
+    hs = 0.5 + 2.5 * (np.arange(rows) % 24) / 24
+    return "time,hs,tp,direction\n" + "".join(
+        f"{t},{h:.2f},{8.0 + h:.2f},270\n" for t, h in zip(times.astype(str), hs, strict=True)
+    )
+
+
+def test_a_megabyte_record_uploads_beyond_the_global_body_cap(client: TestClient) -> None:
+    text = hourly_record(40_000)  # 4.6 years hourly
+    assert len(text.encode()) > 1_000_000 > 15 * MAX_BODY
+    response = client.post("/api/workability", json={**TINY, "record": None, "record_csv": text})
+    assert response.status_code == 202, response.text
+    job = wait_finished(client, response.headers["location"])
+    assert job["status"] == "done", job["error"]
+    assert job["result"]["record"]["rows"] == 40_000
+    # the larger cap is that route's alone: a run body of the same size is still a 413
+    big = client.post("/api/runs", json={"mechanism": "hybrid", "planner": "x" * 1_000_000})
+    assert big.status_code == 413 and f"at most {MAX_BODY} bytes" in big.json()["message"]
+
+
+def test_an_upload_over_the_caps_is_refused_naming_each(client: TestClient) -> None:
+    over_record = "x" * (MAX_RECORD_BYTES + 1)  # within the body cap, over the record's
+    response = client.post(
+        "/api/workability", json={**TINY, "record": None, "record_csv": over_record}
+    )
+    assert response.status_code == 422 and str(MAX_RECORD_BYTES) in response.json()["message"]
+    over_body = "x" * (UPLOAD_BODY + 1)
+    response = client.post(
+        "/api/workability", json={**TINY, "record": None, "record_csv": over_body}
+    )
+    assert response.status_code == 413
+    assert f"at most {UPLOAD_BODY} bytes allowed for POST /api/workability" in (
+        response.json()["message"]
+    )
 
 
 def test_a_job_over_the_run_cap_is_refused_naming_the_limit(client: TestClient) -> None:

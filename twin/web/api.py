@@ -14,7 +14,8 @@ from any origin but the server's own: no CORS headers are sent, so other sites c
 read answers nor drive the twin. Bad input is a 422 whose `detail` lists each field (`loc`),
 what is wrong (`msg`) and, for scenario and live fields, the `allowed` range; `message` says
 the same in one line; a refused request changes nothing. No endpoint takes a path: a vessel is
-one of the shipped RAO tables by name. A body over `limits.MAX_BODY` is a 413; run and sweep
+one of the shipped RAO tables by name. A body over `limits.MAX_BODY` (a site record's upload:
+`workability_jobs.UPLOAD_BODY`) is a 413; run and sweep
 submissions are rate-limited per client and capped while queued (429). A run store whose file
 was deleted or replaced answers 503.
 """
@@ -66,7 +67,7 @@ from twin.web.models import (
 from twin.web.routers.registries import STATIC_DIR
 from twin.web.store import RunNotFound, RunStore, StoreUnavailable
 from twin.web.warmup import Warmup
-from twin.web.workability_jobs import WorkabilityRunner
+from twin.web.workability_jobs import UPLOAD_BODY, WorkabilityRunner
 from twin.web.workability_store import WorkabilityStore
 
 #: Swagger UI's and ReDoc's files, as the `fastapi-offline` package ships them
@@ -191,7 +192,12 @@ def create_app(
     )
     _offline_docs(app)
     app.state.services = services
-    app.add_middleware(BodyLimit, max_bytes=max_body)
+    # a site record's upload takes more than a scenario; every other route keeps max_body
+    app.add_middleware(
+        BodyLimit,
+        max_bytes=max_body,
+        route_limits={("POST", "/api/workability"): max(UPLOAD_BODY, max_body)},
+    )
     # the outermost: refused before anything is read
     app.add_middleware(Guard, access=services.access)
 

@@ -17,7 +17,7 @@ import json
 import math
 import threading
 import time
-from collections.abc import Awaitable, Callable, MutableMapping
+from collections.abc import Awaitable, Callable, Mapping, MutableMapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,27 +59,38 @@ async def refuse(
 
 
 class BodyLimit:
-    """ASGI middleware: a body over `max_bytes` is a 413 before the app reads any of it.
+    """ASGI middleware: a body over its route's cap is a 413 before the app reads any of it.
 
     The declared Content-Length is checked first; a chunked body (no length) is counted as it
     arrives and cut off at the cap, so a client cannot stream an endless body either.
 
     Args:
         app: the ASGI app.
-        max_bytes: largest body accepted.
+        max_bytes: largest body accepted, on every route not in `route_limits`.
+        route_limits: {(method, path): bytes} for the routes that take more (a site record's
+            upload); exact paths, so no other route inherits the larger cap.
     """
 
-    def __init__(self, app: ASGIApp, max_bytes: int = MAX_BODY) -> None:
+    def __init__(
+        self,
+        app: ASGIApp,
+        max_bytes: int = MAX_BODY,
+        route_limits: Mapping[tuple[str, str], int] | None = None,
+    ) -> None:
         self.app = app
         self.max_bytes = max_bytes
+        self.route_limits = dict(route_limits or {})
 
-    def _refusal(self) -> str:
-        return f"request body too large: at most {self.max_bytes} bytes allowed"
+    @staticmethod
+    def _refusal(cap: int, method: str, path: str) -> str:
+        return f"request body too large: at most {cap} bytes allowed for {method} {path}"
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
+        method, path = scope.get("method", ""), scope.get("path", "")
+        cap = self.route_limits.get((method, path), self.max_bytes)
         declared = dict(scope.get("headers", [])).get(b"content-length")
         if declared is not None:
             try:
@@ -87,8 +98,8 @@ class BodyLimit:
             except ValueError:
                 await refuse(send, 400, f"bad Content-Length {declared!r}: not an integer")
                 return
-            if length > self.max_bytes:
-                await refuse(send, 413, self._refusal())
+            if length > cap:
+                await refuse(send, 413, self._refusal(cap, method, path))
                 return
 
         received = 0
@@ -102,7 +113,7 @@ class BodyLimit:
                 return {"type": "http.request", "body": b"", "more_body": False}
             message = await receive()
             received += len(message.get("body", b""))
-            if received > self.max_bytes:
+            if received > cap:
                 exceeded = True
                 return {"type": "http.request", "body": b"", "more_body": False}
             return message
@@ -111,7 +122,7 @@ class BodyLimit:
             if not exceeded:
                 await send(message)
             elif message["type"] == "http.response.start":
-                await refuse(send, 413, self._refusal())
+                await refuse(send, 413, self._refusal(cap, method, path))
 
         await self.app(scope, counted, checked)
 

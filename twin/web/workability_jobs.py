@@ -30,14 +30,18 @@ from twin.errors import TwinError
 from twin.site import SiteRecord, read_record
 from twin.web.jobs import POLL as POLL  # [s] the plots' stop poll, one value for both runners
 from twin.web.jobs import QueuedJobs, wait_polling
+from twin.web.limits import MAX_BODY
 from twin.web.workability_store import WorkabilityStore
 
 log = logging.getLogger(__name__)
 
-#: [bytes] largest uploaded record text (`record_csv`); the request body's cap
-#: (`twin.web.limits.MAX_BODY`, 64 KiB) bounds it too: ~1,500 hourly rows of CSV. Longer
-#: records: ship them under assets/site or use `twin workability` (the CLI reads 64 MB).
-MAX_RECORD_BYTES = 60_000
+#: [bytes] largest uploaded record text (`record_csv`): 4 MiB holds a 10-year hourly record
+#: (87,600 rows of `time,hs,tp,direction` at about 40 bytes). Longer records: ship them under
+#: assets/site or use `twin workability` (the CLI reads 64 MB).
+MAX_RECORD_BYTES = 4 * 1024 * 1024
+#: [bytes] the body cap of POST /api/workability (`twin.web.limits.BodyLimit`'s route limit):
+#: the record, its JSON escapes (a newline is 2 bytes in JSON) and the spec's fields
+UPLOAD_BODY = 2 * MAX_RECORD_BYTES + MAX_BODY
 #: most forecast steps a job's result lists (`forecast_steps`): 7 days at 3 h steps, and more
 MAX_STEPS = 500
 #: files of assets/site that are not records
