@@ -21,6 +21,8 @@ from twin.sea.spectra import (
     pierson_moskowitz_wind,
     pm_sea_from_wind,
     spectral_density,
+    tp_from_tz,
+    zero_crossing_ratio,
 )
 
 HS, TP = 2.5, 9.0  # [m], [s]
@@ -93,6 +95,34 @@ def test_jonswap_normalisation_matches_adaptive_quadrature(gamma: float) -> None
 
     integral = quad(shape, 0.05, 1.0, limit=200)[0] + quad(shape, 1.0, np.inf, limit=200)[0]
     assert jonswap_normalisation(gamma) == pytest.approx(1 / integral, rel=1e-9)
+
+
+@pytest.mark.parametrize("gamma", GAMMAS)
+def test_zero_crossing_ratio_matches_adaptive_quadrature(gamma: float) -> None:
+    """Tz/Tp = √(m0/m2) / ω_p·2π/… : m0 and m2 of the JONSWAP shape by scipy's quad in ω/ω_p."""
+
+    def shape(x: float, k: int) -> float:
+        sigma = 0.07 if x <= 1 else 0.09
+        peak = gamma ** np.exp(-((x - 1) ** 2) / (2 * sigma**2))
+        return x**k * 5 * x**-5 * np.exp(-1.25 * x**-4) * peak
+
+    m0, m2 = (quad(shape, 0.05, 1.0, args=(k,), limit=200)[0]
+              + quad(shape, 1.0, np.inf, args=(k,), limit=200)[0] for k in (0, 2))  # fmt: skip
+    assert zero_crossing_ratio(gamma) == pytest.approx(np.sqrt(m0 / m2), rel=1e-9)
+
+
+def test_zero_crossing_ratio_near_dnv_fit_and_tp_from_tz_inverts_it() -> None:
+    """DNV-RP-C205 §3.5.5.4's fit Tz/Tp = 0.6673 + 0.05037γ − 0.006230γ² + 0.0003341γ³ is within
+    0.3 % for 1 ≤ γ ≤ 7; Tp from Tz gives back Tz, with a fixed γ and with DNV's γ of each sea."""
+    gamma = np.linspace(1.0, 7.0, 13)
+    fit = 0.6673 + 0.05037 * gamma - 0.006230 * gamma**2 + 0.0003341 * gamma**3
+    assert np.max(np.abs(zero_crossing_ratio(gamma) / fit - 1)) < 3e-3
+    hs, tz = np.array([0.3, 1.0, 2.0, 4.0, 8.0]), np.array([2.5, 4.0, 5.0, 7.0, 9.0])
+    assert tp_from_tz(hs, tz, 3.3) == pytest.approx(tz / zero_crossing_ratio(3.3), rel=1e-12)
+    tp = tp_from_tz(hs, tz)
+    assert tp * zero_crossing_ratio(dnv_gamma(hs, tp)) == pytest.approx(tz, rel=1e-12)
+    assert np.all(tz / zero_crossing_ratio(5.0) < tp)
+    assert np.all(tp <= tz / zero_crossing_ratio(1.0))
 
 
 def test_jonswap_normalisation_near_goda() -> None:

@@ -83,6 +83,28 @@ def test_shipped_ndbc_record_reads_a_month_hourly() -> None:
     assert record.skipped == {"WVHT missing": 4464 - 744}  # the 10-minute rows in between
 
 
+
+def test_ndbc_without_a_direction_sensor_keeps_its_rows_without_direction(tmp_path: Path) -> None:
+    # every MWD missing (a buoy without directional waves): no direction, not no rows
+    text = NDBC.replace(" 295 ", " 999 ").replace(" 300 ", " 999 ").replace(" 310 ", " 999 ")
+    record = read_ndbc(write(tmp_path, "nodir.txt", text.replace(" 360 ", " 999 ")))
+    assert record.direction is None and "no MWD" in record.source
+    assert record.hs.tolist() == [1.2, 1.07, 1.4, 1.5]  # sorted by time; WVHT / DPD gaps skipped
+    assert record.skipped == {"WVHT missing": 1, "DPD missing": 1}
+    # one MWD present: the column is real, so rows missing it are skipped and counted as before
+    partial = read_ndbc(write(tmp_path, "partial.txt", text))
+    assert partial.direction is not None and partial.direction.tolist() == [360.0 % 360.0]
+    assert partial.skipped["MWD missing"] == 3
+
+
+def test_shipped_year_of_buoy_44005_reads_hourly_without_direction() -> None:
+    record = read_record(asset_path("site", "44005h2012.txt"))
+    assert record.direction is None
+    assert record.n == 8347 - 29 and record.skipped == {"WVHT missing": 29}
+    months = pd.DatetimeIndex(record.time).month
+    assert set(months) == set(range(1, 13))  # January to mid-December 2012
+    assert 0.2 < record.hs.min() and record.hs.max() < 9.0
+
 CSV = """time,hs,tp,direction,heading
 2024-01-01T00:00Z,1.0,8.0,270,0
 2024-01-01T01:00,1.5,,270,0

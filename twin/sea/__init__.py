@@ -17,6 +17,8 @@ from twin.sea.spectra import (
     pierson_moskowitz_wind,
     pm_sea_from_wind,
     spectral_density,
+    tp_from_tz,
+    zero_crossing_ratio,
 )
 from twin.sea.surface import gerstner_points, surface_heights
 from twin.sea.synthesis import (
@@ -61,5 +63,7 @@ __all__ = [
     "slope",
     "spectral_density",
     "surface_heights",
+    "tp_from_tz",
     "wave_components",
+    "zero_crossing_ratio",
 ]

@@ -209,7 +209,13 @@ def read_ndbc(path: str | Path) -> SiteRecord:
     stamp.setdefault("minute", np.zeros(len(table)))
     time = _times_from_parts(stamp, path, lines)
     values, keep = {}, np.ones(len(table), dtype=bool)
-    for column, name in (("WVHT", "hs"), ("DPD", "tp"), ("MWD", "direction")):
+    columns = [("WVHT", "hs"), ("DPD", "tp"), ("MWD", "direction")]
+    # a buoy without a directional sensor writes 999 on every row (44005 in 2012): the record
+    # has no direction (fixed or chosen headings still apply) rather than no rows
+    no_direction = bool(table["MWD"].str.strip().isin(NDBC_MISSING["MWD"] | {"MM"}).all())
+    if no_direction:
+        columns.pop()
+    for column, name in columns:
         text = table[column].str.strip()
         absent = text.isin(NDBC_MISSING[column] | {"MM"}).to_numpy()
         skipped_here = absent & keep
@@ -219,10 +225,11 @@ def read_ndbc(path: str | Path) -> SiteRecord:
         values[name] = _numbers(text.where(~absent, "0"), path, lines, column)
     _check_ranges(values, path, lines, keep, {"hs": "WVHT", "tp": "DPD", "direction": "MWD"})
     order = np.argsort(time[keep], kind="stable")
+    direction = None if no_direction else np.mod(values["direction"][keep][order], 360.0)
+    source = f"{path.name} (NDBC standard meteorological{'; no MWD' if no_direction else ''})"
     return SiteRecord(
-        hs=values["hs"][keep][order], tp=values["tp"][keep][order],
-        direction=np.mod(values["direction"][keep][order], 360.0), time=time[keep][order],
-        kind="timeseries", source=f"{path.name} (NDBC standard meteorological)", skipped=skipped,
+        hs=values["hs"][keep][order], tp=values["tp"][keep][order], direction=direction,
+        time=time[keep][order], kind="timeseries", source=source, skipped=skipped,
     )  # fmt: skip
 
 
