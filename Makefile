@@ -12,7 +12,7 @@ REQUIREMENTS ?= locked
 export TWIN_REQUIREMENTS := $(REQUIREMENTS)
 COMPILE := $(UV) pip compile --quiet --generate-hashes --python-version 3.11
 
-.PHONY: install serve test test-loaded test-latest lint lock demo urdf raos bench soak reliability clean
+.PHONY: install serve test test-loaded test-latest lint typecheck lock demo urdf raos bench soak reliability clean
 
 # uv (itself pinned with hashes) installs the locked set in seconds where pip took minutes.
 $(BIN)/python:
@@ -65,6 +65,7 @@ serve: $(SERVE_STAMP)
 # The serial pass runs even when the parallel one fails, so one failure hides no browser test.
 test: $(STAMP) /usr/bin/chromium
 	$(BIN)/ruff check .
+	$(BIN)/mypy
 	# the kernels compiled once, in two processes, before two test workers would each compile them
 	$(BIN)/python -m twin.cli warm --processes 2
 	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not serial" --durations=15; first=$$?; \
@@ -83,6 +84,10 @@ test-latest:
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
+
+## typecheck: mypy over the package (configured in pyproject.toml)
+typecheck: $(STAMP)
+	$(BIN)/mypy
 
 ## demo: leg lengths and gangway tip at the working state
 demo: $(SERVE_STAMP)

@@ -5,6 +5,7 @@
     python benchmarks/run.py --server-only   # collection, live and REST rows only,
                                              # patched into the doc
     python benchmarks/run.py --workability-only   # the site-workability rows only, printed
+    python benchmarks/run.py --idle-only   # the idle server's CPU, viewer and --no-viewer, printed
 
 **Features**
 - the peer: a closed-loop weighted pseudo-inverse on the hybrid system's nine virtual joints as a
@@ -21,6 +22,8 @@
 - a full garbage collection in a server process, before and after its start-up freeze;
 - the live session's CPU per simulated second and whether it keeps pace at 8× in a WMO 9 sea;
 - the live server's websocket updates to 1 and 10 clients and REST latency (`server.py`);
+- an idle `twin serve` (session paused, no browser): its CPU with the viewer and with
+  `--no-viewer`, measured in the same run (`idle.py`);
 - `scripts/reproduce.py` over 5 seeds, written to a scratch folder.
 
 Every ratio divides two figures measured in the same run (the machine is shared, so absolute
@@ -44,6 +47,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+from idle import idle_rows
 from pinocchio_peer import PinocchioPeer, xi_to_q
 from server import live_rows, nodelay_rows, rest_rows
 from workability_bench import workability_rows
@@ -68,7 +72,7 @@ REFERENCE = "seed000_ss4" if "seed000_ss4" in PAPER_PRESETS else "seed000"
 #: issue 12's targets, as ratios to the peer measured in the same run
 SINGLE_TARGET = 0.3  # simulate() of the reference run, × the peer's time for as many steps
 OTHER_TARGET = 1.0  # simulate() of any other planner, mechanism or mode, × the peer per step
-QP_TARGET = 3.0  # issue 15: simulate() with the qp planner (a QP library call a step), × peer
+QP_TARGET = 0.15  # issue 29: simulate() with the qp planner (its QP solved in the compiled lane), × peer
 BATCH_TARGET = 20.0  # simulate_many at N = 256, × the peer's steps/s
 LIVE_CPU_TARGET = 0.05  # [core-s per simulated s] the live session alone at WMO 4, speed 1
 LIVE_SPEED = 8.0  # the live session keeps pace at this speed in a WMO 9 sea
@@ -263,7 +267,7 @@ def python_output(code: str, env: dict[str, str] | None = None) -> str:
 #: minute of the live session; best of 3 each
 PAUSE_CODE = """
 import gc, time
-import twin.web.api, twin.web.scene, twin.web.server
+import twin.web.api, twin.web.viewer, twin.web.server
 from twin.sim.engine import warm
 from twin.sim.heap import freeze_startup
 from twin.sim.live import LiveSession
@@ -449,7 +453,7 @@ def main(quick: bool = False) -> None:
     _, cpu, split = timed_phases(lambda: simulate(single), 5)
     row(f"simulate(), {REFERENCE}: where the CPU time goes", split_text(cpu, split))
 
-    # every other planner, mechanism and mode (qp against issue 15's target)
+    # every other planner, mechanism and mode (qp against issue 29's target)
     for label, scenario in others:
         limit = QP_TARGET if scenario.planner == "qp" else OTHER_TARGET
         if label in failed:
@@ -581,6 +585,7 @@ def main(quick: bool = False) -> None:
     pause_rows(row)
     live_session_rows(row, window=5.0 if quick else 60.0, fast_window=3.0 if quick else 10.0)
     live_rows(row, window=2.0 if quick else 5.0)
+    idle_rows(row, window=5.0 if quick else 20.0)
     rest_rows(row, requests_1=3 if quick else 20, requests_20=1 if quick else 2)
     nodelay_rows(row, requests=20 if quick else 200)
     workability_rows(row, quick=quick)
@@ -602,10 +607,11 @@ def server_only() -> None:
     pause_rows(row)
     live_session_rows(row)
     live_rows(row)
+    idle_rows(row)
     rest_rows(row)
     nodelay_rows(row)
     lines = DOC.read_text().splitlines()
-    ours = ("| garbage collection", "| live session", "| live server", "| REST:")
+    ours = ("| garbage collection", "| live session", "| live server", "| idle server", "| REST:")
     kept = [line for line in lines if not line.startswith(ours)]
     before = next(i for i, line in enumerate(kept) if line.startswith("| scripts/reproduce"))
     new = [f"| {a.strip()} | {b} | {c} | {d} |" for a, b, c, d in rows]
@@ -637,8 +643,8 @@ What is measured:
   the hybrid system on the SOV, WMO 4 JONSWAP sea, 200 s at dt = 0.05 s, secondary task,
   Algorithm 1 and rate limits included), against 0.3× the peer's time for as many steps; every
   other planner, mechanism and joint-limit mode (`hold`: the
-  kernel holds the machine at its joint and leg limits) against 1.0×, but `qp` (a QP solved by
-  DAQP at each step, stepped from Python) against issue 15's 3×. The platform rows run
+  kernel holds the machine at its joint and leg limits) against 1.0×, and `qp` (its QP solved
+  inside the compiled lane by `twin.planners.active_set`, issue 29) against 0.15×. The platform rows run
   the 3UPU_UP and the 4-UPR on their standard mounts at WMO 4. "Where the time goes" times the
   engine's phases (`phases()` wraps its methods for the measurement); "other" is the rest
   (scenario validation, the history, fault bits, bookkeeping).
@@ -683,6 +689,10 @@ What is measured:
   over 10 s (it cannot run ahead: "keeps pace" is owing less than a tick, 8 × 1/60 + dt s).
 - **live server** and **REST**: `benchmarks/server.py` (the REST rows lift the per-address
   submission limit, since every bench client is 127.0.0.1; warm workers).
+- **idle server** (issue 29): `twin serve --scheduler in-process` in a subprocess, its live
+  session paused over REST and no browser connected: the server process's CPU time over 20 s
+  as a percentage of one core, with the 3D viewer (the render loop rests without a browser)
+  and with `--no-viewer`, the baseline measured beside it (`benchmarks/idle.py`).
 - **workability** (issue 28, `benchmarks/workability_bench.py`): a synthetic 10-year hourly
   record (the shipped NDBC 46097 month's 744 sea states repeated end to end with hourly times:
   real sea states, synthetic chronology) for MTMP, WPI and PI with 5 seeds per cell, cells
@@ -737,12 +747,28 @@ if __name__ == "__main__":
         help="only the live-session, live-server and REST rows",
     )
     parser.add_argument(
+        "--idle-only",
+        action="store_true",
+        help="only the idle server's CPU, with the viewer and --no-viewer (benchmarks/idle.py)",
+    )
+    parser.add_argument(
         "--workability-only",
         action="store_true",
         help="only the site-workability rows (benchmarks/workability_bench.py), printed",
     )
     args = parser.parse_args()
-    if args.workability_only:
+    if args.idle_only:
+        logging.disable(logging.INFO)
+        print(f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
+        idle_rows(
+            lambda figure, value, target="", met=None: print(
+                f"{figure:<66} {value:>30}  {target:<22} "
+                + ("" if met is None else ("met" if met else "not met")),
+                flush=True,
+            )
+        )
+        print(f"load average {os.getloadavg()[0]:.1f} at the end", flush=True)
+    elif args.workability_only:
         logging.disable(logging.INFO)
         print(f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
         workability_rows(

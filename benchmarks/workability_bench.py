@@ -14,6 +14,11 @@
   forecast) for the same 3 planners once its cells are cached (a first evaluation fills what
   the 10-year record did not). Target: ≤ 2 s.
 
+- **lanes keeping metrics alone** (issue 28 item 6): a batch of a cell's runs (64 MTMP runs of
+  200 s over seeds, Hs 2.5 m) through `simulate_many`, keeping the series (keep="series") and
+  the metrics alone (keep="metrics", what sweeps and workability use): best-of-3 times,
+  interleaved, their ratio, and the peak memory numpy allocated (tracemalloc) for each.
+
 Ratios divide by figures of the same run: the 10-year evaluation against its new runs' cost as
 serial `simulate()` calls (one 200 s reference run measured beside it, × new runs), and each
 time against its target.
@@ -23,13 +28,14 @@ from __future__ import annotations
 
 import tempfile
 import time
+import tracemalloc
 from collections.abc import Callable
 
 import numpy as np
 import pandas as pd
 
 from twin.assets import asset_path
-from twin.sim import PAPER_PRESETS, Scenario, simulate
+from twin.sim import PAPER_PRESETS, Scenario, simulate, simulate_many
 from twin.sim.executor import Executor
 from twin.sim.workability import WorkabilitySpec, run_workability
 from twin.site import SiteRecord, read_record
@@ -135,6 +141,38 @@ def workability_rows(row: Row, quick: bool = False) -> None:
             f"workability: {planner} on the tiled record (= the shipped month's)",
             f"{100 * value:.1f} %",
         )
+    keep_rows(row, quick=quick)
+
+
+def keep_rows(row: Row, quick: bool = False, lanes: int = 64, repeat: int = 3) -> None:
+    """A cell's batch of runs keeping series vs metrics alone: times (best of `repeat`,
+    interleaved), their ratio, and each one's peak traced memory (`quick`: 20 s runs)."""
+    duration = 20.0 if quick else 200.0
+    scenarios = [{"planner": "mtmp", "hs": 2.5, "tp": 9.0, "duration": duration, "seed": seed}
+                 for seed in range(lanes)]  # fmt: skip
+    for keep in ("series", "metrics"):  # warm both paths' runners
+        simulate_many(scenarios[:2], keep=keep)
+    times: dict[str, list[float]] = {"series": [], "metrics": []}
+    for _ in range(repeat):
+        for keep, spent in times.items():
+            spent.append(_timed(lambda keep=keep: simulate_many(scenarios, keep=keep)))
+    peak = {}
+    for keep in times:
+        tracemalloc.start()
+        simulate_many(scenarios, keep=keep)
+        peak[keep] = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    best_series, best_metrics = min(times["series"]), min(times["metrics"])
+    label = f"{lanes} × {duration:g} s MTMP runs"
+    row(
+        f"lanes keeping metrics alone: {label}, time keep=metrics / keep=series",
+        f"{best_metrics:.2f} s / {best_series:.2f} s = {best_metrics / best_series:.2f}×",
+    )
+    row(
+        f"lanes keeping metrics alone: {label}, peak memory metrics / series",
+        f"{peak['metrics'] / 1e6:.0f} MB / {peak['series'] / 1e6:.0f} MB = "
+        f"{peak['metrics'] / peak['series']:.2f}×",
+    )
 
 
 def _timed(function: Callable[[], object]) -> float:

@@ -45,8 +45,10 @@ ISSUE30_TESTS = (
 )
 ATTACK_TESTS = (
     "tests/web/test_api.py",
-    "tests/web/test_scene.py",
-    "tests/web/test_browser.py",
+    "tests/web/viewer/test_handshake.py",
+    "tests/web/viewer/test_panel.py",
+    "tests/web/viewer/test_readout.py",
+    "tests/web/viewer/test_browser.py",
     "tests/sim/test_live.py",
 )
 
@@ -57,12 +59,12 @@ ATTACKS = {
         "default) to change the sea, the planner, play/pause",
         "the handshake is refused (403) unless its Origin is one of the server's own (http on an "
         "allowed host at the viewer or REST port) or `--allow-origin`; nothing is read or sent",
-        "test_scene.py (raw websocket client)",
+        "viewer/test_handshake.py (raw websocket client)",
     ),
     "attack_cross_origin_websocket_browser": (
         "the same from a real page of another origin in Chromium",
         "the browser's WebSocket fails at the handshake; the session is untouched",
-        "test_browser.py",
+        "viewer/test_browser.py",
     ),
     "attack_locked_widget_write": (
         "a browser that has not entered the token writes widgets: values, any property of a "
@@ -71,7 +73,7 @@ ATTACKS = {
         "every browser has its own widgets (viser client handles), read-only until it unlocks; "
         "its writes are undone on its own widgets and reach neither the session nor another "
         "browser; share-tunnel requests are not handled at all",
-        "test_scene.py (raw websocket client), test_browser.py",
+        "viewer/test_panel.py (raw websocket client), viewer/test_browser.py",
     ),
     "attack_host_spoofing": (
         "DNS rebinding: a request whose Host names another site and whose Origin matches it",
@@ -88,7 +90,7 @@ ATTACKS = {
         "loopback names, the bind address, `--allow-host`): the page is not served, no "
         "websocket opens, no panel is built, a warning is logged; its own names "
         "(`127.0.0.1:PORT`, `localhost:PORT`, an `--allow-host` name) are served",
-        "test_scene.py (raw websocket client, http.client)",
+        "viewer/test_handshake.py (raw websocket client, http.client)",
     ),
     "attack_refused_patch": (
         "`PATCH /api/live` with an empty or unknown name (`{\"planner\": \"\"}`), a bad "
@@ -143,7 +145,7 @@ ATTACKS = {
         "another (the same client and token prefix) a client is refused (429, Retry-After) "
         "before its next such guess is compared; the right token never is (issue 30); the "
         "viewer's unlock likewise",
-        "test_api.py, test_scene.py, test_cli.py",
+        "test_api.py, viewer/test_panel.py, test_cli.py",
     ),
     "load_soak": (
         "four executors (a process pool for runs, a Dask cluster per sweep, a pool in "
@@ -211,7 +213,7 @@ BOUNDARIES = (
         "every widget is the browser's own and goes through `LiveSession.patch` (the model "
         "REST uses); slider ranges come from the fields; read-only until the token is entered",
         "a red notification; the widget returns to the value in force, for that browser only",
-        "test_scene.py",
+        "viewer/test_panel.py",
     ),
     (
         "mechanism, sea and planner math",
@@ -274,8 +276,8 @@ SECURITY = """\
   (rate-limited alike); until then its controls are read-only, for it alone. Tested:
   test_cli.py (refusal; a 0.0.0.0 server that answers 401 without the token and
   200 with it), test_fuzz_api.py (UNAUTHORIZED requests without the token), test_api.py (the
-  failure limit), test_scene.py (locked and unlocked browsers over raw websockets),
-  test_browser.py (a real Chromium that unlocks with the token).
+  failure limit), viewer/test_panel.py (locked and unlocked browsers over raw websockets),
+  viewer/test_browser.py (a real Chromium that unlocks with the token).
 - **Viewer**: every browser has its own widgets (viser client handles): nothing it sends
   reaches another browser's widgets or shared widget state; viser's share-tunnel requests
   are not handled (any browser could otherwise ask the server for a public tunnel).
@@ -379,7 +381,8 @@ def fault_table(records: list[dict[str, Any]]) -> str:
         }.get(
             name,
             "last finite base pose held, flagged `base_motion`, counted in `faults`; no NaN in "
-            "any record (nor, in test_api.py and test_scene.py, in a REST answer or scene node)",
+            "any record (nor, in test_api.py and viewer/test_readout.py, in a REST answer or scene "
+            "node)",
         )
         rows.append(f"| {FAULTS.get(name, name)} | {r.get('steps', '')} | {action} | {figures} |")
     rows += [
@@ -612,7 +615,7 @@ on this 2-core machine); the same tests run in `make test` (CI), where they reco
 
 {fuzz_table(records)}
 
-## Numerical faults injected (tests/sim/test_faults.py, tests/web/test_api.py, test_scene.py)
+## Numerical faults injected (tests/sim/test_faults.py, web/test_api.py, web/viewer/test_readout.py)
 
 A step never raises for a numerical reason and never records NaN (docs/simulation.md): it
 holds, damps or clamps, and flags the step. Flags are counted in a run's `fault_counts`, and

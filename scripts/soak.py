@@ -91,6 +91,7 @@ class Soak:
         self.health: list[float] = []
         self.health_errors = 0
         self.rss: list[float] = []
+        self.load: list[float] = []  # the machine's 1-minute load average, as sampled
         self.accepted: set[str] = set()
         self.protected: set[str] = set()  # the long run: the mixed load leaves it alone
         self.deleted: set[str] = set()
@@ -150,6 +151,8 @@ def rss_sampler(soak: Soak) -> None:
             soak.rss.append(process.memory_info().rss / 2**20)
         except psutil.Error:
             return
+        # the machine is shared: latencies mean little without the load they were measured at
+        soak.load.append(os.getloadavg()[0])
         soak.stop.wait(0.5)
 
 
@@ -479,6 +482,9 @@ def _summarise(soak: Soak, stopped: float | None, args: argparse.Namespace) -> N
         "health_p99_s": round(float(p99), 4),
         "rss_max_mb": round(max(soak.rss)) if soak.rss else None,
         "rss_bound_mb": args.rss_bound,
+        "load_average_min": round(min(soak.load), 1) if soak.load else None,
+        "load_average_mean": round(float(np.mean(soak.load)), 1) if soak.load else None,
+        "load_average_max": round(max(soak.load), 1) if soak.load else None,
         "requests": dict(sorted(soak.statuses.items())),
         "runs_accepted": len(soak.accepted),
         "runs_deleted": len(soak.deleted),

@@ -28,14 +28,11 @@ from twin.planners import PlatformModel, PlatformPlanner, TipTarget, get_planner
 from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.engine import Simulation
 from twin.sim.faults import Fault
+from twin.sim.kernels.hybrid import LIMIT_BISECTIONS, LIMIT_SLACK
 from twin.sim.kernels.layout import N_TARGET, TARGET_P, TARGET_R, TARGET_V
 from twin.sim.scenario import Scenario
 from twin.spatial import invert_transform, so3_log
 
-#: bisection steps of `limit_scale`: the step is shortened to within 2⁻¹² of the limit
-LIMIT_BISECTIONS = 12
-#: [m, rad] how much further past its limit a joint or leg may be after a step (round-off)
-LIMIT_SLACK = 1e-12
 #: what the former engine caught around a rig's step or the base motion's evaluation and held
 #: as a fault (`twin.sim.engine` before the one engine: ValueError covers TwinError and
 #: numpy's LinAlgError)

@@ -120,10 +120,11 @@ def test_a_near_singular_jacobian_is_damped_and_flagged() -> None:
 
 
 def _epsilon_row(sim: Simulation) -> int:
-    """The prm row holding ε (the one that equals the planner's ε = 0.01 and moves with it)."""
-    from twin.sim.kernels import hybrid
+    """The prm row holding ε: the offset of the field `epsilon` of the differential record."""
+    from twin.planners.differential import DIFFERENTIAL_PARAMETERS
 
-    return hybrid.P_EPSILON
+    del sim  # Unused: every differential lane's row has the same fields.
+    return DIFFERENTIAL_PARAMETERS.fields["epsilon"][1] // 8
 
 
 def test_holding_at_the_limits_stops_legs_at_their_stroke() -> None:

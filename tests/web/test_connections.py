@@ -83,7 +83,7 @@ def test_every_accepted_rest_connection_has_nodelay(rest_port: int) -> None:
 def test_every_accepted_viewer_connection_has_nodelay() -> None:
     from tests.web.support import free_port
     from twin.sim.live import LiveSession
-    from twin.web.scene import start_viewer
+    from twin.web.viewer import start_viewer
 
     session = LiveSession({"sea_state": 3})
     viewer = start_viewer(session, port=free_port())
@@ -241,7 +241,7 @@ def moved_viewer() -> Iterator[tuple[Any, int]]:
     from tests.web.support import free_port
     from twin.sim.live import LiveSession
     from twin.web.access import Access
-    from twin.web.scene import start_viewer
+    from twin.web.viewer import start_viewer
 
     squatter = socket.socket()
     squatter.bind(("127.0.0.1", 0))

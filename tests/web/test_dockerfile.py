@@ -66,7 +66,7 @@ def test_install_steps_replay_in_a_fresh_environment(tmp_path: Path) -> None:
     ).stdout
     assert "--viser-port" in help_text
     probe = (
-        "from twin.assets import asset_path; import twin, twin.web.api, twin.web.scene; "
+        "from twin.assets import asset_path; import twin, twin.web.api, twin.web.viewer; "
         "from pathlib import Path; pkg = Path(twin.__file__).parent; "
         "assert '_assets' in str(asset_path('urdf')), asset_path('urdf'); "
         "assert asset_path('urdf', 'hybrid.urdf').is_file(); "

@@ -1,5 +1,5 @@
 """The Workability page in a real headless browser (Debian's Chromium driven by Playwright, as
-tests/web/test_browser.py): choose the shipped record and a planner, run, watch the progress
+tests/web/viewer/test_browser.py): choose the shipped record and a planner, run, watch the progress
 and see the summary and the PNG plots appear, loaded from the server."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 from playwright.sync_api import Page, sync_playwright
 
 from tests.web.support import free_port, wait_for
-from tests.web.test_browser import ARGS, CHROMIUM
+from tests.web.viewer.test_browser import ARGS, CHROMIUM
 from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web.access import Access
@@ -65,6 +65,7 @@ def run_page(port: int, act: Callable[[Page], None]) -> None:
             page.locator("#record option", has_text=SHIPPED).wait_for(
                 state="attached", timeout=30_000
             )
+            page.select_option("#record", SHIPPED)  # the month: the other records are a year
             assert page.locator("input[name=planner][value=mtmp]").is_checked()
             page.fill("#seeds", "1")
             page.fill("#duration", "2")  # a tiny evaluation: 2 s runs, one seed

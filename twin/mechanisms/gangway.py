@@ -8,11 +8,13 @@ platform frame P; the tip frame E is DH frame 3 (z along the gangway, x up at q 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from twin.compiled import register_borrowing, register_inline
 from twin.errors import UnreachableError
 from twin.validation import as_array
 
@@ -155,3 +157,47 @@ class Gangway:
                 f"({abs(self.lb - self.la):.3f}, {self.la + self.lb:.3f}) m"
             )
         return np.pi / 2 - self.phi1 - np.arccos(cos_phi2)
+
+
+# ---------------------------------------------------------------------------------------------
+# One lane (floats and small arrays, compiled by numba into the kernels that call them,
+# `twin.compiled`; plain Python without numba)
+# ---------------------------------------------------------------------------------------------
+
+HALF_PI = math.pi / 2
+
+
+@register_inline
+def gangway_tip_lane(
+    q1: float, q2: float, d3: float, d1: float, a1: float, G_out: np.ndarray
+) -> None:
+    """ᴾT_E, the gangway tip in the platform frame (Table 2 with θ2 = q2 + 90°, SPEC erratum 3;
+    seed 000 eq (10), `Gangway.forward`) in closed form.
+
+    Args:
+        q1, q2: [rad] slew and luff; d3: [m] gangway length.
+        d1, a1: [m] `Gangway.d1`, `Gangway.a1` (Table 1).
+        G_out: (4, 4) written.
+    """
+    s1, c1 = math.sin(q1), math.cos(q1)
+    s2, c2 = math.sin(q2 + HALF_PI), math.cos(q2 + HALF_PI)
+    reach = a1 + d3 * s2
+    G_out[0, 0], G_out[0, 1], G_out[0, 2], G_out[0, 3] = c1 * c2, s1, c1 * s2, c1 * reach
+    G_out[1, 0], G_out[1, 1], G_out[1, 2], G_out[1, 3] = s1 * c2, -c1, s1 * s2, s1 * reach
+    G_out[2, 0], G_out[2, 1], G_out[2, 2], G_out[2, 3] = s2, 0.0, -c2, d1 - d3 * c2
+    G_out[3, 0], G_out[3, 1], G_out[3, 2], G_out[3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@register_borrowing
+def gangway_inverse_lane(
+    px: float, py: float, pz: float, d1: float, a1: float, q_out: np.ndarray
+) -> None:
+    """Gangway joints [q1, q2, d3] [rad, rad, m] into q_out (3,) that put the tip at ᴾp [m]
+    in the platform frame: seed 004 eqs (7)-(8) as `Gangway.inverse` writes them
+    (d3 = hypot(p_x/cos θ1 − a1, d1 − p_z), never singular), unchecked; d1, a1 [m] as in
+    `gangway_tip_lane`."""
+    rho = math.hypot(px, py) - a1
+    height = d1 - pz
+    q_out[0] = math.atan2(py, px)
+    q_out[1] = math.atan2(rho, height) - math.pi / 2
+    q_out[2] = math.hypot(rho, height)

@@ -8,12 +8,14 @@ d3 the absolute gangway length). The Table 5 working state is
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from twin.mechanisms.gangway import Gangway
+from twin.compiled import register_inline
+from twin.mechanisms.gangway import Gangway, gangway_tip_lane
 from twin.mechanisms.legs import LegLayout
 from twin.mechanisms.stewart import StewartPlatform
 from twin.spatial import pose_to_transform, se3_exp, skew, transform_to_pose
@@ -119,9 +121,9 @@ class HybridBoardingSystem:
         """
         xi = as_array(xi, "xi", (9,))
         velocity = as_array(velocity, "velocity", (9,))
-        dt = as_array(dt, "dt")  # a NaN or inf dt would return a NaN state silently
-        T = pose_to_transform(xi[..., :6]) @ se3_exp(velocity[..., :6] * dt)
-        return np.concatenate([transform_to_pose(T), xi[..., 6:] + velocity[..., 6:] * dt], -1)
+        step = as_array(dt, "dt")  # a NaN or inf dt would return a NaN state silently
+        T = pose_to_transform(xi[..., :6]) @ se3_exp(velocity[..., :6] * step)
+        return np.concatenate([transform_to_pose(T), xi[..., 6:] + velocity[..., 6:] * step], -1)
 
     def limit_excess(self, xi: ArrayLike) -> np.ndarray:
         """How far each virtual joint and each leg is past its limit, (..., 15) [m, rad]:
@@ -142,3 +144,86 @@ class HybridBoardingSystem:
         xi = as_array(xi, "xi", (9,))
         joints = np.all((xi >= self.lower - 1e-12) & (xi <= self.upper + 1e-12), axis=-1)
         return joints & self.stewart.within_limits(self.leg_lengths(xi))
+
+
+# ---------------------------------------------------------------------------------------------
+# One lane (floats and small arrays, compiled by numba into the kernels that call them,
+# `twin.compiled`; plain Python without numba)
+# ---------------------------------------------------------------------------------------------
+
+
+@register_inline
+def tip_transform(
+    x: np.ndarray, R: np.ndarray, d1: float, a1: float, G: np.ndarray, T_out: np.ndarray
+) -> None:
+    """ᴮT_E = ᴮT_P ᴾT_E, the gangway tip in the Stewart base frame (seed 000 eq (14),
+    `HybridBoardingSystem.end_effector`).
+
+    Args:
+        x: (9,) xi [m, rad].
+        R: (3, 3) ᴮR_P of x (`rpy_to_matrix_lane`; its caller has it already).
+        d1, a1: [m] the gangway's (`gangway_tip_lane`).
+        G: (4, 4) written: ᴾT_E (`gangway_tip_lane`).
+        T_out: (4, 4) written.
+    """
+    gangway_tip_lane(x[6], x[7], x[8], d1, a1, G)
+    for i in range(3):
+        for j in range(4):
+            T_out[i, j] = R[i, 0] * G[0, j] + R[i, 1] * G[1, j] + R[i, 2] * G[2, j]
+        T_out[i, 3] += x[i]
+    T_out[3, 0], T_out[3, 1], T_out[3, 2], T_out[3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@register_inline
+def integrate_hybrid(
+    x: np.ndarray, R: np.ndarray, v: np.ndarray, dt: float, x_out: np.ndarray
+) -> None:
+    """xi after the virtual-joint velocity v held for dt (`HybridBoardingSystem.integrate`).
+
+    The platform pose moves on SE(3) by the exponential map of its body twist,
+    ᴮT_P ← ᴮT_P exp([ᴾṖ; ω_P] dt) (`twin.spatial.se3_exp`: Rodrigues, and V(ω) v for the
+    translation, Lynch & Park eq (3.88)); the gangway joints add q̇ dt (Euler).
+
+    Args:
+        x: (9,) xi [m, rad].
+        R: (3, 3) ᴮR_P of x (`rpy_to_matrix_lane`; the planner's, shared by the bisection).
+        v: (9,) [ᴾṖ [m/s]; ω_P [rad/s] (in P); q̇1, q̇2 [rad/s]; ḋ3 [m/s]].
+        dt: [s].
+        x_out: (9,) written; may be x itself.
+    """
+    vx, vy, vz = v[0] * dt, v[1] * dt, v[2] * dt
+    wx, wy, wz = v[3] * dt, v[4] * dt, v[5] * dt
+    theta = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if theta < 1e-8:
+        a = 1.0 - theta**2 / 6.0
+        b = 0.5 - theta**2 / 24.0
+        c = 1.0 / 6.0 - theta**2 / 120.0
+    else:
+        a = math.sin(theta) / theta
+        b = (1.0 - math.cos(theta)) / theta**2
+        c = (theta - math.sin(theta)) / theta**3
+    # S = skew(ω dt), S² = [k_ij]; exp(S) = I + a S + b S² = [e_ij], V = I + b S + c S²
+    # (scalars, not arrays: numba would put a (3, 3) on the heap at every call)
+    k00, k11, k22 = -wz * wz - wy * wy, -wz * wz - wx * wx, -wy * wy - wx * wx
+    k01, k02, k12 = wx * wy, wx * wz, wy * wz
+    e00, e01, e02 = 1.0 + b * k00, -a * wz + b * k01, a * wy + b * k02
+    e10, e11, e12 = a * wz + b * k01, 1.0 + b * k11, -a * wx + b * k12
+    e20, e21, e22 = -a * wy + b * k02, a * wx + b * k12, 1.0 + b * k22
+    t0 = (1.0 + c * k00) * vx + (-b * wz + c * k01) * vy + (b * wy + c * k02) * vz
+    t1 = (b * wz + c * k01) * vx + (1.0 + c * k11) * vy + (-b * wx + c * k12) * vz
+    t2 = (-b * wy + c * k02) * vx + (b * wx + c * k12) * vy + (1.0 + c * k22) * vz
+    # the entries of N = ᴮR_P exp(S) that matrix_to_rpy reads
+    n00 = R[0, 0] * e00 + R[0, 1] * e10 + R[0, 2] * e20
+    n10 = R[1, 0] * e00 + R[1, 1] * e10 + R[1, 2] * e20
+    n20 = R[2, 0] * e00 + R[2, 1] * e10 + R[2, 2] * e20
+    n21 = R[2, 0] * e01 + R[2, 1] * e11 + R[2, 2] * e21
+    n22 = R[2, 0] * e02 + R[2, 1] * e12 + R[2, 2] * e22
+    p0 = R[0, 0] * t0 + R[0, 1] * t1 + R[0, 2] * t2 + x[0]
+    p1 = R[1, 0] * t0 + R[1, 1] * t1 + R[1, 2] * t2 + x[1]
+    p2 = R[2, 0] * t0 + R[2, 1] * t1 + R[2, 2] * t2 + x[2]
+    q1, q2, d3 = x[6] + v[6] * dt, x[7] + v[7] * dt, x[8] + v[8] * dt
+    x_out[0], x_out[1], x_out[2] = p0, p1, p2
+    x_out[3] = math.atan2(n21, n22)  # twin.spatial.matrix_to_rpy
+    x_out[4] = math.atan2(-n20, math.hypot(n21, n22))
+    x_out[5] = math.atan2(n10, n00)
+    x_out[6], x_out[7], x_out[8] = q1, q2, d3

@@ -8,9 +8,12 @@ seed 001 eq (16), seed 002 eq (15)): l_i = ᴮR_P ᴾP_i + ᴮO_P - ᴮB_i.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from twin.compiled import register_inline
 
 
 @dataclass(frozen=True)
@@ -111,3 +114,102 @@ def universal_angles(units: np.ndarray, frames: np.ndarray | None = None) -> np.
     b = np.arcsin(np.clip(units[..., 0], -1.0, 1.0))
     a = np.arctan2(-units[..., 1], units[..., 2])
     return np.stack([a, b], -1)
+
+
+# ---------------------------------------------------------------------------------------------
+# One lane (a single pose; floats and small arrays, compiled by numba into the kernels that
+# call them, `twin.compiled`; plain Python without numba)
+# ---------------------------------------------------------------------------------------------
+
+
+@register_inline
+def leg_component(
+    R: np.ndarray, p: np.ndarray, base: np.ndarray, platform: np.ndarray, i: int, k: int
+) -> float:
+    """Component k of leg i, l_i = ᴮR_P ᴾP_i + ᴮO_P − ᴮB_i [m] (seed 000 eqs (4)-(5)).
+
+    Args:
+        R: (3, 3) ᴮR_P; p: ᴮO_P [m], its first three entries read (a pose or xi will do).
+        base: (3n,) ᴮB_i row-major [m]; platform: (3n,) ᴾP_i row-major [m].
+    """
+    return (
+        R[k, 0] * platform[3 * i] + R[k, 1] * platform[3 * i + 1] + R[k, 2] * platform[3 * i + 2]
+        + p[k] - base[3 * i + k]
+    )  # fmt: skip
+
+
+@register_inline
+def leg_lengths_lane(
+    R: np.ndarray, p: np.ndarray, base: np.ndarray, platform: np.ndarray, lengths_out: np.ndarray
+) -> None:
+    """|l_i| [m] of every leg into lengths_out (n,) (seed 000 eq (5)); arguments as
+    `leg_component`'s."""
+    for i in range(lengths_out.shape[0]):
+        l0 = leg_component(R, p, base, platform, i, 0)
+        l1 = leg_component(R, p, base, platform, i, 1)
+        l2 = leg_component(R, p, base, platform, i, 2)
+        lengths_out[i] = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+
+
+@register_inline
+def leg_vectors_lane(
+    R: np.ndarray,
+    p: np.ndarray,
+    base: np.ndarray,
+    platform: np.ndarray,
+    vectors_out: np.ndarray,
+    lengths_out: np.ndarray,
+) -> None:
+    """The legs l_i into vectors_out (n, 3) [m], in B, and |l_i| into lengths_out (n,) [m]
+    (seed 000 eqs (4)-(5), `legs`); arguments as `leg_component`'s."""
+    for i in range(lengths_out.shape[0]):
+        s = 0.0
+        for k in range(3):
+            v = leg_component(R, p, base, platform, i, k)
+            vectors_out[i, k] = v
+            s += v * v
+        lengths_out[i] = math.sqrt(s)
+
+
+@register_inline
+def manipulability_lane(
+    R: np.ndarray, vectors: np.ndarray, lengths: np.ndarray, platform: np.ndarray, J: np.ndarray
+) -> float:
+    """Yoshikawa's sqrt(det(J Jᵀ)) = |det J| [-] of the six-leg Jacobian J (6, 6), rows
+    [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ] (`twist_jacobian`; seed 004 §3.1 b, SPEC erratum 7), by
+    Gaussian elimination with partial pivoting.
+
+    Args:
+        R: (3, 3) ᴮR_P; vectors (6, 3), lengths (6,): the legs (`leg_vectors_lane`) [m].
+        platform: (18,) ᴾP_i row-major [m].
+        J: (6, 6) scratch (the caller's, allocated once: numba puts arrays on the heap).
+    """
+    for i in range(6):
+        h0, h1, h2 = platform[3 * i], platform[3 * i + 1], platform[3 * i + 2]
+        a0 = R[0, 0] * h0 + R[0, 1] * h1 + R[0, 2] * h2
+        a1 = R[1, 0] * h0 + R[1, 1] * h1 + R[1, 2] * h2
+        a2 = R[2, 0] * h0 + R[2, 1] * h1 + R[2, 2] * h2
+        inverse = 1.0 / lengths[i]  # one division, three multiplications
+        n0, n1, n2 = vectors[i, 0] * inverse, vectors[i, 1] * inverse, vectors[i, 2] * inverse
+        J[i, 0], J[i, 1], J[i, 2] = n0, n1, n2
+        J[i, 3], J[i, 4], J[i, 5] = a1 * n2 - a2 * n1, a2 * n0 - a0 * n2, a0 * n1 - a1 * n0
+    det = 1.0
+    for j in range(6):
+        pivot = j
+        for i in range(j + 1, 6):
+            if abs(J[i, j]) > abs(J[pivot, j]):
+                pivot = i
+        if pivot != j:
+            det = -det
+            for k in range(j, 6):
+                J[j, k], J[pivot, k] = J[pivot, k], J[j, k]
+        d = J[j, j]
+        det *= d
+        if d == 0.0:
+            return 0.0
+        inverse = 1.0 / d
+        for i in range(j + 1, 6):
+            f = J[i, j] * inverse
+            for k in range(j + 1, 6):
+                J[i, k] -= f * J[j, k]
+    return abs(det)

@@ -11,7 +11,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from twin.compiled import register_jitable
 from twin.errors import TwinError
 from twin.validation import as_array
 
@@ -38,7 +40,7 @@ class NewtonResult:
         return float(np.max(np.abs(np.nan_to_num(self.residual, nan=np.inf))))
 
 
-def start(guess: np.ndarray | None, default: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
+def start(guess: ArrayLike | None, default: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
     """The starting iterate (*batch, n): `guess` broadcast to the batch, or `default`."""
     if guess is None:
         return np.broadcast_to(default, batch).copy()
@@ -95,3 +97,60 @@ def newton(
             break
         x = x - step
     return NewtonResult(x, residual, step, iteration, False)
+
+
+# One lane (floats and small arrays; compiled by numba into the kernels and batch loops that
+# call them, `twin.compiled`; plain Python without numba): the Newton step's linear algebra.
+
+
+@register_jitable
+def solve3_lane(M: np.ndarray, x: np.ndarray) -> bool:
+    """Solve the 3 × 3 system of the augmented M (3, 4) = [A | b] into x (3,), destroying M.
+
+    Gaussian elimination with partial pivoting (`np.linalg.solve` to rounding); False (x
+    untouched) on an exactly zero pivot, where `np.linalg.solve` raises LinAlgError.
+    """
+    for c in range(3):
+        pivot = c
+        for r in range(c + 1, 3):
+            if abs(M[r, c]) > abs(M[pivot, c]):
+                pivot = r
+        if M[pivot, c] == 0.0:
+            return False
+        if pivot != c:
+            for j in range(4):
+                M[c, j], M[pivot, j] = M[pivot, j], M[c, j]
+        for r in range(c + 1, 3):
+            f = M[r, c] / M[c, c]
+            for j in range(c, 4):
+                M[r, j] = M[r, j] - f * M[c, j]
+    x2 = M[2, 3] / M[2, 2]
+    x1 = (M[1, 3] - M[1, 2] * x2) / M[1, 1]
+    x0 = (M[0, 3] - M[0, 1] * x1 - M[0, 2] * x2) / M[0, 0]
+    x[0], x[1], x[2] = x0, x1, x2
+    return True
+
+
+@register_jitable
+def least_squares_lane(J: np.ndarray, r: np.ndarray, n: int, M: np.ndarray, x: np.ndarray) -> bool:
+    """x (3,) minimising |J x − r| for the first n rows of J (≥ n, 3) and r: the solve itself
+    for n = 3, the normal equations JᵀJ x = Jᵀr for n > 3 (`newton`'s Gauss-Newton step;
+    `np.linalg.lstsq` to rounding where J has full column rank, a failure where it has not);
+    M (3, 4) scratch. False where the system is singular."""
+    if n == 3:
+        for i in range(3):
+            for j in range(3):
+                M[i, j] = J[i, j]
+            M[i, 3] = r[i]
+    else:
+        for i in range(3):
+            for j in range(3):
+                s = 0.0
+                for k in range(n):
+                    s += J[k, i] * J[k, j]
+                M[i, j] = s
+            s = 0.0
+            for k in range(n):
+                s += J[k, i] * r[k]
+            M[i, 3] = s
+    return solve3_lane(M, x)

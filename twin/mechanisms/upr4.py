@@ -24,8 +24,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.errors import ConvergenceError, TwinError, UnreachableError
-from twin.mechanisms.legs import LegLayout, LegState, legs, twist_jacobian
+from twin.mechanisms import platforms
+from twin.mechanisms.legs import LegLayout, LegState, legs
 from twin.mechanisms.newton import newton, start
+from twin.mechanisms.platforms import MECHANISM_UPR4, PLATFORM_GEOMETRY
 from twin.spatial import pose_to_transform, rpy_rate_matrix
 from twin.validation import as_array, check_range
 
@@ -181,6 +183,7 @@ class Upr4:
     state_names: ClassVar[tuple[str, str, str]] = ("z", "roll", "pitch")
     layout: LegLayout = field(init=False, repr=False, compare=False)
     _frames: np.ndarray = field(init=False, repr=False, compare=False)
+    _geometry: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("a", "b", "z0", "stroke_min", "stroke_max", "u_joint_limit", "pad_side"):
@@ -210,6 +213,22 @@ class Upr4:
         object.__setattr__(self, "layout", layout)
         frames = joint_frames(layout.base_hinges, layout.platform_hinges, self.z0)
         object.__setattr__(self, "_frames", frames)
+        geometry = self.pack()
+        geometry.setflags(write=False)
+        object.__setattr__(self, "_geometry", geometry)
+
+    def pack(self) -> np.ndarray:
+        """The mechanism as its lanes read it (`twin.mechanisms.platforms`): a (1,) array of one
+        `PLATFORM_GEOMETRY` record [m, rad]; no envelope (±inf)."""
+        out = np.zeros(1, PLATFORM_GEOMETRY)
+        g = out[0]
+        g["mechanism"], g["n_legs"], g["unit"] = MECHANISM_UPR4, 4, 1.0
+        g["stroke_low"], g["stroke_high"] = self.stroke_min, self.stroke_max
+        g["state_low"], g["state_high"] = self.state_limits
+        g["envelope_low"], g["envelope_high"] = -np.inf, np.inf
+        g["base_hinges"][:] = self.layout.base_hinges.ravel()  # seed 002 eq (1)
+        g["platform_hinges"][:] = self.layout.platform_hinges.ravel()  # seed 002 eq (2)
+        return out
 
     @property
     def pad_radius(self) -> float:
@@ -253,21 +272,18 @@ class Upr4:
         """
         if check:
             self.check(z, roll, pitch)
-        return self.legs(z, roll, pitch).lengths
+        z, roll, pitch = self._state(z, roll, pitch)
+        return platforms.leg_lengths(self._geometry, np.stack([z, roll, pitch], -1))
 
     def jacobian(self, z: ArrayLike, roll: ArrayLike, pitch: ArrayLike) -> np.ndarray:
         """∂(l_1..l_4)/∂(z, roll, pitch) (..., 4, 3) [m/m, m/rad].
 
         The leg twist Jacobian (rows [s_iᵀ, (R ᵖa_i × s_i)ᵀ]) times the map from state rates to
-        the platform twist: v_P = ż e_z, ω = E(roll, pitch, 0)·(roll̇, pitcḣ, 0).
+        the platform twist: v_P = ż e_z, ω = E(roll, pitch, 0)·(roll̇, pitcḣ, 0)
+        (`platforms.platform_kinematics`).
         """
         z, roll, pitch = self._state(z, roll, pitch)
-        J = twist_jacobian(legs(self.layout, platform_transform(z, roll, pitch)))
-        E = rpy_rate_matrix(np.stack([roll, pitch, np.zeros_like(z)], -1))
-        G = np.zeros((*z.shape, 6, 3))
-        G[..., 2, 0] = 1.0
-        G[..., 3:, 1:] = E[..., :, :2]
-        return J @ G
+        return platforms.jacobian(self._geometry, np.stack([z, roll, pitch], -1))
 
     def limb_velocities(
         self,
@@ -391,8 +407,8 @@ class Upr4:
         check_range(lengths, "lengths [m]", self.stroke_min, self.stroke_max)
 
         def equations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            z, roll, pitch = x[..., 0], x[..., 1], x[..., 2]
-            return self.legs(z, roll, pitch).lengths - lengths, self.jacobian(z, roll, pitch)
+            J = platforms.jacobian(self._geometry, x)
+            return platforms.leg_lengths(self._geometry, x) - lengths, J
 
         x0 = start(guess, np.array([self.z0, 0.0, 0.0]), (*lengths.shape[:-1], 3))
         # A small residual alone is not enough: ∂l/∂roll is only ~0.06 m/rad (small top
@@ -471,9 +487,9 @@ class Upr4:
                 f"path_samples >= 1, got {sweep}, {ray_step}, {n_rays}, {path_samples}"
             )
         if not self.feasible(z, 0.0, 0.0):  # rays and paths all start from the level pose
-            violated = [k for k, v in self.limits_violated(z, 0.0, 0.0).items() if v]
+            names = [k for k, v in self.limits_violated(z, 0.0, 0.0).items() if v]
             raise UnreachableError(
-                f"Upr4 level platform at z = {z} m is infeasible ({', '.join(violated)}): "
+                f"Upr4 level platform at z = {z} m is infeasible ({', '.join(names)}): "
                 "no workspace at this height"
             )
         roll = np.linspace(-sweep, sweep, n_roll)
@@ -535,7 +551,8 @@ class Upr4:
         self, z: ArrayLike, roll: ArrayLike, pitch: ArrayLike
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """z, roll, pitch as finite float arrays broadcast together, or TwinError."""
-        return self._broadcast(("z", z), ("roll", roll), ("pitch", pitch))
+        z, roll, pitch = self._broadcast(("z", z), ("roll", roll), ("pitch", pitch))
+        return z, roll, pitch
 
     @staticmethod
     def _broadcast(*named: tuple[str, ArrayLike]) -> tuple[np.ndarray, ...]:

@@ -24,13 +24,18 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from twin.errors import ConvergenceError, TwinError, UnreachableError
-from twin.mechanisms.legs import LegLayout, LegState, legs, twist_jacobian
+from twin.mechanisms import platforms
+from twin.mechanisms.legs import LegLayout, LegState, legs
 from twin.mechanisms.newton import newton, start
+from twin.mechanisms.platforms import (
+    FORWARD_MAX_ITER,
+    FORWARD_TOL,
+    MECHANISM_UPU3UP,
+    PLATFORM_GEOMETRY,
+    STATE_SLACK,
+)
 from twin.spatial import transform_to_pose
 from twin.validation import as_array, check_range
-
-# [mm | rad] a Newton-Raphson solution on a state limit may land this far outside it.
-_STATE_SLACK = 1e-9
 
 
 def coupled_rotation(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
@@ -75,29 +80,6 @@ def coupled_transform(z: np.ndarray, alpha: np.ndarray, beta: np.ndarray, l: flo
     return T
 
 
-def coupled_twist_map(T: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """G (..., 6, 3) with [v_O1; ω] = G [ż, α̇, β̇], both velocities in the base frame.
-
-    ω = α̇ e_x + β̇ Rx(α) e_y (U-joint axes); v_O1 = ż ᴼR_O1 e_z + ω × ᴼO1 (the platform turns
-    about O). Composed with the leg twist Jacobian this gives ∂l/∂(z, α, β).
-
-    Args:
-        T: (..., 4, 4) [mm] ᴼT_O1 from `coupled_transform`.
-        alpha: (...) [rad] roll.
-    """
-    centre = T[..., :3, 3]
-    o, i = np.zeros_like(alpha), np.ones_like(alpha)
-    e_x = np.stack([i, o, o], -1)
-    e_y = np.stack([o, np.cos(alpha), np.sin(alpha)], -1)  # Rx(α) e_y
-    G = np.zeros((*T.shape[:-2], 6, 3))
-    G[..., :3, 0] = T[..., :3, 2]
-    G[..., :3, 1] = np.cross(e_x, centre)
-    G[..., 3:, 1] = e_x
-    G[..., :3, 2] = np.cross(e_y, centre)
-    G[..., 3:, 2] = e_y
-    return G
-
-
 @dataclass(frozen=True)
 class Upu3Up:
     """Seed 001's 3UPU_UP platform: geometry of eq (26) and the limits we chose.
@@ -130,6 +112,7 @@ class Upu3Up:
     tilt_limit: float = float(np.radians(20.0))
     state_names: ClassVar[tuple[str, str, str]] = ("z", "alpha", "beta")
     _layout_mm: LegLayout = field(init=False, repr=False, compare=False)
+    _geometry: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("l", "d", "leg_min", "leg_max", "heave_limit", "tilt_limit"):
@@ -159,6 +142,23 @@ class Upu3Up:
             actuated=(True, True, True, False),
         )
         object.__setattr__(self, "_layout_mm", layout)
+        geometry = self.pack()
+        geometry.setflags(write=False)
+        object.__setattr__(self, "_geometry", geometry)
+
+    def pack(self) -> np.ndarray:
+        """The mechanism as its lanes read it (`twin.mechanisms.platforms`): a (1,) array of one
+        `PLATFORM_GEOMETRY` record [mm, rad]; its envelope is `state_limits`, where `forward`
+        accepts a solution."""
+        out = np.zeros(1, PLATFORM_GEOMETRY)
+        g = out[0]
+        g["mechanism"], g["n_legs"], g["unit"], g["l"] = MECHANISM_UPU3UP, 3, 1e-3, self.l
+        g["stroke_low"], g["stroke_high"] = self.leg_min, self.leg_max
+        g["state_low"], g["state_high"] = self.state_limits
+        g["envelope_low"], g["envelope_high"] = self.state_limits
+        g["base_hinges"][:9] = self._layout_mm.base_hinges[:3].ravel()  # seed 001 eq (26)
+        g["platform_hinges"][:9] = self._layout_mm.platform_hinges[:3].ravel()
+        return out
 
     @property
     def working_state(self) -> np.ndarray:
@@ -170,6 +170,11 @@ class Upu3Up:
         """(low, high), each (3,) [mm, rad, rad], bounds of `(z, alpha, beta)`."""
         high = np.array([self.heave_limit, self.tilt_limit, self.tilt_limit])
         return -high, high
+
+    @property
+    def layout_mm(self) -> LegLayout:
+        """Hinges and length limits [mm] (eq (26)): legs 0-2 the UPU limbs, leg 3 the UP limb."""
+        return self._layout_mm
 
     @property
     def layout(self) -> LegLayout:
@@ -218,8 +223,7 @@ class Upu3Up:
         lengths are returned as they are (a planner counts the violations).
         """
         z, alpha, beta = self._state(z, alpha, beta)
-        T = coupled_transform(z, alpha, beta, self.l)
-        lengths = legs(self._layout_mm, T).lengths[..., :3]
+        lengths = platforms.leg_lengths(self._geometry, np.stack([z, alpha, beta], -1))
         if check:
             self._check_state(np.stack([z, alpha, beta], -1), "state", slack=0.0)
             bad = (lengths < self.leg_min) | (lengths > self.leg_max)
@@ -234,21 +238,20 @@ class Upu3Up:
         """∂(l_1, l_2, l_3)/∂(z, α, β) (..., 3, 3) [mm/mm, mm/rad]; the matrix of eq (24).
 
         The leg twist Jacobian (rows [n_iᵀ, (ᴼR_O1 ᴼ¹P_i × n_i)ᵀ]) composed with the
-        coupled twist map G of `coupled_twist_map`. Eq (24) is written for the squared
-        residual of eq (20); its rows are these times 2 l_i.
+        coupled twist map (ω = α̇ e_x + β̇ Rx(α) e_y, the top turning about O;
+        `platforms.platform_kinematics`). Eq (24)
+        is written for the squared residual of eq (20); its rows are these times 2 l_i.
         """
         z, alpha, beta = self._state(z, alpha, beta)
-        T = coupled_transform(z, alpha, beta, self.l)
-        J = twist_jacobian(legs(self._layout_mm, T))[..., :3, :]
-        return J @ coupled_twist_map(T, alpha)
+        return platforms.jacobian(self._geometry, np.stack([z, alpha, beta], -1))
 
     def forward(
         self,
         lengths: ArrayLike,
         guess: ArrayLike | None = None,
         *,
-        tol: float = 1e-10,
-        max_iter: int = 30,
+        tol: float = FORWARD_TOL,
+        max_iter: int = FORWARD_MAX_ITER,
     ) -> np.ndarray:
         """State `(z, alpha, beta)` (..., 3) [mm, rad, rad] from UPU limb lengths by Newton-Raphson.
 
@@ -272,16 +275,13 @@ class Upu3Up:
         check_range(lengths, "lengths [mm]", self.leg_min, self.leg_max)
 
         def equations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            alpha = x[..., 1]
-            T = coupled_transform(x[..., 0], alpha, x[..., 2], self.l)
-            state = legs(self._layout_mm, T)
-            J = twist_jacobian(state)[..., :3, :] @ coupled_twist_map(T, alpha)  # seed 001 eq (24)
-            return state.lengths[..., :3] - lengths, J  # seed 001 eq (20), in lengths
+            J = platforms.jacobian(self._geometry, x)  # seed 001 eq (24)
+            return platforms.leg_lengths(self._geometry, x) - lengths, J  # eq (20), in lengths
 
         x0 = start(guess, np.zeros(3), lengths.shape)
         result = newton(equations, x0, tol=tol, max_iter=max_iter)  # seed 001 eq (22)
         if result.converged:
-            self._check_state(result.x, "forward solution", slack=_STATE_SLACK)
+            self._check_state(result.x, "forward solution", slack=STATE_SLACK)
             return result.x
         raise ConvergenceError(
             f"Upu3Up.forward did not converge: stopped after {result.iterations} Newton-Raphson "

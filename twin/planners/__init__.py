@@ -12,6 +12,16 @@ from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.linalg import weighted_pinv
 from twin.planners.parameters import PlannerParameters
 from twin.planners.platform import PlatformModel, PlatformPlanner, advance_target
+from twin.planners.protocols import (
+    Limit,
+    Planner,
+    SecondaryTask,
+    TargetTask,
+    Task,
+    VelocityScaler,
+    VelocityShaper,
+    Weight,
+)
 from twin.planners.qp import QPPlanner
 from twin.planners.registry import HYBRID_RATE_LIMITS, PLANNERS, PlannerSpec, get_planner
 from twin.planners.target import PlannerOutput, TipTarget
@@ -26,6 +36,8 @@ __all__ = [
     "DifferentialPlanner",
     "JointLimitWeights",
     "JointPostureTask",
+    "Limit",
+    "Planner",
     "PlannerOutput",
     "PlannerParameters",
     "PlannerSpec",
@@ -34,10 +46,16 @@ __all__ = [
     "PlatformYawTask",
     "ProductWeights",
     "QPPlanner",
+    "SecondaryTask",
     "SlewPriority",
+    "TargetTask",
+    "Task",
     "TipPoseTask",
     "TipTarget",
     "VelocityLimit",
+    "VelocityScaler",
+    "VelocityShaper",
+    "Weight",
     "advance_target",
     "get_planner",
     "reachable_range",

@@ -16,11 +16,21 @@ simulation integrates every planner the same way.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
+from twin.compiled import register_borrowing
 from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.planners.parameters import (
+    KIND_ALLOCATION,
+    family_dtype,
+    parameter_record,
+    parameter_row,
+    refuse,
+)
 from twin.planners.target import PlannerOutput, TipTarget
 from twin.spatial import (
     invert_transform,
@@ -59,6 +69,38 @@ def reachable_range(mechanism: HybridBoardingSystem, pose: np.ndarray) -> np.nda
     inside = stewart.within_limits(state.lengths)
     return np.where(inside[..., None], np.maximum(span, 0.0), 0.0)
 
+#: Methods, as a row's `method` names them
+METHODS = {"conv1": 0, "conv2": 1, "dwa": 2}
+
+#: The allocation family's lane parameters (`family_dtype`), written by
+#: `AllocationPlanner.pack` after its reset: the method (`METHODS`); DWA's normalisers, the
+#: Stewart manipulability [-] and the reachable range Δx, Δy, Δz [m] at the working state;
+#: ᴮT_P(0) and ᴮT_E(0)⁻¹ rows 0-2 row-major (ᴮR | ᴮp [m]), the platform and the inverse tip
+#: pose at reset; the platform yaw at reset [rad] (the slew joint takes the yaw, dwa); the
+#: gangway joints at reset [rad, rad, m] (conv1 keeps them).
+ALLOCATION_PARAMETERS = family_dtype(
+    (("method", 1), ("manip_mid", 1), ("range_mid", 3), ("T_P0", 12), ("T_E0_inv", 12),
+     ("yaw0", 1), ("q0", 3))
+)  # fmt: skip
+
+
+class AllocationStart(NamedTuple):
+    """What an `AllocationPlanner` remembers at `reset` (leading batch axes as its state's).
+
+    Attributes:
+        T_P0: (..., 4, 4) ᴮT_P at the start.
+        T_E0_inv: (..., 4, 4) (ᴮT_E)⁻¹ at the start.
+        q0: (..., 3) gangway joints at the start [rad, rad, m].
+        manip_mid, range_mid: manipulability [-] and reachable range (3,) [m] at the
+            mid-pose, DWA's normalisers (seed 004).
+    """
+
+    T_P0: np.ndarray
+    T_E0_inv: np.ndarray
+    q0: np.ndarray
+    manip_mid: float
+    range_mid: np.ndarray
+
 
 @dataclass
 class AllocationPlanner:
@@ -71,29 +113,63 @@ class AllocationPlanner:
 
     mechanism: HybridBoardingSystem
     method: str = "dwa"
-    _T_P0: np.ndarray = field(init=False, repr=False, default=None)
-    _T_E0_inv: np.ndarray = field(init=False, repr=False, default=None)
-    _q0: np.ndarray = field(init=False, repr=False, default=None)
-    _share: np.ndarray = field(init=False, repr=False, default=None)
-    _mid: tuple[float, np.ndarray] = field(init=False, repr=False, default=None)
+    # set by `reset`; None before it
+    _start: AllocationStart | None = field(init=False, repr=False, default=None)
+    _share: np.ndarray = field(init=False, repr=False, default_factory=lambda: np.ones(3))
 
     def reset(self, xi: np.ndarray, target: TipTarget) -> None:
         """Remember the start: platform and tip pose, gangway joints, DWA's mid-pose values."""
-        self._T_P0 = pose_to_transform(xi[..., :6])
-        self._T_E0_inv = invert_transform(self.mechanism.end_effector(xi))
-        self._q0 = xi[..., 6:].copy()
         mid = self.mechanism.working_state[:6]
-        self._mid = (
-            float(self.mechanism.stewart.manipulability(mid)),
-            reachable_range(self.mechanism, mid),
+        self._start = AllocationStart(
+            T_P0=pose_to_transform(xi[..., :6]),
+            T_E0_inv=invert_transform(self.mechanism.end_effector(xi)),
+            q0=xi[..., 6:].copy(),
+            manip_mid=float(self.mechanism.stewart.manipulability(mid)),
+            range_mid=reachable_range(self.mechanism, mid),
         )
         self._share = self.shares(xi[..., :6])
 
+    @property
+    def start(self) -> AllocationStart:
+        """What `reset` remembered.
+
+        Raises:
+            TwinError: the planner was not reset.
+        """
+        if self._start is None:
+            raise refuse("an AllocationPlanner that is not reset")
+        return self._start
+
+    def pack(self, hold: bool) -> tuple[np.ndarray, np.ndarray]:
+        """The planner after its `reset` as its lane's parameter row
+        (`ALLOCATION_PARAMETERS`) and DWA's position shares for the next step (3,).
+
+        Args:
+            hold: the lane holds its joint limits (`Scenario.joint_limits == "hold"`).
+
+        Raises:
+            TwinError: not reset (for one lane), or an unknown method.
+        """
+        if self._start is None or np.shape(self._start.T_P0) != (4, 4):
+            raise refuse("an AllocationPlanner that is not reset for one lane")
+        start = self._start
+        if self.method not in METHODS:
+            raise refuse(f"the method {self.method!r}; allowed: {list(METHODS)}")
+        row = parameter_row(KIND_ALLOCATION, hold)
+        record = parameter_record(row, ALLOCATION_PARAMETERS)
+        record["method"] = METHODS[self.method]
+        record["manip_mid"], record["range_mid"] = start.manip_mid, start.range_mid
+        record["T_P0"] = start.T_P0[:3, :].ravel()
+        record["T_E0_inv"] = start.T_E0_inv[:3, :].ravel()
+        record["yaw0"] = matrix_to_rpy(start.T_P0[:3, :3])[2]
+        record["q0"] = start.q0
+        return row, np.array(self._share, dtype=float)
+
     def shares(self, pose: np.ndarray) -> np.ndarray:
         """[λ_p w_i]³ per position axis (..., 3), clipped to [0, 1] (docs/planners.md)."""
-        manip_mid, range_mid = self._mid
-        lam = self.mechanism.stewart.manipulability(pose) / manip_mid
-        w = reachable_range(self.mechanism, pose) / range_mid
+        start = self.start
+        lam = self.mechanism.stewart.manipulability(pose) / start.manip_mid
+        w = reachable_range(self.mechanism, pose) / start.range_mid
         return np.clip(lam[..., None] * w, 0.0, 1.0) ** 3
 
     def step(self, xi: np.ndarray, target: TipTarget, dt: float) -> PlannerOutput:
@@ -105,9 +181,10 @@ class AllocationPlanner:
         ahead = np.array(target.transform)
         ahead[..., :3, :3] = so3_exp(target.twist[..., 3:] * dt) @ target.transform[..., :3, :3]
         ahead[..., :3, 3] += target.twist[..., :3] * dt
-        C = ahead @ self._T_E0_inv  # compensating motion in B
-        T_full = C @ self._T_P0  # the platform pose that alone would hold the tip (conv1)
-        p0 = self._T_P0[..., :3, 3]
+        start = self.start
+        C = ahead @ start.T_E0_inv  # compensating motion in B
+        T_full = C @ start.T_P0  # the platform pose that alone would hold the tip (conv1)
+        p0 = start.T_P0[..., :3, 3]
         if self.method == "conv1":
             T_P = T_full
         else:
@@ -116,11 +193,11 @@ class AllocationPlanner:
                 T_P[..., :3, 3] = p0
             else:
                 rpy = matrix_to_rpy(T_full[..., :3, :3])
-                rpy[..., 2] = matrix_to_rpy(self._T_P0[..., :3, :3])[..., 2]  # slew takes yaw
+                rpy[..., 2] = matrix_to_rpy(start.T_P0[..., :3, :3])[..., 2]  # slew takes yaw
                 T_P[..., :3, :3] = rpy_to_matrix(rpy)
                 T_P[..., :3, 3] = p0 + self._share * (T_full[..., :3, 3] - p0)
         if self.method == "conv1":
-            q = self._q0
+            q = start.q0
         else:
             tip_in_P = invert_transform(T_P) @ ahead
             q = self.mechanism.gangway.inverse(tip_in_P[..., :3, 3], check=False)
@@ -137,3 +214,48 @@ class AllocationPlanner:
         twist = se3_log(invert_transform(pose_to_transform(xi[..., :6])) @ T_P) / dt
         velocity = np.concatenate([twist, (q - xi[..., 6:]) / dt], -1)
         return PlannerOutput(velocity=velocity, diagnostics=diagnostics)
+
+
+# ---------------------------------------------------------------------------------------------
+# One lane (floats and small arrays, compiled by numba into the engine's kernel,
+# `twin.compiled`; plain Python without numba)
+# ---------------------------------------------------------------------------------------------
+
+
+@register_borrowing
+def reachable_range_lane(
+    vectors: np.ndarray, lengths: np.ndarray, leg_min: float, leg_max: float, out: np.ndarray
+) -> None:
+    r"""Δx_p, Δy_p, Δz_p [m] into out (3,): per position axis, the length of the interval of
+    offsets s (other five pose coordinates held) whose six legs stay inside their stroke —
+    seed 004 §3.1 c's "space search" in closed form (`reachable_range`, one lane).
+
+    Leg i at offset s along axis k has |l_i + s e_k|² = s² + 2 b s + c, b = l_i,k, c = |l_i|²:
+    l_max bounds s to −b ± sqrt(b² − c + l_max²); l_min cuts out −b ± sqrt(b² − c + l_min²),
+    on one side of s = 0 for a feasible pose. Zero when the pose itself is outside.
+
+    Args:
+        vectors: (6, 3) [m] leg vectors in B; lengths: (6,) [m]
+            (`twin.mechanisms.legs.leg_vectors_lane`).
+        leg_min, leg_max: [m] the leg stroke (Table 1).
+    """
+    inside = True
+    for i in range(6):
+        inside = inside and lengths[i] >= leg_min and lengths[i] <= leg_max
+    for k in range(3):
+        upper_min, lower_max = math.inf, -math.inf
+        for i in range(6):
+            b = vectors[i, k]
+            c = lengths[i] ** 2
+            reach = math.sqrt(max(b**2 - c + leg_max**2, 0.0))
+            upper, lower = -b + reach, -b - reach
+            hole = b**2 - c + leg_min**2
+            if hole > 0:
+                half = math.sqrt(hole)
+                if -b > 0:
+                    upper = min(upper, -b - half)
+                else:
+                    lower = max(lower, -b + half)
+            upper_min = min(upper_min, upper)
+            lower_max = max(lower_max, lower)
+        out[k] = max(upper_min - lower_max, 0.0) if inside else 0.0

@@ -16,8 +16,35 @@ import numpy as np
 
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.linalg import weighted_pinv
+from twin.planners.parameters import (
+    KIND_DIFFERENTIAL,
+    family_dtype,
+    pack_part,
+    parameter_record,
+    parameter_row,
+    refuse,
+)
 from twin.planners.target import PlannerOutput, TipTarget
 from twin.planners.tasks import JointPostureTask, TipPoseTask
+
+#: The differential family's lane parameters (`family_dtype`), written by the parts' `pack`:
+#: k_e [1/s] (eq (34), `TipPoseTask`); the β split β^l per joint (eqs (27)-(30), 1 without
+#: weights, `BetaSplit`); the joint-limit weights' scale (1, k_c on the telescope, eq (37)),
+#: on/off and the limits [m, rad] (`JointLimitWeights`); the posture task's joint (−1: none),
+#: k_a [1/s] and q̃ (eqs (39)-(40), `JointPostureTask`); Algorithm 1 on/off, σ [rad], q̇1,max
+#: [rad/s], the slew limits [rad] and yaw_hold [-] (`SlewPriority`); λ_max and ε of the damped
+#: solve (`weighted_pinv`); λ of eq (34); the rate limit on/off and its maxima [m/s, rad/s]
+#: (`VelocityLimit`).
+DIFFERENTIAL_PARAMETERS = family_dtype(
+    (
+        ("gain", 1), ("split", 9), ("scale", 9),
+        ("posture_index", 1), ("posture_gain", 1), ("posture_set", 1),
+        ("slew", 1), ("sigma", 1), ("slew_rate", 1), ("q1_min", 1), ("q1_max", 1),
+        ("damping", 1), ("epsilon", 1), ("secondary", 1),
+        ("joint_limits", 1), ("rate_limited", 1), ("rate", 9), ("yaw_hold", 1),
+        ("lower", 9), ("upper", 9),
+    )
+)  # fmt: skip
 
 
 @dataclass
@@ -80,3 +107,35 @@ class DifferentialPlanner:
                 "velocity_scale": scale,
             },
         )
+
+    def pack(self, hold: bool) -> np.ndarray:
+        """The planner as its lane's parameter row (`DIFFERENTIAL_PARAMETERS`): each part
+        writes its own fields (`pack`), this its solve's.
+
+        Args:
+            hold: the lane holds its joint limits (`Scenario.joint_limits == "hold"`).
+
+        Raises:
+            TwinError: a part without `pack`, or one it refuses, or knobs outside the kernel's
+                domain (ε ≤ 0, a negative or non-finite weight: where numpy would give inf or
+                NaN, plain Python would raise).
+        """
+        row = parameter_row(KIND_DIFFERENTIAL, hold)
+        record = parameter_record(row, DIFFERENTIAL_PARAMETERS)
+        record["split"], record["scale"], record["posture_index"] = 1.0, 1.0, -1.0
+        pack_part(self.tip, record, "primary task")
+        if self.weights is not None:
+            pack_part(self.weights, record, "weight")
+        weights = np.r_[record["split"], record["scale"]]
+        if not np.all(np.isfinite(weights) & (weights >= 0)):
+            raise refuse(f"weights {weights.tolist()!r:.120} (finite and ≥ 0 only)")
+        for task in self.secondary:
+            pack_part(task, record, "secondary task")
+        for limit in (self.slew_priority, self.velocity_limit):
+            if limit is not None:
+                pack_part(limit, record, "limit")
+        if not self.epsilon > 0:
+            raise refuse(f"epsilon = {self.epsilon!r} (must be > 0)")
+        record["damping"], record["epsilon"] = self.damping_max, self.epsilon
+        record["secondary"] = self.secondary_weight
+        return row

@@ -2,9 +2,13 @@ r"""Limits that shape a velocity after the solve: seed 000's Algorithm 1 and rat
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from twin.compiled import LaneUfunc, register_inline
+from twin.planners.parameters import refuse
 
 
 @dataclass(frozen=True)
@@ -49,30 +53,47 @@ class SlewPriority:
     pitch_rate_index: int = 4
 
     def held_yaw_rate(self, xi: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """ω_pz,hold (...,) [rad/s]: the platform's share of w_1sum in the flexible range."""
-        if self.yaw_hold == 0.0:
-            return np.zeros(np.shape(v)[:-1])
-        return -self.yaw_hold * np.tan(xi[..., self.roll_index]) * v[..., self.pitch_rate_index]
+        """ω_pz,hold (...,) [rad/s]: the platform's share of w_1sum in the flexible range
+        (`held_yaw_rate_lane`)."""
+        roll, pitch_rate = xi[..., self.roll_index], v[..., self.pitch_rate_index]
+        return np.asarray(HELD_YAW_RATE(self.yaw_hold, roll, pitch_rate))
 
     def __call__(self, xi: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """v (..., n) with w_1sum split between the platform yaw and the slew joint
+        (`slew_priority_lane`)."""
         q1 = xi[..., self.slew_index]
         total = v[..., self.yaw_index] + v[..., self.slew_index]  # w_1sum
         free = total - self.held_yaw_rate(xi, v)  # what q̇1 may take
-        flexible = (q1 >= self.q1_min + self.sigma) & (q1 <= self.q1_max - self.sigma)
-        slew_flexible = np.clip(free, -self.rate_max, self.rate_max)  # lines 2-7
-        low_band = (q1 > self.q1_min) & (q1 < self.q1_min + self.sigma)  # lines 8-9
-        high_band = (q1 > self.q1_max - self.sigma) & (q1 < self.q1_max)  # lines 10-11
-        phase = np.where(
-            low_band,
-            (self.q1_min + self.sigma - q1) / self.sigma,
-            (q1 - self.q1_max + self.sigma) / self.sigma,
+        slew = np.asarray(
+            SLEW_PRIORITY(q1, free, self.q1_min, self.q1_max, self.sigma, self.rate_max)
         )
-        slew_band = 0.5 * free * (1.0 + np.cos(phase * np.pi))
-        slew = np.where(flexible, slew_flexible, np.where(low_band | high_band, slew_band, 0.0))
         out = v.copy()
         out[..., self.slew_index] = slew
         out[..., self.yaw_index] = total - slew
         return out
+
+    def pack(self, record: np.void) -> None:
+        """Switch a differential parameter record's `slew` on and write σ, q̇1,max, the slew
+        limits and yaw_hold.
+
+        Raises:
+            TwinError: other columns than the platform yaw (5), slew (6), roll (3) and pitch
+                rate (4), a yaw_hold that is not finite or σ ≤ 0.
+        """
+        columns = (self.yaw_index, self.slew_index, self.roll_index, self.pitch_rate_index)
+        if columns != (5, 6, 3, 4):
+            raise refuse(
+                "Algorithm 1 on other columns than the platform yaw (5), slew (6), roll (3) "
+                "and pitch rate (4)"
+            )
+        if not np.isfinite(self.yaw_hold):
+            raise refuse(f"Algorithm 1 with yaw_hold = {self.yaw_hold!r} (must be finite)")
+        if not self.sigma > 0:
+            raise refuse(f"Algorithm 1 with σ = {self.sigma!r} (must be > 0)")
+        record["slew"] = 1.0
+        record["sigma"], record["slew_rate"] = self.sigma, self.rate_max
+        record["q1_min"], record["q1_max"] = self.q1_min, self.q1_max
+        record["yaw_hold"] = self.yaw_hold
 
 
 @dataclass(frozen=True)
@@ -93,3 +114,74 @@ class VelocityLimit:
         ratio = np.max(np.abs(v) / self.maximum, axis=-1)
         scale = 1.0 / np.maximum(ratio, 1.0)
         return v * scale[..., None], scale
+
+    def pack(self, record: np.void) -> None:
+        """Switch a differential parameter record's `rate_limited` on and write `rate` (9,).
+
+        Raises:
+            TwinError: a maximum ≤ 0 (or NaN), or not broadcastable to the nine joints.
+        """
+        try:
+            maximum = np.broadcast_to(np.asarray(self.maximum, dtype=float), (9,))
+        except ValueError as exc:
+            raise refuse(f"the rate limits {self.maximum!r:.80} (not of nine joints)") from exc
+        if not np.all(maximum > 0):
+            raise refuse(f"the rate limits {maximum.tolist()!r:.120} (must be > 0)")
+        record["rate_limited"] = 1.0
+        record["rate"] = maximum
+
+
+# ---------------------------------------------------------------------------------------------
+# One lane (floats and small arrays, compiled by numba into the engine's kernel,
+# `twin.compiled`; plain Python without numba)
+# ---------------------------------------------------------------------------------------------
+
+
+@register_inline
+def slew_priority_lane(
+    q1: float, free: float, q1_min: float, q1_max: float, sigma: float, rate_max: float
+) -> float:
+    """q̇1 [rad/s] of seed 000 Algorithm 1 (`SlewPriority`) for one lane: `free` [rad/s], the
+    part of w_1sum the slew joint may take (w_1sum − ω_pz,hold), clipped to ±q̇1,max in the
+    flexible range (lines 2-7), blended by a raised cosine in the σ-wide bands (lines 8-11),
+    0 beyond the limits; q1, q1_min, q1_max, sigma [rad], rate_max [rad/s]."""
+    if q1 >= q1_min + sigma and q1 <= q1_max - sigma:  # lines 2-7
+        return rate_max if free > rate_max else (-rate_max if free < -rate_max else free)
+    if q1 > q1_min and q1 < q1_min + sigma:  # lines 8-9
+        return 0.5 * free * (1.0 + math.cos((q1_min + sigma - q1) / sigma * math.pi))
+    if q1 > q1_max - sigma and q1 < q1_max:  # lines 10-11
+        return 0.5 * free * (1.0 + math.cos((q1 - q1_max + sigma) / sigma * math.pi))
+    return 0.0
+
+
+@register_inline
+def held_yaw_rate_lane(yaw_hold: float, roll: float, pitch_rate: float) -> float:
+    """ω_pz,hold = −yaw_hold·tan(φ)·ω_py [rad/s], what Algorithm 1 leaves the platform's body
+    yaw rate (`SlewPriority`: yaw_hold = 1 holds its Euler yaw, 0 its body yaw rate); roll φ
+    [rad], pitch rate ω_py [rad/s]."""
+    if yaw_hold == 0.0:
+        return 0.0
+    return -yaw_hold * math.tan(roll) * pitch_rate
+
+
+#: the lanes as ufuncs over broadcast arrays: what `SlewPriority` calls
+SLEW_PRIORITY = LaneUfunc(slew_priority_lane, 6)
+HELD_YAW_RATE = LaneUfunc(held_yaw_rate_lane, 3)
+
+
+@register_inline
+def velocity_limit_lane(v: np.ndarray, maximum: np.ndarray) -> float:
+    """`VelocityLimit` on one lane: v (n,) [m/s | rad/s] scaled in place by one factor so that
+    no |v_j| exceeds maximum[j] (n,) (the direction kept); the factor in (0, 1] returned (NaN,
+    and v NaN, when v has a NaN)."""
+    most, nan = 1.0, False
+    for j in range(v.shape[0]):
+        ratio_j = abs(v[j]) / maximum[j]
+        if ratio_j != ratio_j:
+            nan = True
+        elif ratio_j > most:
+            most = ratio_j
+    scale = math.nan if nan else 1.0 / most
+    for j in range(v.shape[0]):
+        v[j] = v[j] * scale
+    return scale

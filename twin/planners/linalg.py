@@ -2,7 +2,14 @@ r"""Damped weighted pseudo-inverse, the one solver all differential planners sha
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from twin.compiled import register_inline, register_jitable
+
+#: machine epsilon of float64 (`np.finfo(float).eps`), the rank cut-off of the SVD form
+EPS = 2.220446049250313e-16
 
 
 def weighted_pinv(
@@ -33,7 +40,7 @@ def weighted_pinv(
     # W⁻¹Jᵀ(J W⁻¹ Jᵀ + λ²I)⁻¹ = W^{-1/2} V diag(s / (s² + λ²)) Uᵀ, from the same SVD. Not a
     # solve: with λ = 0 (damping_max = 0) and a rank-deficient J_W (β = 0 keeps three joints)
     # J W⁻¹ Jᵀ is singular; singular values lost to rounding then get 0, as in numpy's pinv.
-    kept = s > s[..., :1] * max(J.shape[-2:]) * np.finfo(float).eps
+    kept = s > s[..., :1] * max(J.shape[-2:]) * EPS
     safe = np.where(kept, s, 1.0)
     gain = np.where(kept, 1.0 / (safe + lam2[..., None] / safe), 0.0)  # s / (s² + λ²)
     VG = np.swapaxes(Vt, -1, -2) * gain[..., None, :]  # (..., n, k)
@@ -41,3 +48,140 @@ def weighted_pinv(
     # λ itself from √(1 − r²) λ_max, not √λ²: for a λ_max under 1e-154, λ_max² is subnormal
     # and its square root came back above λ_max (hypothesis found 1.31119e-158)
     return pinv, np.sqrt(1.0 - ratio**2) * damping_max
+
+
+# ---------------------------------------------------------------------------------------------
+# One lane: the same solve on a single (6, 9) problem, as the engine's kernels compose it
+# (floats and small arrays, compiled by numba, `twin.compiled`; plain Python without numba).
+# The undamped solve is a Cholesky factorisation of K W Kᵀ; where `weighted_pinv`'s damping
+# test fails, the SVD form with `damped_gains_lane` (twin.planners.differential module doc).
+# ---------------------------------------------------------------------------------------------
+
+
+@register_inline
+def damped_gains_lane(s: np.ndarray, n: int, epsilon: float, damping_max: float,
+                      gain_out: np.ndarray) -> float:  # fmt: skip
+    """`weighted_pinv`'s damping on one problem: the gains s_k / (s_k² + λ²) into gain_out
+    (m,) (0 for a singular value below s_max·n·eps), λ² = (1 − (σ_min/ε)²) λ_max² returned.
+
+    Args:
+        s: (m,) singular values of J_W, descending; n: J's number of columns.
+        epsilon: ε [task units]; damping_max: λ_max [-].
+    """
+    m = s.shape[0]
+    ratio = min(max(s[m - 1] / epsilon, 0.0), 1.0)
+    lam2 = (1.0 - ratio**2) * damping_max**2
+    for k in range(m):
+        kept = s[k] > s[0] * n * EPS
+        gain_out[k] = 1.0 / (s[k] + lam2 / s[k]) if kept else 0.0
+    return lam2
+
+
+@register_inline
+def weighted_gram_lane(K: np.ndarray, w: np.ndarray, row: np.ndarray, A_out: np.ndarray) -> None:
+    """A_out (6, 6) = K W Kᵀ with W = diag(w), K (6, 9), w (9,): the matrix `weighted_pinv`
+    inverts (seed 000 eq (31)). Row a of K W once per row (in `row` (9,), scratch), not once per
+    entry: the products (K_aj w_j) K_cj, summed over j in order. (The sizes are constants, as
+    in the other lane functions here: numba unrolls loops of known length.)"""
+    for a in range(6):
+        for j in range(9):
+            row[j] = K[a, j] * w[j]
+        for c in range(a + 1):
+            s = 0.0
+            for j in range(9):
+                s += row[j] * K[c, j]
+            A_out[a, c] = s
+            A_out[c, a] = s
+
+
+@register_inline
+def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
+    """Lower Cholesky factor of A − shift·I (A (6, 6) symmetric; its lower triangle is read)
+    into L's lower triangle (L (6, 6), the strict upper one left as it was; L may be A itself),
+    its diagonal stored inverted: L[j, j] = 1 / l_jj, so the factorisation and the solves
+    (`cholesky_pinv_apply`) multiply where they would divide (a division costs several
+    multiplications' latency, and these chains are latency-bound).
+
+    Returns whether A − shift·I is positive definite (every pivot > 0; False on a NaN).
+    """
+    for j in range(6):
+        d = A[j, j] - shift
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        inverse = 1.0 / math.sqrt(d)
+        L[j, j] = inverse
+        for i in range(j + 1, 6):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s * inverse
+    return True
+
+
+@register_inline
+def smallest_eigenvalue_bound(L: np.ndarray) -> float:
+    """1 / ‖L⁻¹‖_F², a lower bound on the smallest eigenvalue of A = L Lᵀ (λ_min(A) =
+    1 / ‖L⁻¹‖₂² and ‖·‖₂ ≤ ‖·‖_F), from its Cholesky factor L (6, 6) with the diagonal stored
+    inverted (`cholesky_lane`). X = L⁻¹ column by column by forward substitution, kept in L's
+    strict upper triangle (X[i, j] at L[j, i]), which `cholesky_lane` leaves unused: at most a
+    sixth of the bound is lost (the Frobenius norm sums the six 1/λ_i), for half the cost of a
+    factorisation and no square root or division but the last."""
+    total = 0.0
+    for j in range(6):
+        x0 = L[j, j]
+        column = x0 * x0
+        for i in range(j + 1, 6):
+            s = -L[i, j] * x0
+            for k in range(j + 1, i):
+                s -= L[i, k] * L[j, k]
+            x = s * L[i, i]
+            L[j, i] = x
+            column += x * x
+        total += column
+    return 1.0 / total
+
+
+@register_inline
+def cholesky_pinv_apply(
+    K: np.ndarray, w: np.ndarray, L: np.ndarray, c: np.ndarray, y: np.ndarray, out: np.ndarray
+) -> None:
+    """out (9,) = W Kᵀ (K W Kᵀ)⁻¹ c, the undamped J_W⁺ (seed 000 eq (31)) in P applied to c (6,),
+    with L Lᵀ = K W Kᵀ (`cholesky_lane`: its diagonal inverted) and W = diag(w); y (6,) is
+    scratch."""
+    for i in range(6):  # L z = c
+        s = c[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s * L[i, i]
+    for i in range(5, -1, -1):  # Lᵀ y = z
+        s = y[i]
+        for k in range(i + 1, 6):
+            s -= L[k, i] * y[k]
+        y[i] = s * L[i, i]
+    for j in range(9):
+        s = 0.0
+        for a in range(6):
+            s += K[a, j] * y[a]
+        out[j] = w[j] * s
+
+
+@register_jitable  # not borrowing: it allocates
+def svd_pinv_apply(
+    U: np.ndarray, gain: np.ndarray, Vt: np.ndarray, sqrt_w: np.ndarray, c: np.ndarray,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    """out (9,) = W^½ V diag(gain) Uᵀ c: `weighted_pinv`'s SVD form of J_W⁺ (in P) applied to
+    c (6,), with K W^½ = U S Vᵀ and gain_k = s_k / (s_k² + λ²) (0 for a dropped s_k)."""
+    g = np.empty(6)
+    for k in range(6):
+        s = 0.0
+        for a in range(6):
+            s += U[a, k] * c[a]
+        g[k] = gain[k] * s
+    for j in range(9):
+        s = 0.0
+        for k in range(6):
+            s += Vt[k, j] * g[k]
+        out[j] = sqrt_w[j] * s

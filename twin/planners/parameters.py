@@ -6,7 +6,10 @@ The scenario, the REST API and the GUI sliders all read ranges and defaults from
 
 from __future__ import annotations
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
+
+from twin.errors import TwinError
 
 
 class PlannerParameters(BaseModel):
@@ -130,3 +133,70 @@ class PlannerParameters(BaseModel):
         le=2.0,
         description="[m/s] actuator speed limit of the small platforms (seed 002 §5: 0.1)",
     )
+
+
+# ---------------------------------------------------------------------------------------------
+# A planner's knobs as the engine's compiled kernels read them: one row per lane, by name.
+# ---------------------------------------------------------------------------------------------
+
+#: float64 values in one lane's parameter row (`twin.sim.kernels.layout.N_PARAMETERS` is this)
+ROW_SIZE = 64
+
+#: Planner families: what a row's `kind` names (the kernel that steps the lane)
+KIND_DIFFERENTIAL, KIND_ALLOCATION, KIND_PLATFORM, KIND_QP = 0, 1, 2, 3
+
+#: Fields every family's row starts with: the family (`KIND_*`) and whether the lane holds its
+#: joint limits (1.0) or only records passing them (0.0; `Scenario.joint_limits`)
+COMMON_FIELDS: tuple[tuple[str, int], ...] = (("kind", 1), ("hold", 1))
+
+
+def family_dtype(fields: tuple[tuple[str, int], ...]) -> np.dtype:
+    """A planner family's parameter record: `COMMON_FIELDS` then `fields` (name, count) as
+    float64 values in order (a count > 1 is a (count,) array field), padded to `ROW_SIZE`
+    values, so a lane's float row (ROW_SIZE,) is viewed as one record (`parameter_record`)
+    and numba's kernels read the fields by name.
+
+    Raises:
+        TwinError: the fields do not fit a row, or a name repeats.
+    """
+    names, formats, offsets, at = [], [], [], 0
+    for name, count in (*COMMON_FIELDS, *fields):
+        if name in names:
+            raise TwinError(f"family_dtype: field {name!r} given twice")
+        names.append(name)
+        formats.append(np.dtype((np.float64, (count,))) if count > 1 else np.dtype(np.float64))
+        offsets.append(8 * at)
+        at += count
+    if at > ROW_SIZE:
+        raise TwinError(f"family_dtype: {at} values do not fit a row of {ROW_SIZE}")
+    fields_ = {"names": names, "formats": formats, "offsets": offsets, "itemsize": 8 * ROW_SIZE}
+    # np.record: a record reads its fields as attributes (`p.gain`) in plain Python too, as
+    # numba's records do, so the interpreted engine runs the kernels unchanged
+    return np.dtype((np.record, fields_))
+
+
+def parameter_row(kind: int, hold: bool) -> np.ndarray:
+    """A new lane row (ROW_SIZE,) of zeros with its common fields set."""
+    row = np.zeros(ROW_SIZE)
+    row[0], row[1] = kind, 1.0 if hold else 0.0
+    return row
+
+
+def parameter_record(row: np.ndarray, dtype: np.dtype) -> np.record:
+    """The lane row (ROW_SIZE,) seen as one record of `dtype` (`family_dtype`): writing a
+    field writes the row."""
+    return row.view(dtype)[0]
+
+
+def refuse(what: str) -> TwinError:
+    """The error of a `pack()` whose part or value the compiled kernels cannot run."""
+    return TwinError(f"planner: the compiled kernel cannot run {what}")
+
+
+def pack_part(part: object, record: np.void, role: str) -> None:
+    """`part.pack(record)`: a task, weight or limit writes its fields by name; one without a
+    `pack` is refused (TwinError naming it and its `role`)."""
+    pack = getattr(part, "pack", None)
+    if pack is None:
+        raise refuse(f"the {role} {part!r:.80} (it has no pack())")
+    pack(record)

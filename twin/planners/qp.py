@@ -36,35 +36,39 @@ its limits that the rate limits cannot bring back in one step), the limit rows t
 s ≥ 0, lower − s ≤ C v ≤ upper + s, weighted `SLACK_WEIGHT` (level 2): the closest feasible
 rates; the engine flags the step `Fault.INFEASIBLE`. The rate limits are never relaxed.
 
-`QPPlanner.problem` states the matrices; `solve_levels` solves them with the chosen QP library
-(DAQP by default, docs/decisions.md "The qp planner's solver"). The compiled engine assembles
-the same matrices (`twin.sim.kernels.qp`, tested equal to 1e-9) and calls the same
-`solve_levels`.
+`QPPlanner.problem` states the matrices; `solve_levels` solves them, by default with
+`solve_levels_lane`: the three levels over the compiled dual active-set method of Goldfarb and
+Idnani (`twin.planners.active_set`), the very function the engine's qp lanes run
+(`twin.sim.kernels.qp`, which assembles the same matrices, tested equal to 1e-9). DAQP,
+ProxQP and quadprog stay selectable on the object for comparison (docs/decisions.md, "The qp
+planner's solver" and "The qp planner in the compiled lane").
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import daqp
 import numpy as np
 
+from twin.compiled import register_borrowing, register_jitable
 from twin.errors import TwinError
 from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.planners.active_set import INF, OPTIMAL, qp_work, solve_dense_qp
 from twin.planners.target import PlannerOutput, TipTarget
 from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask
 from twin.planners.weights import BetaSplit
 from twin.spatial import rpy_rate_matrix, rpy_to_matrix
 
-#: QP libraries `solve_levels` can call: DAQP directly, or any through qpsolvers
-SOLVERS = ("daqp", "proxqp", "quadprog")
+#: solvers `solve_levels` can call: the compiled Goldfarb-Idnani method the engine runs
+#: (`twin.planners.active_set`), DAQP directly, or a library through qpsolvers (for comparison)
+SOLVERS = ("active_set", "daqp", "proxqp", "quadprog")
 #: weight of the limit slacks of level 2 (against the task terms, of order 1)
 SLACK_WEIGHT = 1e6
 #: smallest w_j of the regularisation's β split (β = 0 or 1 freezes a joint, not divides by 0)
 MIN_SPLIT = 1e-6
-#: DAQP's "infinite" bound
-INF = 1e30
 
 
 class Rows(NamedTuple):
@@ -75,7 +79,7 @@ class Rows(NamedTuple):
     upper: np.ndarray
 
 
-def damper(value: np.ndarray, low: np.ndarray, high: np.ndarray, gain: float,
+def damper(value: np.ndarray, low: np.ndarray | float, high: np.ndarray | float, gain: float,
            margin_low: np.ndarray | float, margin_high: np.ndarray | float,
            dt: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Velocity-damper bounds on a rate (mink's `ConfigurationLimit` form): the coordinate
@@ -264,7 +268,7 @@ class QPPlanner:
     secondary_weight: float = 0.1
     split: BetaSplit | None = None
     damping: float = 0.01
-    solver: str = "daqp"
+    solver: str = "active_set"
 
     def __post_init__(self) -> None:
         if self.solver not in SOLVERS:
@@ -372,12 +376,104 @@ def count_active(problem: QPProblem, v: np.ndarray, tol: float = 1e-9) -> int:
     return int(np.count_nonzero(rows) + np.count_nonzero(box))
 
 
-def solve_levels(problem: QPProblem, solver: str = "daqp") -> QPSolution:
+#: the position rows of a `QPProblem` (its first rows, equalities at level 0)
+N_POSITION = 3
+
+
+@register_jitable
+def levels_work(n: int, m: int) -> tuple:
+    """Scratch for `solve_levels_lane` on n rates and m limit rows: H₁ (n, n), f₁ (n,), level
+    2's H₂ (n + m, n + m), f₂ (n + m,), A₂ (2m, n + m), box (2, n + m), row bounds (2, 2m),
+    z (n + m,), and the solver's (`qp_work`)."""
+    n2 = n + m
+    return (
+        np.empty((n, n)), np.empty(n), np.empty((n2, n2)), np.empty(n2),
+        np.empty((2 * m, n2)), np.empty((2, n2)), np.empty((2, 2 * m)), np.empty(n2),
+        qp_work(n2, 2 * m),
+    )  # fmt: skip
+
+
+@register_borrowing
+def solve_levels_lane(
+    H: np.ndarray, f: np.ndarray, A: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+    rho: float, work: tuple, v: np.ndarray,
+) -> int:  # fmt: skip
+    """`solve_levels` on one problem's arrays (`QPProblem`'s layout: A (3 + m, n), lower and
+    upper (n + 3 + m,)) with the compiled Goldfarb-Idnani method (`solve_dense_qp`): writes v
+    (n,) (NaN when no level is solved or the problem is not finite) and returns the level.
+    `work` from `levels_work(n, m)`."""
+    n, p = f.shape[0], N_POSITION
+    m = A.shape[0] - p
+    H1, f1, H2, f2, A2, box2, rows2, z, solver = work
+    finite = True
+    for j in range(n):
+        finite = finite and math.isfinite(f[j])
+    for j in range(lower.shape[0]):
+        finite = finite and math.isfinite(lower[j]) and math.isfinite(upper[j])
+    if not finite:
+        for j in range(n):
+            v[j] = math.nan
+        return 0
+    # level 0: the rate box, the position rows (equalities), the limit rows
+    status = solve_dense_qp(H, f, A, lower[:n], upper[:n], lower[n:], upper[n:], p, solver, v)
+    if status == OPTIMAL:
+        return 0
+    # level 1: the position a term of weight rho, H₁ = H + rho J_pᵀJ_p, f₁ = f − rho J_pᵀb_p
+    for i in range(n):
+        s = 0.0
+        for a in range(p):
+            s += A[a, i] * upper[n + a]
+        f1[i] = f[i] - rho * s
+        for j in range(n):
+            s = 0.0
+            for a in range(p):
+                s += A[a, i] * A[a, j]
+            H1[i, j] = H[i, j] + rho * s
+    status = solve_dense_qp(H1, f1, A[p:], lower[:n], upper[:n], lower[n + p :],
+                            upper[n + p :], 0, solver, v)  # fmt: skip
+    if status == OPTIMAL:
+        return 1
+    # level 2: z = [v; s], low − s ≤ C v ≤ high + s, s ≥ 0, cost + SLACK_WEIGHT |s|²
+    n2 = n + m
+    for i in range(n2):
+        f2[i] = f1[i] if i < n else 0.0
+        for j in range(n2):
+            H2[i, j] = H1[i, j] if i < n and j < n else 0.0
+        if i >= n:
+            H2[i, i] = SLACK_WEIGHT
+            box2[0, i], box2[1, i] = 0.0, INF
+        else:
+            box2[0, i], box2[1, i] = lower[i], upper[i]
+    for i in range(m):
+        for j in range(n2):
+            c = A[p + i, j] if j < n else 0.0
+            A2[i, j] = c
+            A2[m + i, j] = c
+        A2[i, n + i] = 1.0  # C v + s ≥ low
+        A2[m + i, n + i] = -1.0  # C v − s ≤ high
+        rows2[0, i], rows2[1, i] = lower[n + p + i], INF
+        rows2[0, m + i], rows2[1, m + i] = -INF, upper[n + p + i]
+    status = solve_dense_qp(H2, f2, A2, box2[0], box2[1], rows2[0], rows2[1], 0, solver, z)
+    for j in range(n):
+        v[j] = z[j] if status == OPTIMAL else math.nan
+    return 2
+
+
+def solve_levels(problem: QPProblem, solver: str = "active_set") -> QPSolution:
     """The step's rates: level 0 (position an equality), else level 1 (position a term of
     `position_weight`), else level 2 (limit rows relaxed by slacks of weight `SLACK_WEIGHT`;
     the closest feasible rates); NaN rates if all three fail or the problem is not finite (a
-    NaN target: the engine then holds the machine)."""
+    NaN target: the engine then holds the machine). The engine's solver, "active_set", is
+    `solve_levels_lane` (the one the compiled lanes run); the others are libraries."""
     H, f, A, lower, upper, rho = problem
+    if solver == "active_set":
+        rates = np.empty(f.size)
+        H0, f0, A0, lower0, upper0 = (
+            np.ascontiguousarray(a, dtype=float) for a in (H, f, A, lower, upper)
+        )
+        work = levels_work(f.size, A.shape[0] - N_POSITION)
+        level = solve_levels_lane(H0, f0, A0, lower0, upper0, float(rho), work, rates)
+        return QPSolution(rates, level)
     n = f.size
     if not (np.all(np.isfinite(f)) and np.all(np.isfinite(lower)) and np.all(np.isfinite(upper))):
         return QPSolution(np.full(n, np.nan), 0)
@@ -421,7 +517,7 @@ def qp_planner(
     damping: float,
     q2_setpoint: float,
     rate_limit: np.ndarray,
-    solver: str = "daqp",
+    solver: str = "active_set",
 ) -> QPPlanner:
     """The registry's `qp`: the tip task, MTMP's two secondary terms, the leg and Table 6
     dampers at `limit_gain`, the rate box."""

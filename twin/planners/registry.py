@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,7 @@ from twin.planners.differential import DifferentialPlanner
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.parameters import PlannerParameters
 from twin.planners.platform import platform_builder
+from twin.planners.protocols import Planner
 from twin.planners.qp import QPPlanner, qp_planner
 from twin.planners.tasks import JointPostureTask, TipPoseTask
 from twin.planners.weights import BetaSplit, JointLimitWeights, ProductWeights
@@ -35,7 +37,7 @@ class PlannerSpec:
         mechanisms: registry names of the mechanisms it plans for.
         parameters: the `PlannerParameters` fields it reads.
         source: paper and equations.
-        build: (mechanism, parameters, initial state) → planner with `reset` and `step`.
+        build: (mechanism, parameters, initial state) → a `Planner` (`reset`, `step`).
     """
 
     name: str
@@ -43,7 +45,7 @@ class PlannerSpec:
     mechanisms: tuple[str, ...]
     parameters: tuple[str, ...]
     source: str
-    build: Callable[[Any, PlannerParameters, np.ndarray], Any]
+    build: Callable[[Any, PlannerParameters, np.ndarray], Planner]
 
 
 def _differential(
@@ -53,14 +55,18 @@ def _differential(
         h: HybridBoardingSystem, p: PlannerParameters, xi0: np.ndarray
     ) -> DifferentialPlanner:
         tip = TipPoseTask(h, gain=p.k_e)
-        common = dict(velocity_limit=VelocityLimit(HYBRID_RATE_LIMITS), damping_max=p.damping)
+        planner = partial(
+            DifferentialPlanner,
+            velocity_limit=VelocityLimit(HYBRID_RATE_LIMITS),
+            damping_max=p.damping,
+        )
         if weights == "none":
-            return DifferentialPlanner(tip, **common)
+            return planner(tip)
         split = BetaSplit(p.beta, p.l)
         if weights == "beta":
-            return DifferentialPlanner(tip, split, **common)
+            return planner(tip, split)
         scale = np.r_[np.ones(8), p.k_c]  # eq (37): k_c on the telescope
-        return DifferentialPlanner(
+        return planner(
             tip,
             ProductWeights((split, JointLimitWeights(h.lower, h.upper, scale))),
             secondary=(JointPostureTask(index=7, setpoint=float(xi0[7]), gain=p.k_a2),),
@@ -71,7 +77,6 @@ def _differential(
                 np.deg2rad(p.q1_rate_max),
                 yaw_hold=p.yaw_hold,
             ),
-            **common,
         )
 
     return build

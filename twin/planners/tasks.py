@@ -10,9 +10,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.compiled import register_inline
+from twin.mechanisms.hybrid import HybridBoardingSystem, tip_transform
+from twin.planners.parameters import refuse
 from twin.planners.target import TipTarget
-from twin.spatial import pose_error
+from twin.spatial import pose_error, so3_log_lane
 
 
 @dataclass(frozen=True)
@@ -41,6 +43,17 @@ class TipPoseTask:
         """(ẋ_d + k_e e, e), each (..., 6)."""
         e = self.error(xi, target)
         return target.twist + self.gain * e, e
+
+    def pack(self, record: np.void) -> None:
+        """Write k_e into a differential parameter record's `gain`
+        (`twin.planners.differential.DIFFERENTIAL_PARAMETERS`).
+
+        Raises:
+            TwinError: the mechanism is not a `HybridBoardingSystem`.
+        """
+        if not isinstance(self.mechanism, HybridBoardingSystem):
+            raise refuse(f"the primary task {self!r:.80}: only a tip task on the hybrid system")
+        record["gain"] = self.gain
 
 
 @dataclass(frozen=True)
@@ -72,6 +85,20 @@ class JointPostureTask:
         """(..., 1) [rad/s | m/s]."""
         return self.gain * (self.setpoint - xi[..., self.index : self.index + 1])
 
+    def pack(self, record: np.void) -> None:
+        """Write the joint, k_a and q̃ into a differential parameter record's `posture_*`.
+
+        Raises:
+            TwinError: the record has a posture task already (one at most), or the joint is
+                not one of the nine.
+        """
+        if record["posture_index"] >= 0:
+            raise refuse("more than one secondary task (one posture task at most)")
+        if self.n != 9 or not 0 <= self.index < 9:
+            raise refuse(f"the secondary task {self!r:.80}")
+        record["posture_index"] = self.index
+        record["posture_gain"], record["posture_set"] = self.gain, self.setpoint
+
 
 @dataclass(frozen=True)
 class PlatformYawTask:
@@ -102,3 +129,94 @@ class PlatformYawTask:
     def demand(self, xi: np.ndarray) -> np.ndarray:
         """(..., 1) [rad/s]: zero."""
         return np.zeros((*xi.shape[:-1], 1))
+
+
+# ---------------------------------------------------------------------------------------------
+# The tip task on one lane, as the engine's kernels compose it (floats and small arrays,
+# compiled by numba, `twin.compiled`; plain Python without numba)
+# ---------------------------------------------------------------------------------------------
+
+#: The target row a lane's tip task reads (18,): ᴮR_d row-major (9), ᴮp_d [m] (3), the twist
+#: ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s] (6), all in the Stewart base frame B
+#: (`twin.sim.kernels.layout.TARGET_*` names these offsets for the engine)
+TARGET_ROW = ("R_d", 9), ("p_d", 3), ("twist", 6)
+
+
+@register_inline
+def tip_error_lane(
+    x: np.ndarray,
+    R: np.ndarray,
+    target: np.ndarray,
+    d1: float,
+    a1: float,
+    frames: np.ndarray,
+    M: np.ndarray,
+    error_out: np.ndarray,
+) -> None:
+    """The tip of one lane and its pose error against the target: what the tip task plans on
+    (`tip_task_lane`) and what a run records (`twin.sim.kernels.records`), computed once.
+
+    Args:
+        x: (9,) xi [m, rad]; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
+        target: (18,) the target row (`TARGET_ROW`; ᴮR_d and ᴮp_d read).
+        d1, a1: [m] the gangway's (`gangway_tip_lane`).
+        frames: (2, 4, 4) written: ᴾT_E and ᴮT_E (`tip_transform`).
+        M: (3, 3) written: R_d R_Eᵀ.
+        error_out: (6,) written: e = [p_d − p_E; log(R_d R_Eᵀ)] [m, rad] in B (seed 000
+            eq (34), SPEC erratum 6).
+    """
+    E = frames[1]
+    tip_transform(x, R, d1, a1, frames[0], E)
+    for i in range(3):
+        for j in range(3):
+            M[i, j] = (
+                target[3 * i] * E[j, 0] + target[3 * i + 1] * E[j, 1] + target[3 * i + 2] * E[j, 2]
+            )
+    so3_log_lane(M, error_out[3:])
+    for i in range(3):
+        error_out[i] = target[9 + i] - E[i, 3]
+
+
+@register_inline
+def tip_task_lane(
+    x: np.ndarray,
+    R: np.ndarray,
+    target: np.ndarray,
+    gain: float,
+    d1: float,
+    a1: float,
+    frames: np.ndarray,
+    M: np.ndarray,
+    K: np.ndarray,
+    demand: np.ndarray,
+    error: np.ndarray,
+) -> None:
+    """The tip task of one lane (`TipPoseTask`): the task Jacobian in P,
+    K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]] (seed 000 eq (24) with D = diag(ᴮR_P, ᴮR_P)
+    factored out; J_s eq (11)) into K (6, 9), and the demand ẋ_d + k_e e in B (eq (34);
+    e = [p_d − p; log(R_d Rᵀ)], SPEC erratum 6) into demand (6,).
+
+    Args:
+        x: (9,) xi [m, rad]; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
+        target: (18,) the target row (`TARGET_ROW`); gain: k_e [1/s].
+        d1, a1: [m] the gangway's (`gangway_tip_lane`).
+        frames: (2, 4, 4) written: ᴾT_E and ᴮT_E (`tip_transform`).
+        M: (3, 3) written: R_d R_Eᵀ.
+        error: (6,) written: e (`tip_error_lane`), kept for what is recorded.
+    """
+    G = frames[0]
+    tip_error_lane(x, R, target, d1, a1, frames, M, error)
+    for i in range(6):
+        demand[i] = target[12 + i] + gain * error[i]
+    for a in range(6):
+        for j in range(9):
+            K[a, j] = 1.0 if a == j else 0.0
+    gx, gy, gz = G[0, 3], G[1, 3], G[2, 3]
+    K[0, 4], K[0, 5], K[1, 3], K[1, 5], K[2, 3], K[2, 4] = gz, -gy, -gz, gx, gy, -gx
+    # sin, cos of q1 and θ2 = q2 + 90° as gangway_tip_lane put them in ᴾT_E's rotation
+    s1, c1, s2, c2 = G[0, 1], -G[1, 1], G[2, 0], -G[2, 2]
+    d3 = x[8]
+    K[0, 6], K[0, 7], K[0, 8] = -a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2
+    K[1, 6], K[1, 7], K[1, 8] = a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2
+    K[2, 7], K[2, 8] = d3 * s2, -c2
+    K[3, 7], K[4, 7], K[5, 6] = s1, -c1, 1.0

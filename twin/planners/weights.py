@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twin.compiled import LaneUfunc, register_inline
+from twin.planners.parameters import pack_part, refuse
+
 
 @dataclass(frozen=True)
 class BetaSplit:
@@ -32,6 +35,10 @@ class BetaSplit:
         n = q.shape[-1]
         w = np.where(np.arange(n) < self.n_parallel, self.beta, 1.0 - self.beta)
         return np.broadcast_to(w**self.index, q.shape)
+
+    def pack(self, record: np.void) -> None:
+        """Multiply a differential parameter record's `split` (9,) by β^l | (1 − β)^l."""
+        record["split"] = record["split"] * self(np.zeros(9))
 
 
 @dataclass(frozen=True)
@@ -56,13 +63,26 @@ class JointLimitWeights:
     scale: np.ndarray
 
     def gradient(self, q: np.ndarray) -> np.ndarray:
-        """∂H/∂q (..., n), eq (36) with c_i = q_max − q_min."""
-        span = self.upper - self.lower
-        q = np.clip(q, self.lower + 1e-3 * span, self.upper - 1e-3 * span)
-        return span * (2 * q - self.upper - self.lower) / ((self.upper - q) * (q - self.lower))
+        """∂H/∂q (..., n), eq (36) with c_i = q_max − q_min (`joint_limit_gradient_lane`)."""
+        return np.asarray(JOINT_LIMIT_GRADIENT(q, self.lower, self.upper))
 
     def __call__(self, q: np.ndarray) -> np.ndarray:
-        return self.scale / (1.0 + np.abs(self.gradient(q)))
+        """The weights (..., n) (`joint_limit_weight_lane`)."""
+        return np.asarray(JOINT_LIMIT_WEIGHT(q, self.lower, self.upper, self.scale))
+
+    def pack(self, record: np.void) -> None:
+        """Write the limits and the scale into a differential parameter record (`lower`,
+        `upper`, `scale`, each (9,)) and switch its `joint_limits` on.
+
+        Raises:
+            TwinError: the record has joint-limit weights already, or a shape is not (9,).
+        """
+        if record["joint_limits"] > 0.0:
+            raise refuse("more than one set of joint-limit weights")
+        if any(np.shape(a) != (9,) for a in (self.lower, self.upper, self.scale)):
+            raise refuse(f"joint-limit weights {self!r:.80} not of the nine joints")
+        record["lower"], record["upper"], record["scale"] = self.lower, self.upper, self.scale
+        record["joint_limits"] = 1.0
 
 
 @dataclass(frozen=True)
@@ -76,3 +96,29 @@ class ProductWeights:
         for part in self.parts:
             w = w * part(q)
         return w
+
+    def pack(self, record: np.void) -> None:
+        """Each part's `pack` in turn (the kernel multiplies what they write)."""
+        for part in self.parts:
+            pack_part(part, record, "weight")
+
+
+@register_inline
+def joint_limit_gradient_lane(q: float, lower: float, upper: float) -> float:
+    """∂H/∂q of one joint, seed 000 eq (36) with c = q_max − q_min (SPEC erratum 4), q [m | rad]
+    clipped 0.1 % of the span inside [lower, upper] (one lane, compiled by numba into the
+    engine's kernel and into `JOINT_LIMIT_GRADIENT`, `twin.compiled`)."""
+    span = upper - lower
+    q = min(max(q, lower + 1e-3 * span), upper - 1e-3 * span)
+    return span * (2 * q - upper - lower) / ((upper - q) * (q - lower))
+
+
+@register_inline
+def joint_limit_weight_lane(q: float, lower: float, upper: float, scale: float) -> float:
+    """`JointLimitWeights` of one joint: scale / (1 + |∂H/∂q|) [-] (eq (37) below)."""
+    return scale / (1.0 + abs(joint_limit_gradient_lane(q, lower, upper)))
+
+
+#: the lanes as ufuncs over broadcast arrays: what `JointLimitWeights` calls
+JOINT_LIMIT_GRADIENT = LaneUfunc(joint_limit_gradient_lane, 3)
+JOINT_LIMIT_WEIGHT = LaneUfunc(joint_limit_weight_lane, 4)

@@ -21,7 +21,7 @@ The default band is [0.5, 5]·ω_p: it holds all but 0.2 % of a PM spectrum's m0
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from functools import lru_cache
 from typing import NamedTuple
 
@@ -47,7 +47,7 @@ def _frozen(array: np.ndarray) -> np.ndarray:
 
 
 def _scalar(
-    value: object, name: str, unit: str, low: float = 0.0, *, low_open: bool = False
+    value: ArrayLike, name: str, unit: str, low: float = 0.0, *, low_open: bool = False
 ) -> float:
     """`float(_checked(value, name, unit, low, low_open=low_open))`, with a plain Python check
     for an int or float (the common case, a tenth of the cost); anything else, or a value
@@ -59,7 +59,7 @@ def _scalar(
     return float(_checked(value, name, unit, low, low_open=low_open))
 
 
-def _band(omega_range: object) -> tuple[float, float]:
+def _band(omega_range: Sequence[float] | np.ndarray) -> tuple[float, float]:
     """(ω_lo, ω_hi) [rad/s] of a valid band, 0 < ω_lo < ω_hi, both finite, else a `TwinError`;
     a tuple of two ints or floats is checked in plain Python (the common case)."""
     if isinstance(omega_range, tuple) and len(omega_range) == 2:
@@ -193,7 +193,8 @@ def wave_components(
     if spreading is not None:
         spreading = _scalar(spreading, "spreading", "")
     rng = _rng(seed)
-    band = tuple(r * 2.0 * np.pi / tp for r in OMEGA_BAND) if omega_range is None else omega_range
+    lo, hi = OMEGA_BAND
+    band = (lo * 2.0 * np.pi / tp, hi * 2.0 * np.pi / tp) if omega_range is None else omega_range
     omega, edges = frequency_bins(n_components, band, jitter=jitter, seed=rng)
     # seed 001 eq (29) with S(ω_i)Δω taken as the bin's exact energy: Σ a_i²/2 = band m0
     if isinstance(spectrum, str) and isinstance(gamma, int | float):

@@ -45,6 +45,7 @@ from twin.sim.faults import (
     HOLDS,
     Fault,
     FaultLog,
+    flag_name,
     hold_invalid,
     hold_nonfinite,
     series_faults,
@@ -52,6 +53,8 @@ from twin.sim.faults import (
 from twin.sim.history import History
 from twin.sim.kernels import layout
 from twin.sim.lanes import HybridLanes, PlatformLanes, runner, use_numba
+from twin.sim.metrics import HybridReduction
+from twin.sim.protocols import Lanes, LanesFactory
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import DEFAULT_PLANNER, Scenario
 from twin.sim.scratch import scratch
@@ -76,8 +79,14 @@ RESTART_FIELDS = frozenset({"mechanism", "vessel", "dt", "initial_state"})
 #: errors the base motion's evaluation may raise, held like a NaN sea (ValueError covers
 #: TwinError and numpy's LinAlgError)
 NUMERICAL = (ArithmeticError, ValueError)
-#: lane classes by mechanism name
-LANES = {"hybrid": HybridLanes, "upu3up": PlatformLanes, "upr4": PlatformLanes}
+#: what a Simulation keeps (`Simulation`'s `keep`)
+KEEPS = ("series", "metrics")
+#: lane classes by mechanism name (each makes a `Lanes`)
+LANES: dict[str, LanesFactory] = {
+    "hybrid": HybridLanes,
+    "upu3up": PlatformLanes,
+    "upr4": PlatformLanes,
+}
 
 
 @dataclass
@@ -110,6 +119,13 @@ class Simulation:
             keeps the whole run.
         engine: "auto" (numba when it imports), "numba", or "python" (the same kernels
             interpreted: slow, for machines without numba; the same numbers).
+        keep: "series" (the history, results with series and metrics) or "metrics" (results
+            with metrics alone and series {}: a sweep's or a workability run's lanes, issue 28
+            item 6). The hybrid system's metrics are then reduced as each chunk is stepped
+            (`HybridReduction`, the same numbers to the bit) and the history holds the newest
+            sample alone, so memory does not grow with the run's length; the records are still
+            computed, as the metrics are reduced from them. The small platforms' metrics are
+            numpy over whole series: their lanes keep the history and drop it from the results.
 
     Raises:
         ValueError: a bad scenario (naming the field), none, or lanes that differ in mechanism
@@ -121,7 +137,13 @@ class Simulation:
         scenarios: Scenario | dict | Sequence[Scenario | dict],
         history_limit: int | None = None,
         engine: str = "auto",
+        keep: str = "series",
     ) -> None:
+        if keep not in KEEPS:
+            raise TwinError(f"keep: unknown {keep!r}; allowed: {list(KEEPS)}")
+        if keep == "metrics" and history_limit:
+            raise TwinError("keep='metrics' keeps no series: history_limit (a live session's "
+                            "ring of samples) goes with keep='series'")  # fmt: skip
         if isinstance(scenarios, Scenario | dict):
             scenarios = [scenarios]
         self.scenarios = [s if isinstance(s, Scenario) else Scenario(**s) for s in scenarios]
@@ -155,13 +177,22 @@ class Simulation:
                                   (self.n_lanes, 6))  # fmt: skip
         block = self._sample(self.base_motions, 0, at_rest)
         T_IB0 = pose_to_transform(block.poses[:, 0])
-        self.lanes = LANES[first.mechanism](self.mechanism, x0, T_IB0, self.compiled)
+        self.lanes: Lanes = LANES[first.mechanism](self.mechanism, x0, T_IB0, self.compiled)
         self._block = block
         self.x = x0.copy()
         self.prm, self.memory = self._pack(self.scenarios, self._block, 0)
         self._run = runner(self.lanes.kind, self.compiled, self.n_lanes)
         self.faults = [FaultLog() for _ in self.scenarios]
-        self._keep_all = history_limit is None  # a batch run keeps every sample
+        self.keep = keep
+        self._reduction: HybridReduction | None = None
+        if keep == "metrics" and self.lanes.kind == "hybrid":
+            ends = np.array([round(s.duration / s.dt) + 1 for s in self.scenarios])
+            modes = [s.joint_limits for s in self.scenarios]
+            self._reduction = HybridReduction(self.mechanism, ends, modes, self.compiled)
+            # the series' fault counts (`series_faults`), summed chunk by chunk
+            self._limited = [dict.fromkeys(("joint_limit", "singular"), 0) for _ in ends]
+        # a batch run keeps every sample, unless its metrics are reduced as it goes
+        self._keep_all = history_limit is None and self._reduction is None
         # A batch run grows its history to the whole run at its first chunk, unless that chunk
         # is the whole run: then its arrays become the history (`_chunk`).
         self.history = History(history_limit or 1)
@@ -203,7 +234,7 @@ class Simulation:
 
     def _select(self, record: dict[str, np.ndarray], lane: int) -> dict[str, np.ndarray]:
         """The keys a lane's planner has: another family's diagnostics are left out."""
-        mine = self.lanes.keys(self.scenarios[lane].planner)
+        mine = self.lanes.keys(self.scenarios[lane].planner_name)
         every = self.lanes.diagnostics
         return {k: v for k, v in record.items() if k in mine or k not in every}
 
@@ -217,7 +248,7 @@ class Simulation:
         lock (`LiveSession.snapshot`) computes the metrics after releasing it with counts
         that match that series, however far the loop has stepped meanwhile."""
         log = self.faults[lane]
-        counts, holds = {f.name.lower(): log.counts[f.name.lower()] for f in Fault}, log.holds
+        counts, holds = {flag_name(f): log.counts[flag_name(f)] for f in Fault}, log.holds
         lanes, joint_limits = self.lanes, self.scenarios[lane].joint_limits
 
         def compute(series: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -226,7 +257,10 @@ class Simulation:
         return compute
 
     def result(self, lane: int = 0) -> SimulationResult:
-        """A lane's result: its scenario, its series up to its own duration, its metrics."""
+        """A lane's result: its scenario, its series up to its own duration, its metrics (with
+        keep="metrics", its metrics alone: `results()[lane]`)."""
+        if self.keep == "metrics":
+            return self.results()[lane]
         series = self._result_series(lane)
         return SimulationResult(self.scenarios[lane], series, self.metrics(series, lane))
 
@@ -245,17 +279,48 @@ class Simulation:
 
     def results(self) -> list[SimulationResult]:
         """Every lane's result, in order, each equal to `result(lane)`: the metrics of all lanes
-        are reduced in one call over the history's arrays in place (`lanes.metrics_lanes`)."""
+        are reduced in one call over the history's arrays in place (`lanes.metrics_lanes`).
+        With keep="metrics", their metrics alone (series {}), at the end of the run.
+
+        Raises:
+            TwinError: keep="metrics" before the run's end (its sums are not complete)."""
+        if self.keep == "metrics" and not self.done:
+            raise TwinError(f"results: a Simulation keeping metrics alone has them at the end "
+                            f"of its run; it is at step {self.k} of {self.n_steps}")  # fmt: skip
+        if self._reduction is not None:
+            return [
+                SimulationResult(s, {}, with_fault_counts(m, self._limited[i],
+                                                          self.faults[i].counts,
+                                                          self.faults[i].holds))
+                for i, (s, m) in enumerate(zip(self.scenarios, self._reduction.results(),
+                                               strict=True))
+            ]  # fmt: skip
         if not self.history.complete:  # a wrapped ring: a lane's samples do not start at slot 0
             return [self.result(i) for i in range(self.n_lanes)]
         series = [self._result_series(i) for i in range(self.n_lanes)]
         ends = np.array([len(x["t"]) for x in series])
         modes = [s.joint_limits for s in self.scenarios]
         reduced = self.lanes.metrics_lanes(self.history.data, ends, modes)
+        kept = self.keep == "series"  # the small platforms' lanes drop their series here
         return [
-            SimulationResult(s, x, with_faults(m, x, self.faults[i].counts, self.faults[i].holds))
+            SimulationResult(s, x if kept else {},
+                             with_faults(m, x, self.faults[i].counts, self.faults[i].holds))
             for i, (s, x, m) in enumerate(zip(self.scenarios, series, reduced, strict=True))
-        ]
+        ]  # fmt: skip
+
+    def _reduce(self, records: dict[str, np.ndarray], start: int) -> None:
+        """keep="metrics": add samples start … start + S − 1 of records (N, S, ...) to every
+        lane's metrics (`HybridReduction`) and to its series' fault counts (`series_faults`
+        of the lane's samples before its end, as its whole series would count them)."""
+        assert self._reduction is not None
+        self._reduction.add(records, start)
+        size = records["t"].shape[1]
+        for lane, end in enumerate(self._reduction.ends.tolist()):
+            count = min(max(end - start, 0), size)
+            if count:
+                mine = self._select({k: v[lane, :count] for k, v in records.items()}, lane)
+                for name, n in series_faults(mine).items():
+                    self._limited[lane][name] += n
 
     # -- stepping ----------------------------------------------------------------------------
     def step(self) -> dict[str, np.ndarray]:
@@ -321,6 +386,10 @@ class Simulation:
             if self.k == 0:
                 step_keys = {"limit_scale", "clipped", "saturated"}
                 self.history.backfill_first(records, self.lanes.diagnostics | step_keys)
+            if self._reduction is not None:
+                if self.k == 0:  # sample 0, its step's diagnostics backfilled just above
+                    self._reduce(self.history.data, 0)
+                self._reduce(records, self.k + 1)
             self.history.append(records)
         self.x = xs[:, -1].copy()
         for lane in np.flatnonzero(faults.any(axis=1)):
@@ -366,6 +435,10 @@ class Simulation:
                 f"{sorted(changed & RESTART_FIELDS)} cannot change while running; start a new "
                 f"simulation (fields needing a restart: {sorted(RESTART_FIELDS)})"
             )
+        if self._reduction is not None and "duration" in changed:
+            raise TwinError("duration cannot change in a Simulation keeping metrics alone "
+                            "(keep='metrics': each lane's sums end where it started to end); "
+                            "start a new simulation")  # fmt: skip
         n_steps = max(self.n_steps if "duration" not in changed else 0,
                       max(round(s.duration / s.dt) for s in new))  # fmt: skip
         base_motions, block = self.base_motions, self._block
@@ -433,10 +506,18 @@ def with_faults(
     """A lane's metrics with its fault counts added: held steps and their kinds from its
     fault log (`counts` per kind name, `holds` steps held), limited and damped samples from
     its series (`series_faults`)."""
+    return with_fault_counts(metrics, series_faults(series), counts, holds)
+
+
+def with_fault_counts(
+    metrics: dict[str, Any], limited: Mapping[str, int], counts: Mapping[str, int], holds: int
+) -> dict[str, Any]:
+    """`with_faults` with the series' counts given (`series_faults`'s, `limited`): a run that
+    keeps no series sums them chunk by chunk."""
     metrics["faults"] = holds
     metrics["fault_counts"] = {
-        **{f.name.lower(): counts[f.name.lower()] for f in Fault if f in HOLDS},
-        **series_faults(series),
+        **{flag_name(f): counts[flag_name(f)] for f in Fault if f in HOLDS},
+        **limited,
         "infeasible": counts["infeasible"],
     }
     return metrics
@@ -460,7 +541,11 @@ MAX_LANES = 16
 
 
 def simulate_many(
-    scenarios: Iterable[Scenario | dict], *, progress: bool = False, engine: str = "auto"
+    scenarios: Iterable[Scenario | dict],
+    *,
+    progress: bool = False,
+    engine: str = "auto",
+    keep: str = "series",
 ) -> list[SimulationResult]:
     """Run many scenarios: the same results as `[simulate(s) for s in scenarios]` (tested),
     stepped together in lanes — scenarios of one mechanism, dt and number of steps share a
@@ -477,30 +562,32 @@ def simulate_many(
         scenarios: `Scenario`s or dicts of their fields (validated).
         progress: show a tqdm bar over all steps.
         engine: as `Simulation`'s.
+        keep: as `Simulation`'s: "metrics" for lanes whose series nobody reads (a sweep's, a
+            workability run's): the same metrics, memory flat in the run's length.
 
     Returns:
-        One `SimulationResult` per scenario, in order.
+        One `SimulationResult` per scenario, in order (series {} with keep="metrics").
 
     Raises:
         ValueError: a bad scenario (naming the field) or an unknown or unavailable engine.
     """
-    scenarios = [s if isinstance(s, Scenario) else Scenario(**s) for s in scenarios]
+    checked = [s if isinstance(s, Scenario) else Scenario(**s) for s in scenarios]
     threads = numba_threads() if use_numba(engine) else 1  # an unknown engine fails here
     groups: dict[tuple, list[int]] = {}
-    for i, s in enumerate(scenarios):
+    for i, s in enumerate(checked):
         groups.setdefault((s.mechanism, s.dt, round(s.duration / s.dt)), []).append(i)
     parts = sorted(
         (part for members in groups.values() for part in lane_parts(members, threads)),
         key=len,
         reverse=True,
     )
-    results: list[SimulationResult | None] = [None] * len(scenarios)
-    total = sum(round(s.duration / s.dt) for s in scenarios)
+    results: list[SimulationResult | None] = [None] * len(checked)
+    total = sum(round(s.duration / s.dt) for s in checked)
     lock = threading.Lock()
     with tqdm(total=total, disable=not progress, unit="step", unit_scale=True) as bar:
 
         def run(lanes: list[int]) -> None:
-            sim = Simulation([scenarios[i] for i in lanes], engine=engine)
+            sim = Simulation([checked[i] for i in lanes], engine=engine, keep=keep)
             while not sim.done:
                 steps = sim.advance(sim._block_size) * len(lanes)
                 with lock:
@@ -521,7 +608,7 @@ def simulate_many(
         else:
             for lanes in parts:
                 run(lanes)
-    return results  # type: ignore[return-value]
+    return results  # type: ignore[return-value]  # every part filled its lanes
 
 
 #: fewest lanes in a part of the guided schedule (`lane_parts`)
@@ -634,7 +721,9 @@ def kernel_cache_filled() -> bool:
     where it does not, a warm-up compiles and its other shares go to processes at once."""
     import numba
 
-    root = Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else Path(__file__).parents[1]
+    # numba sets its config attributes at import (numba.core.config), unseen by mypy
+    cache_dir: str = numba.config.CACHE_DIR  # type: ignore[attr-defined]
+    root = Path(cache_dir) if cache_dir else Path(__file__).parents[1]
     return any(root.rglob("*.nbi"))
 
 

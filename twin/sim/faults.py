@@ -15,6 +15,8 @@ from enum import IntFlag
 
 import numpy as np
 
+from twin.errors import TwinError
+
 
 class Fault(IntFlag):
     """What happened at a step; several may at once."""
@@ -37,9 +39,17 @@ class Fault(IntFlag):
 HOLDS = Fault.BASE_MOTION | Fault.PLANNER | Fault.KINEMATICS
 
 
+def flag_name(flag: Fault) -> str:
+    """The lower-case name of one flag, e.g. 'base_motion' (the key of the fault counts);
+    a TwinError for no flag (Fault(0) has no name) or several (`fault_names` splits them)."""
+    if flag.name is None or "|" in flag.name:
+        raise TwinError(f"not a single Fault flag: {flag!r}; allowed: one of {list(Fault)}")
+    return flag.name.lower()
+
+
 def fault_names(fault: Fault) -> list[str]:
     """Lower-case names of the flags set, e.g. ['base_motion', 'singular']."""
-    return [f.name.lower() for f in Fault if f in fault]
+    return [flag_name(f) for f in Fault if f in fault]
 
 
 def hold_invalid(pose: np.ndarray, last_good: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -119,7 +129,7 @@ class FaultLog:
     """
 
     def __init__(self, keep: int = 20) -> None:
-        self.counts: Counter[str] = Counter({f.name.lower(): 0 for f in Fault})
+        self.counts: Counter[str] = Counter({flag_name(f): 0 for f in Fault})
         self.events: deque[FaultEvent] = deque(maxlen=keep)
         self.holds = 0
 
@@ -148,7 +158,7 @@ class FaultLog:
             return
         t, bits = t[faulty], bits[faulty]
         for f in Fault:
-            self.counts[f.name.lower()] += int(np.count_nonzero(bits & int(f)))
+            self.counts[flag_name(f)] += int(np.count_nonzero(bits & int(f)))
         self.holds += int(np.count_nonzero(bits & int(HOLDS)))
         starts = np.flatnonzero(np.r_[True, bits[1:] != bits[:-1]])
         ends = np.r_[starts[1:], bits.size] - 1

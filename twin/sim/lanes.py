@@ -140,10 +140,10 @@ class HybridLanes:
 
         hold = scenario.joint_limits == "hold"
         knobs = scenario.parameters()
-        key = (scenario.planner, knobs.model_dump_json(), hold, self.x0[lane].tobytes())
+        key = (scenario.planner_name, knobs.model_dump_json(), hold, self.x0[lane].tobytes())
         if key in self._rows:
             return self._rows[key].copy(), np.zeros(layout.N_MEMORY)
-        spec = get_planner(scenario.planner, "hybrid")
+        spec = get_planner(scenario.planner_name, "hybrid")
         planner = spec.build(self.mechanism, knobs, self.x0[lane])
         planner.reset(x, tip_target(target))
         if isinstance(planner, DifferentialPlanner):
@@ -168,14 +168,12 @@ class HybridLanes:
         first: int = 1,
     ) -> None:
         """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says; targets
-        (N, B + 1, 18), the last row the chunk's end, `held_targets` with `end=True`): the
-        lanes of the compiled families through `run` for the whole chunk, a differential lane
-        handing over the tips and errors of samples first … B − 1
-        (`twin.sim.kernels.hybrid_runner`); the qp lanes step by step through
-        `twin.sim.kernels.qp.run_qp` (compiled unless `run` is the plain `run_hybrid`, the
-        interpreted engine). `records`, called next, records every lane's samples first … B."""
-        from twin.sim.kernels.hybrid_runner import run_hybrid
-        from twin.sim.kernels.qp import run_qp
+        (N, B + 1, 18), the last row the chunk's end, `held_targets` with `end=True`): every
+        lane, of every family (qp included: its QP is solved in the lane,
+        `twin.sim.kernels.qp`), through `run` for the whole chunk, a differential lane handing
+        over the tips and errors of samples first … B − 1
+        (`twin.sim.kernels.hybrid_runner`). `records`, called next, records every lane's
+        samples first … B."""
         from twin.sim.kernels.records import N_TIP
 
         N, S = xs.shape[:2]
@@ -184,21 +182,7 @@ class HybridLanes:
         tips = scratch("tips", (N, S, N_TIP))  # dies with the chunk
         kinds = prm[:, layout.P_KIND]
         handed = np.where(kinds == layout.KIND_DIFFERENTIAL, S - 1, 0)
-        qp = kinds == layout.KIND_QP
-        if not qp.any():
-            run(xs, targets, prm, memory, self.const, dt, diag, faults, first, errors, tips)
-        elif qp.all():
-            run_qp(xs, targets, prm, self.const, dt, diag, faults, run is not run_hybrid)
-        else:
-            rest, lanes = np.flatnonzero(~qp), np.flatnonzero(qp)
-            x, d, bits, rows = xs[rest], diag[rest], faults[rest], memory[rest]
-            e, tip = errors[rest], tips[rest]
-            run(x, targets[rest], prm[rest], rows, self.const, dt, d, bits, first, e, tip)
-            xs[rest], diag[rest], faults[rest], memory[rest] = x, d, bits, rows
-            errors[rest], tips[rest] = e, tip
-            x, d, bits = xs[lanes], diag[lanes], faults[lanes]
-            run_qp(x, targets[lanes], prm[lanes], self.const, dt, d, bits, run is not run_hybrid)
-            xs[lanes], diag[lanes], faults[lanes] = x, d, bits
+        run(xs, targets, prm, memory, self.const, dt, diag, faults, first, errors, tips)
         self._handed = (targets, handed, tips)
 
     def records(
@@ -210,6 +194,8 @@ class HybridLanes:
         in row 0, samples first … S − 1 (first = 1: the start was recorded with the chunk
         before; 0: a run's first chunk recording its start too)."""
         del dt  # Unused: nothing recorded is a rate.
+        if self._handed is None:  # each chunk is recorded once, after `run`
+            raise RuntimeError("HybridLanes.records: no chunk stepped since; call run first")
         targets, handed, tips = self._handed
         self._handed = None  # the scratch rows die with the chunk
         legs, errors, scalars = self._recorded
@@ -317,8 +303,11 @@ class PlatformLanes:
         from twin.sim.kernels.platform import pack_platform
 
         del x  # Unused: the actuator lengths are the platform planner's state.
-        spec = get_planner(scenario.planner, self.models[lane].name)
-        planner: PlatformPlanner = spec.build(self.mechanism, scenario.parameters(), self.x0[lane])
+        spec = get_planner(scenario.planner_name, self.models[lane].name)
+        planner = spec.build(self.mechanism, scenario.parameters(), self.x0[lane])
+        if not isinstance(planner, PlatformPlanner):
+            name = type(planner).__name__
+            raise TwinError(f"planner {scenario.planner_name!r}: no kernel packs {name}")
         n = self.model.n_legs
         planner.reset(self.extra[lane, :n].copy(), tip_target(target))
         return pack_platform(planner, scenario.joint_limits == "hold")

@@ -2,8 +2,13 @@
 
 A background thread steps the simulation at dt of simulated time, paced to wall time × speed.
 Readers (the 3D scene, REST) take `latest()` / `snapshot()` under a lock and never block the
-loop for longer than a copy; writers (`patch`, `reset`, …) validate first and apply between
-two steps, so a bad value changes nothing and a good one acts on the next step. `step(n)` takes
+loop for longer than a copy. Writers (`patch`, `reset`, `replay`, `seek`, `play`, `pause`, from
+the GUI's callbacks and REST alike) put a command on a queue that the session's own thread
+alone applies, between two steps, and wait for its outcome (without a running thread, the
+caller applies it, one command at a time); each validates first, so a bad value changes
+nothing and a good one acts on the next step. A change that restarts the simulation builds the
+new `Simulation` outside the lock (readers and the render loop go on reading the old one) and
+swaps it in under it. While paused, the thread sleeps until a command comes. `step(n)` takes
 the lock one chunk of steps at a time and stops at a wall-clock cap, so stepping on demand
 never holds up readers either.
 
@@ -25,8 +30,10 @@ the run's scenario and its recorded samples at the replay time, which the loop a
 from __future__ import annotations
 
 import logging
+import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,6 +65,39 @@ MIN_PAUSE = 0.002
 #: steps `step(n)` takes per hold of the lock, and [s] the most wall time one call may take
 STEP_CHUNK = 16
 STEP_WALL = 2.0
+#: [s] longest sleep of the paused loop between two looks at its stop flag (a command, a
+#: stop or a play wakes it at once)
+PAUSED_WAIT = 1.0
+#: [s] how often a caller waiting for its command checks that the session thread still runs
+COMMAND_POLL = 0.5
+
+
+class _Command:
+    """A writer's change, applied once by whoever runs it first (the session thread, or the
+    caller itself once that thread has stopped); the caller waits for its outcome."""
+
+    def __init__(self, apply: Callable[[], Any]) -> None:
+        self._apply = apply
+        self._claimed = threading.Lock()
+        self.done = threading.Event()
+        self._result: Any = None
+        self._error: BaseException | None = None
+
+    def run(self) -> None:
+        if not self._claimed.acquire(blocking=False):
+            return  # already run
+        try:
+            self._result = self._apply()
+        except BaseException as exc:  # handed to the caller, raised in its thread
+            self._error = exc
+        finally:
+            self.done.set()
+
+    def outcome(self) -> Any:
+        """The change's return value; its error raised again."""
+        if self._error is not None:
+            raise self._error
+        return self._result
 
 
 class LiveControls(BaseModel):
@@ -155,6 +195,9 @@ class LiveSession:
             else Scenario(**{**LIVE_DEFAULTS, **(scenario or {})})
         )
         self._lock = threading.RLock()
+        # writers' commands, applied one at a time (`_applying`) by the session thread
+        self._commands: queue.SimpleQueue[_Command | None] = queue.SimpleQueue()
+        self._applying = threading.RLock()
         self.controls = LiveControls()
         self.tick = tick
         self._compare: str | None = None  # the comparison lane's planner, if any
@@ -334,9 +377,22 @@ class LiveSession:
                 f"{unknown[0]}: not a live field; allowed: {sorted(LIVE_FIELDS)}, "
                 f"{COMPARE} and {sorted(LiveControls.model_fields)}"
             )
+        return self._command(lambda: self._patch(changes, controls, compare, given))
+
+    def _patch(
+        self, changes: dict[str, Any], controls: dict[str, Any], compare: str | None, given: bool
+    ) -> set[str]:
+        """`patch`, applied by the session thread (the one writer): validate, build a new
+        Simulation if the change restarts it (outside the lock), then change everything under
+        the lock at once."""
+        new_controls = LiveControls(**{**self.controls.model_dump(), **controls})
+        changed, swap = self._prepare(changes, compare if given else self._compare, given)
         with self._lock:
-            new_controls = LiveControls(**{**self.controls.model_dump(), **controls})
-            changed = self._apply(changes, compare if given else self._compare, given)
+            if swap is not None:
+                swap()
+            elif changes:  # an update in place of the running simulation (under the lock)
+                lanes = None if self._compare is None else [{}, {"planner": self._compare}]
+                changed = self._sim.update(changes, lanes)
             if self._replay is not None and (changes or given):  # back to the live simulation
                 self._replay = None
                 self.version += 1
@@ -345,14 +401,16 @@ class LiveSession:
             self.controls = new_controls
         return changed | set(controls)
 
-    def _apply(self, changes: dict[str, Any], compare: str | None, given: bool) -> set[str]:
-        """Apply scenario changes and the comparison planner (under the lock); raise before
-        anything changes."""
+    def _prepare(
+        self, changes: dict[str, Any], compare: str | None, given: bool
+    ) -> tuple[set[str], Callable[[], None] | None]:
+        """For a change that restarts the simulation: the changed names and the swap that
+        puts the new Simulation (built here, outside the lock) in place; otherwise (set(),
+        None): an update in place. Raises before anything changes."""
         current = self._sim.scenario
         restart = any(k in RESTART_FIELDS and v != getattr(current, k) for k, v in changes.items())
         if not restart and compare == self._compare:
-            lanes = None if compare is None else [{}, {"planner": compare}]
-            return self._sim.update(changes, lanes) if changes else set()
+            return set(), None
         new = Scenario(**{**current.model_dump(), **changes})
         if compare is not None and not given and new.mechanism not in _mechanisms(compare):
             compare = None  # the new mechanism has no such planner: the comparison ends
@@ -360,11 +418,14 @@ class LiveSession:
         changed = {k for k in changes if getattr(new, k) != getattr(current, k)}
         if compare != self._compare:
             changed.add(COMPARE)
-        self._sim, self._compare, self._debt = sim, compare, 0.0
-        self.restarts += 1
-        self.restart_reason = ", ".join(sorted(changed)) + " changed"
-        self.version += 1
-        return changed
+
+        def swap() -> None:
+            self._sim, self._compare, self._debt = sim, compare, 0.0
+            self.restarts += 1
+            self.restart_reason = ", ".join(sorted(changed)) + " changed"
+            self.version += 1
+
+        return changed, swap
 
     @staticmethod
     def _build(scenario: Scenario, compare: str | None) -> Simulation:
@@ -381,8 +442,12 @@ class LiveSession:
     def reset(self) -> None:
         """Start the current scenario (and its comparison lane) again from t = 0; a replay
         shown returns to the live simulation."""
+        self._command(self._reset)
+
+    def _reset(self) -> None:
+        sim = self._build(self._sim.scenario, self._compare)  # outside the lock
         with self._lock:
-            self._sim = self._build(self._sim.scenario, self._compare)
+            self._sim = sim
             self._debt = 0.0
             self.restarts += 1
             self.restart_reason = "reset"
@@ -401,12 +466,16 @@ class LiveSession:
         """
         replay = Replay.of(result, run_id)  # outside the lock: it builds the run's geometry
         replay.seek(t)
-        with self._lock:
-            if self._replay is None:
-                self._live_playing = self.controls.playing
-            self._replay = replay
-            self.controls.playing = bool(playing)
-            self.version += 1
+
+        def show() -> None:
+            with self._lock:
+                if self._replay is None:
+                    self._live_playing = self.controls.playing
+                self._replay = replay
+                self.controls.playing = bool(playing)
+                self.version += 1
+
+        self._command(show)
 
     def seek(self, t: float, playing: bool | None = None) -> None:
         """Move the replay shown to time t [s]; `playing` true or false plays or pauses it.
@@ -414,6 +483,9 @@ class LiveSession:
         Raises:
             ValueError: no replay is shown, or t is outside the run (nothing changes).
         """
+        self._command(lambda: self._seek(t, playing))
+
+    def _seek(self, t: float, playing: bool | None) -> None:
         with self._lock:
             if self._replay is None:
                 raise TwinError("t: no replay is shown; start one with a run id first")
@@ -494,6 +566,44 @@ class LiveSession:
                     break
             return taken
 
+    # -- commands ----------------------------------------------------------------------------
+    def _command(self, apply: Callable[[], Any]) -> Any:
+        """Have the session thread apply a change and return its outcome (its error raised
+        here). Without a running session thread (not started, stopped, or this is it), the
+        change is applied here, one command at a time."""
+        thread = self._thread
+        if thread is None or not thread.is_alive() or thread is threading.current_thread():
+            with self._applying:
+                return apply()
+        command = _Command(apply)
+        self._commands.put(command)
+        while not command.done.wait(COMMAND_POLL):
+            if not thread.is_alive():  # it stopped before it got to this one
+                self._apply_queued()
+        return command.outcome()
+
+    def _apply_queued(self) -> None:
+        """Apply every queued command, in order."""
+        with self._applying:
+            while True:
+                try:
+                    command = self._commands.get_nowait()
+                except queue.Empty:
+                    return
+                if command is not None:
+                    command.run()
+
+    def _serve_commands(self, timeout: float) -> None:
+        """(The session thread) wait up to `timeout` [s] for a command; apply those queued."""
+        try:
+            first = self._commands.get(timeout=max(timeout, 0.0))
+        except queue.Empty:
+            return
+        if first is not None:
+            with self._applying:
+                first.run()
+        self._apply_queued()
+
     def start(self) -> None:
         """Run the loop in a daemon thread (idempotent)."""
         if self._thread is not None and self._thread.is_alive():
@@ -504,8 +614,10 @@ class LiveSession:
 
     def stop(self) -> None:
         self._stop.set()
+        self._commands.put(None)  # wakes the loop
         if self._thread is not None:
             self._thread.join(timeout=5)
+        self._apply_queued()  # commands it left: nobody waits for ever
 
     def _run(self) -> None:
         last = time.perf_counter()
@@ -517,7 +629,11 @@ class LiveSession:
                 self.loop_errors += 1
                 log.exception("live step failed (%d so far); the loop goes on", self.loop_errors)
             last = now
-            self._stop.wait(max(MIN_PAUSE, self.tick - (time.perf_counter() - now)))
+            if self.controls.playing:
+                self._serve_commands(max(MIN_PAUSE, self.tick - (time.perf_counter() - now)))
+            else:  # nothing to step: sleep until a command (a play, a patch) or a stop
+                self._serve_commands(PAUSED_WAIT)
+                last = time.perf_counter()  # a play steps from now, owing nothing
 
 
 def _mechanisms(planner: str) -> tuple[str, ...]:

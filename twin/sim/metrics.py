@@ -123,6 +123,77 @@ def hybrid_metrics_lanes(
     return [hybrid_metrics_from(row, mechanism) for row in rows.tolist()]
 
 
+class HybridReduction:
+    """The hybrid system's metrics of N lanes reduced chunk by chunk, as the chunks are stepped:
+    each lane's accumulator row (`twin.sim.kernels.metrics`, N_ACC floats) is all it keeps, so
+    its memory does not depend on the run's length, and its metrics are `hybrid_metrics_lanes`'
+    of the same samples, to the bit (the same running sums, in the same order).
+
+    Args:
+        mechanism: the lanes' hybrid system (its joint limits and stroke).
+        ends: (N,) each lane's samples (≥ 1), from t = 0: its samples past its end are not added.
+        joint_limits: (N,) each lane's `Scenario.joint_limits`.
+        compiled: numba's runner (parallel over several lanes), or the interpreted one.
+    """
+
+    def __init__(
+        self,
+        mechanism: HybridBoardingSystem,
+        ends: np.ndarray,
+        joint_limits: Sequence[str],
+        compiled: bool,
+    ) -> None:
+        self.mechanism = mechanism
+        self.ends = np.asarray(ends, dtype=np.int64)
+        self.hold = np.array([mode == "hold" for mode in joint_limits], dtype=bool)
+        self.acc = np.empty((len(self.ends), kernel.N_ACC))
+        for row, end in zip(self.acc, self.ends.tolist(), strict=True):
+            kernel.hybrid_begin_lane(row, end)
+        self._run = pick_runner(
+            kernel.compiled_hybrid_add, kernel.run_hybrid_add, compiled, len(self.ends)
+        )
+
+    @property
+    def seen(self) -> np.ndarray:
+        """(N,) samples added so far per lane."""
+        return self.acc[:, kernel.A_SEEN].astype(np.int64)
+
+    def add(self, records: dict[str, np.ndarray], start: int) -> None:
+        """Add samples start … start + S − 1 of every lane (each up to its end), the next ones.
+
+        Args:
+            records: at least the keys of `twin.sim.kernels.metrics.REDUCED`, (N, S, ...) each.
+            start: the index of the chunk's first sample (0: t = 0).
+
+        Raises:
+            ValueError: samples that do not follow those already added.
+        """
+        S = records["t"].shape[1]
+        counts = np.clip(self.ends - start, 0, S)
+        wanted = np.minimum(self.ends, start)
+        if np.any(self.seen != wanted):
+            raise ValueError(f"reduction: samples from {start} on, after {self.seen.tolist()}")
+        stewart = self.mechanism.stewart
+        self._run(*(np.ascontiguousarray(records[key], dtype=float) for key in kernel.REDUCED),
+                  counts, self.hold, self.mechanism.lower, self.mechanism.upper,
+                  float(stewart.leg_min), float(stewart.leg_max), self.acc)  # fmt: skip
+
+    def results(self) -> list[dict]:
+        """Every lane's metrics dict (`hybrid_metrics_from`), as `hybrid_metrics_lanes` gives
+        them for the samples added (every lane's, up to its end).
+
+        Raises:
+            ValueError: a lane that has not had all its samples.
+        """
+        if np.any(self.seen != self.ends):
+            raise ValueError(f"reduction: lanes have {self.seen.tolist()} of "
+                             f"{self.ends.tolist()} samples")  # fmt: skip
+        rows = np.empty((len(self.ends), kernel.N_ROW))
+        for acc, row in zip(self.acc, rows, strict=True):
+            kernel.hybrid_finish_lane(acc, row)
+        return [hybrid_metrics_from(row, self.mechanism) for row in rows.tolist()]
+
+
 def hybrid_metrics_from(row: Sequence[float], mechanism: HybridBoardingSystem) -> dict:
     """A lane's metrics dict from its row of reductions (`twin.sim.kernels.metrics`, N_ROW):
     counts as ints; joints q1, q2, roll, pitch, yaw in degrees, x, y, z, d3 and legs in m; tip

@@ -152,6 +152,12 @@ class Scenario(PlannerParameters):
             _check_state(self.mechanism, self.initial_state)
         return self
 
+    @property
+    def planner_name(self) -> str:
+        """The planner's registry name: `planner`, which validation sets to the mechanism's
+        default (`DEFAULT_PLANNER`) when none is given, so never None here."""
+        return DEFAULT_PLANNER[self.mechanism] if self.planner is None else self.planner
+
     def parameters(self) -> PlannerParameters:
         """The planner knobs alone (a scenario is a `PlannerParameters` with more fields)."""
         return PlannerParameters(**self.model_dump(include=set(PlannerParameters.model_fields)))

@@ -325,7 +325,7 @@ def run_chunk(
             numba's own count).
     """
     with limit_threads(threads):
-        results = simulate_many(scenarios)
+        results = simulate_many(scenarios, keep="metrics")  # a cell reads metrics alone
     rows = []
     for fields, result in zip(scenarios, results, strict=True):
         m = result.metrics
@@ -501,7 +501,7 @@ def heatmap_png(
         knobs = f"β {beta:g}, k_e {k_e:g}, k_c {k_c:g}"  # the hybrid system's knobs
         if result.spec.mechanism != "hybrid":
             knobs = result.spec.mechanism
-        ax.set_title(f"{planner.upper()}, heading {heading:g}°\n{knobs}", fontsize=9)
+        ax.set_title(f"{str(planner).upper()}, heading {heading:g}°\n{knobs}", fontsize=9)
         if mark is not None and hs[0] <= mark[0] <= hs[-1] and tp[0] <= mark[1] <= tp[-1]:
             x = np.interp(mark[1], tp, np.arange(len(tp)))
             y = np.interp(mark[0], hs, np.arange(len(hs)))

@@ -146,7 +146,7 @@ class HeadingStrategy(BaseModel):
             raise TwinError(f"heading strategy {text!r}: headings must be numbers [deg]") from None
         if not headings:
             raise TwinError(f"heading strategy {text!r}: give the heading(s), e.g. {kind}:150")
-        return cls(kind=kind, headings=headings)  # type: ignore[arg-type]
+        return cls(kind=kind, headings=headings)
 
     def label(self) -> str:
         if self.kind == "record":
@@ -281,7 +281,7 @@ def _hybrid_limits() -> dict[str, tuple[float, float]]:
 def run_summary(metrics: dict[str, Any], mechanism: str) -> dict[str, Any]:
     """What a cell keeps of a run's metrics: violations, the tip's largest position error [m]
     and, if a limit was violated, the constraint that bound hardest (module docstring)."""
-    out = {
+    out: dict[str, Any] = {
         "violations": int(metrics["violations"]),
         "tip_error": float(metrics["tip_position_error_max"]),
         "limit": None,
@@ -321,7 +321,7 @@ def run_cells_chunk(
     from twin.sim.engine import simulate_many
 
     with limit_threads(threads):
-        results = simulate_many(scenarios)
+        results = simulate_many(scenarios, keep="metrics")  # a cell reads metrics alone
     return [run_summary(r.metrics, r.scenario.mechanism) for r in results]
 
 
@@ -351,6 +351,8 @@ class CellCache:
                            "summary TEXT NOT NULL, created REAL)")  # fmt: skip
 
     def _connect(self) -> sqlite3.Connection:
+        if self.path is None:  # callers check: the in-memory cache has no database
+            raise RuntimeError("cell cache: in memory (no data dir), no database to open")
         return sqlite3.connect(self.path, timeout=30.0)
 
     def get(self, keys: Sequence[str]) -> dict[str, dict[str, Any]]:
@@ -656,7 +658,7 @@ def _evaluate(
     def judge(planner: str, h: float, p: float, b: float) -> tuple[float, str]:
         key = (planner, h, p, b)
         if key not in memo:
-            ok, limits = 0, Counter()
+            ok, limits = 0, Counter[str]()
             for seed in seeds:
                 s = summaries[(planner, h, p, b, seed)]
                 if s["violations"] == 0 and s["tip_error"] <= threshold:

@@ -23,11 +23,13 @@ from matplotlib.figure import Figure
 from twin.site.windows import regular_series
 
 if TYPE_CHECKING:
+    from matplotlib.typing import LineStyleType
+
     from twin.sim.workability import WorkabilityResult
 
 #: planner bar colours (colour-blind safe), threshold line styles
 COLOURS = ("#0072B2", "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00", "#F0E442")
-DASHES = (":", "--", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 3)), "-")
+DASHES: tuple[LineStyleType, ...] = (":", "--", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 3)), "-")
 #: strip colours by probability: not operable … operable, no data grey
 STRIP = ListedColormap(["#d7301f", "#fc8d59", "#fee08b", "#91cf60", "#1a9850"])
 
@@ -92,7 +94,7 @@ def windows(result: WorkabilityResult) -> Figure:
     w = f"{result.spec.window_hours[0]:g}" if result.spec.window_hours else None
     figure = Figure(figsize=(6.0, 3.6), layout="constrained")
     ax = figure.subplots()
-    series = []
+    series: list[tuple[str, list[float], str, LineStyleType]] = []  # label, lengths, colour, style
     for k, (planner, entry) in enumerate(summary["planners"].items()):
         stats = entry["windows"].get(w) if w else None
         if stats:
@@ -104,7 +106,7 @@ def windows(result: WorkabilityResult) -> Figure:
             series.append((f"Hs < {limit} m: {stats['count']}", stats["lengths"], "black",
                            DASHES[k % len(DASHES)]))  # fmt: skip
     longest = max([max(s[1], default=0.0) for s in series] + [1.0])
-    bins = np.linspace(float(w or 0), longest + 1e-9, 16) if w else 10
+    bins = np.linspace(float(w or 0), longest + 1e-9, 16).tolist() if w else 10
     for label, lengths, colour, style in series:
         ax.hist(lengths, bins=bins, histtype="step", color=colour, linestyle=style, linewidth=1.6,
                 label=label)  # fmt: skip

@@ -388,7 +388,7 @@ def _table(path: Path) -> tuple[pd.DataFrame, np.ndarray, str]:
             table = pd.read_parquet(path)
         except Exception as exc:  # pyarrow's errors have no common base
             raise TwinError(f"{path.name}: not a readable Parquet file ({exc})") from None
-        table = table.astype(object).where(table.notna(), None).astype(str)
+        table = table.astype(object).mask(table.isna(), "").astype(str)
         table = table.replace({"None": "", "NaT": "", "nan": ""})
         return table, np.arange(len(table)) + 1, "row"
     try:

@@ -184,8 +184,8 @@ def _end_caps(
     # twin_cylinder: horizontal strips between the inner point j and outer point n - j.
     n = y.size - 1
     vertices = np.stack([np.full(y.size, x_end), y, z], -1)
-    j = np.arange(n // 2)
-    return vertices, np.stack([j, j + 1, n - j - 1, n - j], -1)
+    inner = np.arange(n // 2)
+    return vertices, np.stack([inner, inner + 1, n - inner - 1, n - inner], -1)
 
 
 def _triangles(vertices: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

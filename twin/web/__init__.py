@@ -1,5 +1,5 @@
 """Web layer: the REST API, the run store and its jobs, and `serve`, which runs them with the
-live session, the 3D viewer (`twin.web.scene`) and the one executor of runs and sweeps
+live session, the 3D viewer (`twin.web.viewer`) and the one executor of runs and sweeps
 (`twin.sim.executor`) in one process.
 
 It calls only the simulation layer (`twin.sim`) and reads the registries.

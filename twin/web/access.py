@@ -1,7 +1,7 @@
 """Who may talk to the twin: the hosts it answers to, the origins it trusts, and the token.
 
 `Access` is the policy, shared by the REST app (`Guard`, an ASGI middleware) and the 3D viewer
-(`twin.web.scene`, which checks the websocket handshake and unlocks controls with the token):
+(`twin.web.viewer`, which checks the websocket handshake and unlocks controls with the token):
 
 - **Host** (every REST request): the `Host` header must name the server as it was started: a
   loopback name (localhost, 127.0.0.1, ::1), the address it is bound to, or a name given with
@@ -149,7 +149,8 @@ class Access:
         allow_hosts: Iterable[str] = (),
         allow_origins: Iterable[str] = (),
         private: bool = False,
-        **limits: float,
+        failure_burst: int = FAILURE_BURST,
+        failure_rate: float = FAILURE_RATE,
     ) -> Access:
         """The policy of a server bound to `bind` on `ports`.
 
@@ -161,7 +162,7 @@ class Access:
             allow_hosts: more names it answers to (`--allow-host`), e.g. its DNS name.
             allow_origins: more origins it trusts (`--allow-origin`), e.g. a TLS proxy's
                 `https://twin.example.com`.
-            limits: `failure_burst`, `failure_rate`.
+            failure_burst, failure_rate: the failed-token limits (`Access`'s).
 
         Raises:
             ValueError: a host or origin that is not one (naming it), or a short token.
@@ -184,9 +185,9 @@ class Access:
             except ValueError as exc:
                 raise TwinError(f"--allow-origin {origin!r}: {exc}") from None
         return cls(
-            token, frozenset(hosts), frozenset(origins), frozenset(ports), **limits,
-            private=private,
-        )  # type: ignore[misc]  # fmt: skip
+            token, frozenset(hosts), frozenset(origins), frozenset(ports),
+            failure_burst=failure_burst, failure_rate=failure_rate, private=private,
+        )  # fmt: skip
 
     def allows_host(self, header: str | None) -> bool:
         """Whether a request's Host header names this server (a request must have one)."""

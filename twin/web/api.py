@@ -161,16 +161,17 @@ def create_app(
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
-        own = None
+        own: Executor | None = None  # an executor this app started, and so closes
         services.stopping.clear()
         if warmup is None:
-            if executor is None:
-                own = await run_in_threadpool(Executor.start, IN_PROCESS)
-            services.executor = executor if executor is not None else own
-            await run_in_threadpool(services.jobs.start, services.executor)
-            await run_in_threadpool(services.sweeps.start, services.executor)
+            running = executor
+            if running is None:
+                running = own = await run_in_threadpool(Executor.start, IN_PROCESS)
+            services.executor = running
+            await run_in_threadpool(services.jobs.start, running)
+            await run_in_threadpool(services.sweeps.start, running)
             if services.workability is not None:
-                await run_in_threadpool(services.workability.start, services.executor)
+                await run_in_threadpool(services.workability.start, running)
         try:
             yield
         finally:

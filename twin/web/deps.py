@@ -128,41 +128,44 @@ class Services:
             self.workability.start(executor)
 
 
-def get_services(request: Request) -> Services:
+async def get_services(request: Request) -> Services:
+    """The app's services. These getters are `async def`: FastAPI runs a plain `def`
+    dependency in its thread pool, and a request with five of them waited for five thread
+    hops (under load each hop waits for the GIL): issue 30's health p99 and POST p50."""
     return request.app.state.services
 
 
 ServicesDep = Annotated[Services, Depends(get_services)]
 
 
-def get_session(services: ServicesDep) -> LiveSession:
+async def get_session(services: ServicesDep) -> LiveSession:
     if services.session is None:
         message = services.warmup.message() if services.warmup else "no live session"
         raise HTTPException(503, message, headers={"Retry-After": "2"})
     return services.session
 
 
-def get_store(services: ServicesDep) -> RunStore:
+async def get_store(services: ServicesDep) -> RunStore:
     return services.store
 
 
-def get_jobs(services: ServicesDep) -> JobRunner:
+async def get_jobs(services: ServicesDep) -> JobRunner:
     return services.jobs
 
 
-def get_sweeps(services: ServicesDep) -> SweepRunner:
+async def get_sweeps(services: ServicesDep) -> SweepRunner:
     return services.sweeps
 
 
-def get_executor(services: ServicesDep) -> Executor | None:
+async def get_executor(services: ServicesDep) -> Executor | None:
     return services.executor
 
 
-def get_access(services: ServicesDep) -> Access:
+async def get_access(services: ServicesDep) -> Access:
     return services.access
 
 
-def get_admission(services: ServicesDep) -> Admission:
+async def get_admission(services: ServicesDep) -> Admission:
     return services.admission
 
 
@@ -182,7 +185,7 @@ BEARER = HTTPBearer(
 )
 
 
-def require_access(
+async def require_access(
     request: Request,
     access: AccessDep,
     _: Annotated[HTTPAuthorizationCredentials | None, Depends(BEARER)],

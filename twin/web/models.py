@@ -8,7 +8,7 @@ takes a path: a vessel is one of the shipped RAO tables by name.
 from __future__ import annotations
 
 import re
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from fastapi.responses import JSONResponse
 from pydantic import (
@@ -20,6 +20,7 @@ from pydantic import (
     field_validator,
     model_validator,
 )
+from pydantic.fields import FieldInfo
 
 from twin.mechanisms import MECHANISMS
 from twin.planners import PLANNERS, PlannerParameters, get_planner
@@ -151,7 +152,10 @@ class Registries(BaseModel):
 
 #: the shipped RAO tables: over REST a vessel is named, never a path (a path would let a
 #: request make the server open any file it can read)
-VesselName = Literal[tuple(available_raos())]
+if TYPE_CHECKING:  # the tables are found at import: to mypy a name is a str
+    VesselName = str
+else:
+    VesselName = Literal[tuple(available_raos())]
 
 
 def _known_planner(value: str | None) -> str | None:
@@ -164,7 +168,7 @@ def _known_planner(value: str | None) -> str | None:
 class RunRequest(Scenario):
     """A scenario as a request gives it: the `Scenario` fields, `vessel` by name only."""
 
-    vessel: VesselName | None = Field(  # type: ignore[valid-type]
+    vessel: VesselName | None = Field(
         None,
         description="shipped RAO table by name (assets/vessels); default: the mechanism's "
         "mount. Your own .nc table is loaded from Python (`Scenario(vessel=path)`), not REST.",
@@ -203,7 +207,9 @@ LIVE_FIELDS = tuple(name for name in SESSION_FIELDS if name not in LiveControls.
 def _optional(model: type[BaseModel], name: str) -> tuple[Any, Any]:
     """(annotation, field) of `model.name` made optional, its range kept."""
     info = model.model_fields[name]
-    annotation = Annotated[info.annotation, *info.metadata] if info.metadata else info.annotation
+    annotation: Any = (
+        Annotated[info.annotation, *info.metadata] if info.metadata else info.annotation
+    )
     return annotation | None, Field(None, description=info.description)
 
 
@@ -214,23 +220,28 @@ def _one_sea_patch(cls: type, data: Any) -> Any:
     return data
 
 
-LivePatch = create_model(
-    "LivePatch",
-    __config__=ConfigDict(extra="forbid", allow_inf_nan=False),
-    __doc__="Fields to change in the live session; omitted fields stay as they are.",
-    __validators__={
-        "_known_planner": field_validator("planner", COMPARE)(_known_planner),
-        "_one_sea": model_validator(mode="before")(_one_sea_patch),
-    },
+#: LivePatch's fields (annotation, field) by name and its validators
+_PATCH_FIELDS: dict[str, Any] = {
     **{name: _optional(RunRequest, name) for name in LIVE_FIELDS},
-    **{COMPARE: (
+    COMPARE: (
         str | None,
         Field(None, description="a second planner run beside the first on the same vessel "
               "motion, with the same knobs (the viewer draws it as a ghost); null stops it. "
               "Setting or changing it restarts the session at t = 0"),
-    )},
+    ),
     **{name: _optional(LiveControls, name) for name in LiveControls.model_fields},
-)  # fmt: skip
+}  # fmt: skip
+_PATCH_VALIDATORS: dict[str, Any] = {
+    "_known_planner": field_validator("planner", COMPARE)(_known_planner),
+    "_one_sea": model_validator(mode="before")(_one_sea_patch),
+}
+LivePatch = create_model(
+    "LivePatch",
+    __config__=ConfigDict(extra="forbid", allow_inf_nan=False),
+    __doc__="Fields to change in the live session; omitted fields stay as they are.",
+    __validators__=_PATCH_VALIDATORS,
+    **_PATCH_FIELDS,
+)
 
 
 class LiveCompare(BaseModel):
@@ -258,17 +269,22 @@ class ReplayRequest(BaseModel):
     t: float = Field(0.0, ge=0.0, description="[s] where to start (at most the run's end)")
     playing: bool = Field(True, description="play (true) or stay paused (false)")
 
-LiveState = create_model(
-    "LiveState",
-    __doc__="The live session: its scenario fields, flat, with time, controls and metrics.",
+def _described(info: FieldInfo) -> tuple[Any, Any]:
+    """(annotation, field) of a model's field as `create_model` takes it: required, its
+    description kept."""
+    return info.annotation, Field(description=info.description)
+
+
+#: LiveState's fields, (annotation, field) by name, in the schema's order
+_STATE_FIELDS: dict[str, Any] = dict(
     **{
-        name: (info.annotation, Field(description=info.description))
+        name: _described(info)
         for name, info in Scenario.model_fields.items()
         if name in LIVE_FIELDS
     },
     t=(float, Field(description="[s] simulated time")),
     **{
-        name: (info.annotation, Field(description=info.description))
+        name: _described(info)
         for name, info in LiveControls.model_fields.items()
     },
     metrics=(dict[str, Any], Field(description="metrics over the live history (a replay: "
@@ -293,6 +309,11 @@ LiveState = create_model(
             "and `loop_errors`"
         ),
     ),
+)
+LiveState = create_model(
+    "LiveState",
+    __doc__="The live session: its scenario fields, flat, with time, controls and metrics.",
+    **_STATE_FIELDS,
 )
 
 # -- errors ------------------------------------------------------------------------------------

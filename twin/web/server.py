@@ -295,7 +295,7 @@ def serve(
         allow_origins: more browser origins trusted as the server's own
             (scheme://host:port, e.g. a TLS proxy's).
         run_budget: [s] wall-clock budget of one run.
-        graphics: what the viewer's browsers render (`twin.web.scene.GRAPHICS`): "light"
+        graphics: what the viewer's browsers render (`twin.web.viewer.GRAPHICS`): "light"
             without environment map and shadows, for browsers without a GPU.
         forwarded_allow_ips: proxies (addresses, or "*") whose X-Forwarded-For names the
             client; default none: the client is the socket's peer.
@@ -315,7 +315,7 @@ def serve(
     quiet_resource_tracker()
     if viewer:
         # Imported here: the scene pulls in viser and the meshes, which REST-only needs not.
-        from twin.web.scene import check_graphics, start_viewer
+        from twin.web.viewer import check_graphics, start_viewer
 
         check_graphics(graphics)
     if not is_loopback(host) and not token:

@@ -15,9 +15,17 @@ import pytest
 
 from tests.conftest import random_hybrid_states
 from tests.sim.oracle import held_target, pack_target
+from twin.mechanisms.gangway import gangway_inverse_lane
 from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
 from twin.planners import HYBRID_RATE_LIMITS
-from twin.planners.allocation import AllocationPlanner, reachable_range
+from twin.planners.allocation import (
+    ALLOCATION_PARAMETERS,
+    METHODS,
+    AllocationPlanner,
+    reachable_range,
+    reachable_range_lane,
+)
 from twin.planners.target import TipTarget
 from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.kernels import allocation as ak
@@ -30,6 +38,9 @@ DT = 0.05  # [s]
 N_STEPS = 100
 TOL = 1e-9
 MECHANISM = HybridBoardingSystem()
+STEWART, GANGWAY = MECHANISM.stewart, MECHANISM.gangway
+BASE = MECHANISM.layout.base_hinges.ravel()
+PLATFORM = MECHANISM.layout.platform_hinges.ravel()
 
 #: starts: the working state, off-centre, a low platform near the leg minimum (small reach,
 #: clipped shares) and one whose legs are outside their stroke (reach and shares zero)
@@ -64,7 +75,8 @@ def allocation_step(
     R = np.empty((3, 3))
     rpy_to_matrix_lane(x[3], x[4], x[5], R)
     work = ak.allocation_work()
-    return ak.allocation_velocity(x, R, target, prm, memory, const, dt, work, v_out, diag_out)
+    record = prm.view(ALLOCATION_PARAMETERS)[0]  # the row by name, as the runner reads it
+    return ak.allocation_velocity(x, R, target, record, memory, const, dt, work, v_out, diag_out)
 
 
 @pytest.fixture(scope="module")
@@ -122,17 +134,18 @@ def test_pack_round_trip(method: str, hold: bool, base: BaseSamples) -> None:
     assert prm.shape == (lay.N_PARAMETERS,) and memory.shape == (lay.N_MEMORY,)
     assert prm[lay.P_KIND] == lay.KIND_ALLOCATION
     assert prm[lay.P_HOLD] == (1.0 if hold else 0.0)
-    assert prm[ak.P_METHOD] == ak.METHODS[method]
-    manip_mid, range_mid = planner._mid
-    assert prm[ak.P_MANIP_MID] == manip_mid
-    np.testing.assert_array_equal(prm[ak.P_RANGE_MID : ak.P_RANGE_MID + 3], range_mid)
-    np.testing.assert_array_equal(prm[ak.P_T_P0 : ak.P_T_P0 + 12].reshape(3, 4), planner._T_P0[:3])
-    T_E0_inv = prm[ak.P_T_E0_INV : ak.P_T_E0_INV + 12].reshape(3, 4)
-    np.testing.assert_array_equal(T_E0_inv, planner._T_E0_inv[:3])
-    assert prm[ak.P_YAW0] == pytest.approx(xi[5], abs=1e-12)
-    np.testing.assert_array_equal(prm[ak.P_Q0 : ak.P_Q0 + 3], xi[6:])
+    record = prm.view(ALLOCATION_PARAMETERS)[0]
+    assert record["method"] == METHODS[method]
+    manip_mid, range_mid = planner.start.manip_mid, planner.start.range_mid
+    assert record["manip_mid"] == manip_mid
+    np.testing.assert_array_equal(record["range_mid"], range_mid)
+    np.testing.assert_array_equal(record["T_P0"].reshape(3, 4), planner.start.T_P0[:3])
+    np.testing.assert_array_equal(record["T_E0_inv"].reshape(3, 4), planner.start.T_E0_inv[:3])
+    assert record["yaw0"] == pytest.approx(xi[5], abs=1e-12)
+    np.testing.assert_array_equal(record["q0"], xi[6:])
     np.testing.assert_array_equal(memory[ak.M_SHARE : ak.M_SHARE + 3], planner._share)
-    assert not np.any(prm[ak.N_ALLOCATION_PARAMETERS :]) and not np.any(memory[3:])
+    used = sum(ALLOCATION_PARAMETERS[name].itemsize for name in ALLOCATION_PARAMETERS.names) // 8
+    assert not np.any(prm[used:]) and not np.any(memory[3:])
 
 
 def test_pack_refuses_unreset_or_unknown() -> None:
@@ -169,15 +182,15 @@ def test_primitives_match_twin(rng: np.random.Generator) -> None:
     for xi in states:
         T = pose_to_transform(xi[:6])
         legs = MECHANISM.stewart.legs(xi[:6])
-        ak.leg_vectors_lane(T[:3, :3], T[:3, 3], CONST, vectors, lengths)
+        leg_vectors_lane(T[:3, :3], T[:3, 3], BASE, PLATFORM, vectors, lengths)
         np.testing.assert_allclose(vectors, legs.vectors, atol=1e-12)
         np.testing.assert_allclose(lengths, legs.lengths, atol=1e-12)
-        manip = ak.manipulability_lane(T[:3, :3], vectors, lengths, CONST, J)
+        manip = manipulability_lane(T[:3, :3], vectors, lengths, PLATFORM, J)
         assert manip == pytest.approx(MECHANISM.manipulability(xi), rel=1e-12)
-        ak.reachable_range_lane(vectors, lengths, CONST, reach)
+        reachable_range_lane(vectors, lengths, STEWART.leg_min, STEWART.leg_max, reach)
         np.testing.assert_allclose(reach, reachable_range(MECHANISM, xi[:6]), atol=1e-12)
         tip = MECHANISM.gangway.forward(xi[6:])[:3, 3]
-        ak.gangway_inverse_lane(*tip, CONST, q)
+        gangway_inverse_lane(*tip, GANGWAY.d1, GANGWAY.a1, q)
         np.testing.assert_allclose(q, xi[6:], atol=1e-12)
         ak.so3_exp_lane(*xi[3:6], R)
         np.testing.assert_allclose(R, so3_exp(xi[3:6]), atol=1e-14)

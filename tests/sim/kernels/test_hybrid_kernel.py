@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from tests.sim.oracle import (
-    LIMIT_BISECTIONS,
     HybridStep,
     held_target,
     hybrid_advance,
@@ -23,11 +22,14 @@ from tests.sim.oracle import (
     pack_target,
     unpack_target,
 )
+from twin import spatial
 from twin.errors import TwinError
-from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.mechanisms.hybrid import HybridBoardingSystem, integrate_hybrid, tip_transform
+from twin.mechanisms.legs import leg_lengths_lane
 from twin.planners import PlannerParameters, get_planner
-from twin.planners.differential import DifferentialPlanner
+from twin.planners.differential import DIFFERENTIAL_PARAMETERS, DifferentialPlanner
 from twin.planners.limits import SlewPriority, VelocityLimit
+from twin.planners.linalg import cholesky_lane, smallest_eigenvalue_bound
 from twin.planners.registry import HYBRID_RATE_LIMITS
 from twin.planners.target import TipTarget
 from twin.planners.tasks import JointPostureTask, TipPoseTask
@@ -125,9 +127,10 @@ def differential(
     `damped_differential_velocity` where it needs the SVD (as `run_hybrid` does)."""
     R, work = np.empty((3, 3)), hk.differential_work()
     hk.rpy_to_matrix_lane(x[3], x[4], x[5], R)
-    bits = hk.differential_velocity(x, R, target, prm, const, work, v, diag)
+    record = prm.view(DIFFERENTIAL_PARAMETERS)[0]  # the row by name, as the runner reads it
+    bits = hk.differential_velocity(x, R, target, record, const, work, v, diag)
     if bits == hk.NEEDS_SVD:
-        bits = hk.damped_differential_velocity(x, prm, work, v, diag)
+        bits = hk.damped_differential_velocity(x, record, work, v, diag)
     return bits
 
 
@@ -428,12 +431,13 @@ def _primitives(
     """Every shared primitive compiled, on one input."""
     T, G, w, rpy = np.empty((4, 4)), np.empty((4, 4)), np.empty(3), np.empty(3)
     R_out, x_next, legs, excess = np.empty((3, 3)), np.empty(9), np.empty(6), np.empty(15)
-    hk.so3_log_lane(R, w)
-    hk.matrix_to_rpy_lane(R, rpy)
-    hk.rpy_to_matrix_lane(x[3], x[4], x[5], R_out)  # x's ᴮR_P, which the others take
-    hk.tip_transform(x, R_out, const, G, T)
-    hk.integrate_hybrid(x, R_out, v, dt, x_next)
-    hk.leg_lengths_lane(x, R_out, const, legs)
+    spatial.so3_log_lane(R, w)
+    spatial.matrix_to_rpy_lane(R, rpy)
+    spatial.rpy_to_matrix_lane(x[3], x[4], x[5], R_out)  # x's ᴮR_P, which the others take
+    tip_transform(x, R_out, const[layout.C_D1], const[layout.C_A1], G, T)
+    integrate_hybrid(x, R_out, v, dt, x_next)
+    base = const[layout.C_BASE_HINGES : layout.C_BASE_HINGES + 18]
+    leg_lengths_lane(R_out, x, base, const[layout.C_PLATFORM_HINGES :][:18], legs)
     hk.limit_excess_lane(x, R_out, const, excess)
     scale = hk.limit_scale_lane(x, R_out, v, dt, const, hk.limit_work())
     return T, w, rpy, R_out, x_next, legs, excess, scale
@@ -489,8 +493,6 @@ def test_constants_and_fault_bits() -> None:
     assert layout.FAULT_KINEMATICS == Fault.KINEMATICS
     assert layout.FAULT_JOINT_LIMIT == Fault.JOINT_LIMIT
     assert layout.FAULT_SINGULAR == Fault.SINGULAR
-    assert hk.LIMIT_BISECTIONS == LIMIT_BISECTIONS
-    assert hk.P_DIFFERENTIAL_END <= layout.N_PARAMETERS
 
 
 # ------------------------------------------------------------------------------------ packing
@@ -518,11 +520,12 @@ def test_every_registry_planner_packs(rng: np.random.Generator) -> None:
             assert np.all(np.isfinite(prm))
             assert prm[layout.P_KIND] == layout.KIND_DIFFERENTIAL
             assert prm[layout.P_HOLD] == (name == "mtmp")
-            assert prm[hk.P_GAIN] == parameters.k_e
-            assert prm[hk.P_DAMPING] == parameters.damping
-            assert prm[hk.P_JOINT_LIMITS] == prm[hk.P_SLEW] == (name == "mtmp")
-            assert prm[hk.P_POSTURE_INDEX] == (7 if name == "mtmp" else -1)
-            np.testing.assert_array_equal(prm[hk.P_RATE : hk.P_RATE + 9], HYBRID_RATE_LIMITS)
+            record = prm.view(DIFFERENTIAL_PARAMETERS)[0]
+            assert record["gain"] == parameters.k_e
+            assert record["damping"] == parameters.damping
+            assert record["joint_limits"] == record["slew"] == (name == "mtmp")
+            assert record["posture_index"] == (7 if name == "mtmp" else -1)
+            np.testing.assert_array_equal(record["rate"], HYBRID_RATE_LIMITS)
 
 
 def test_packing_refuses_what_the_kernel_cannot_run() -> None:
@@ -553,12 +556,12 @@ def _factor_and_bound(A: np.ndarray, shift: float) -> tuple[bool, float, bool]:
     """`cholesky_lane` of A into a new L (whether it succeeded), the bound of L, and whether
     factoring a copy of A in place gave the same."""
     L, inplace = np.zeros((6, 6)), A.copy()
-    ok = hk.cholesky_lane(A, shift, L)
-    same = hk.cholesky_lane(inplace, shift, inplace) == ok
+    ok = cholesky_lane(A, shift, L)
+    same = cholesky_lane(inplace, shift, inplace) == ok
     for i in range(6):
         for j in range(i + 1):
             same = same and (not ok or inplace[i, j] == L[i, j])
-    return ok, hk.smallest_eigenvalue_bound(L) if ok else 0.0, same
+    return ok, smallest_eigenvalue_bound(L) if ok else 0.0, same
 
 
 @pytest.mark.parametrize("conditioning", [1.0, 1e3, 1e8])

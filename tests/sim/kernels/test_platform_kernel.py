@@ -1,16 +1,18 @@
-"""The small platforms' kernel (twin/sim/kernels/platform.py) against its oracle, step by step.
+"""The small platforms' runner (twin/sim/kernels/platform.py) against the rig, step by step.
 
 The oracle is `PlatformPlanner` and `PlatformModel` stepped as the rig stepped them (the old
 `PlatformRig.advance`, transcribed in `tests.sim.oracle.platform_advance`): planner step,
 non-finite rates held (PLANNER), lengths stopped at the stroke (JOINT_LIMIT), forward
-kinematics warm-started at the previous state, its failure held (KINEMATICS). Lanes of one
-mechanism run together in chunks, on the plain-Python and the compiled kernel, and must agree
-with the oracle at every step.
+kinematics warm-started at the previous state, its failure held (KINEMATICS). The objects run
+the same lane functions as the kernel (`twin.planners.platform`, `twin.mechanisms.platforms`,
+held to the papers and to finite differences in their own tests), so what is checked here is
+the runner: the guard, the end stops, the faults, the PID's memory carried across chunks, the
+lanes in parallel. Lanes of one mechanism run together in chunks, on the plain-Python and the
+compiled runner, and must agree with the oracle at every step.
 """
 
 from __future__ import annotations
 
-import inspect
 from dataclasses import dataclass, field
 from functools import cache
 
@@ -18,13 +20,15 @@ import numpy as np
 import pytest
 
 from tests.sim.oracle import held_target, pack_target, platform_advance
-from twin.errors import TwinError
 from twin.mechanisms import Upr4, Upu3Up
+from twin.mechanisms.platforms import MECHANISM_UPR4, MECHANISM_UPU3UP
 from twin.planners.platform import (
-    FIT_MAX_ITER,
-    FIT_TOL,
+    LAW_IK,
+    LAW_PID,
+    PLATFORM_PARAMETERS,
     PlatformModel,
     PlatformPlanner,
+    memory_record,
     platform_builder,
 )
 from twin.sim.base_motion import BaseMotion
@@ -37,8 +41,6 @@ from twin.sim.kernels.layout import (
     N_MEMORY,
     N_PARAMETERS,
     N_TARGET,
-    P_HOLD,
-    P_KIND,
 )
 from twin.sim.scenario import Scenario
 from twin.spatial import pose_to_transform
@@ -254,71 +256,42 @@ def test_compiled_and_python_agree(mechanism: str) -> None:
     assert_records_close(run(mechanism, "parallel"), python, n_legs)
 
 
-@pytest.mark.parametrize("mechanism", ["upu3up", "upr4"])
-def test_fit_matches_platform_model_fit(mechanism: str, rng: np.random.Generator) -> None:
-    """`fit` succeeds where `PlatformModel.fit` does, with the same state, over random lengths
-    in the stroke (Upu3Up: converged, no convergence and beyond-the-envelope cases)."""
-    mech = Upu3Up() if mechanism == "upu3up" else Upr4()
-    model = PlatformModel(mech)
-    const = kernel.platform_constants(model)
-    n = model.n_legs
-    low, high = model.stroke
-    guess = mech.working_state
-    x, step, o, residual = np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(4)
-    R, J, M = np.zeros((3, 3)), np.zeros((4, 3)), np.zeros((3, 4))
-    outcomes = set()
-    for lengths in rng.uniform(low, high, size=(250, n)):
-        try:
-            expected = model.fit(lengths, guess)
-        except TwinError:
-            expected = None
-        ok = kernel.fit(lengths, guess, const, x, R, o, residual, J, M, step)
-        assert ok == (expected is not None), lengths
-        if ok:
-            np.testing.assert_allclose(x, expected, rtol=0.0, atol=TOL)
-        outcomes.add(ok)
-    assert outcomes == {True, False}
-
-
 def test_constants_and_packing() -> None:
-    """`platform_constants` and `pack_platform` hold what the oracle objects hold."""
-    upu = PlatformModel(Upu3Up())
-    const = kernel.platform_constants(upu)
-    assert const[kernel.C_MECHANISM] == kernel.MECHANISM_UPU3UP
-    assert (const[kernel.C_N_LEGS], const[kernel.C_UNIT]) == (3, 1e-3)
-    assert (const[kernel.C_STROKE_LOW], const[kernel.C_STROKE_HIGH]) == (620.0, 1460.0)
-    high = const[kernel.C_ENVELOPE_HIGH : kernel.C_ENVELOPE_HIGH + 3]
-    np.testing.assert_array_equal(high, [420.0, np.radians(85.0), np.radians(85.0)])
-    upr = PlatformModel(Upr4(), z_hold=0.6)
-    const = kernel.platform_constants(upr)
-    assert const[kernel.C_MECHANISM] == kernel.MECHANISM_UPR4
-    assert (const[kernel.C_N_LEGS], const[kernel.C_UNIT]) == (4, 1.0)
+    """`PlatformModel.pack` and `PlatformPlanner.pack` / `pack_memory` hold, by name, what the
+    objects hold."""
+    g = PlatformModel(Upu3Up()).pack()[0]
+    assert g["mechanism"] == MECHANISM_UPU3UP
+    assert (g["n_legs"], g["unit"], g["l"]) == (3, 1e-3, 1040.0)
+    assert (g["stroke_low"], g["stroke_high"]) == (620.0, 1460.0)
+    np.testing.assert_array_equal(g["envelope_high"], [420.0, np.radians(85.0), np.radians(85.0)])
+    np.testing.assert_array_equal(g["base_hinges"][:9], Upu3Up().layout_mm.base_hinges[:3].ravel())
+    np.testing.assert_array_equal(g["base_hinges"][9:], 0.0)  # no fourth actuated limb
+    g = PlatformModel(Upr4(), z_hold=0.6).pack()[0]
+    assert g["mechanism"] == MECHANISM_UPR4
+    assert (g["n_legs"], g["unit"]) == (4, 1.0)
     low, high = Upr4().state_limits
-    np.testing.assert_array_equal(const[kernel.C_STATE_LOW : kernel.C_STATE_LOW + 3], low)
-    np.testing.assert_array_equal(const[kernel.C_STATE_HIGH : kernel.C_STATE_HIGH + 3], high)
-    assert const.shape == (kernel.N_PLATFORM_CONSTANTS,)
+    np.testing.assert_array_equal(g["state_low"], low)
+    np.testing.assert_array_equal(g["state_high"], high)
+    assert np.all(np.isinf(g["envelope_high"]))
 
+    upr = PlatformModel(Upr4(), z_hold=0.6)
     planner = PlatformPlanner(upr, "pid", 0.1, kp=8.0, ki=1e-3, kd=0.02)
-    prm, memory = kernel.pack_platform(planner, hold=False)
-    assert (prm[P_KIND], prm[P_HOLD], prm[kernel.P_LAW]) == (KIND_PLATFORM, 0.0, kernel.LAW_PID)
-    assert (prm[kernel.P_KP], prm[kernel.P_KI], prm[kernel.P_KD]) == (8.0, 1e-3, 0.02)
-    assert (prm[kernel.P_SPEED_LIMIT], prm[kernel.P_Z_HOLD]) == (0.1, 0.6)
-    assert memory[kernel.M_HAS_PREVIOUS] == 0.0  # no reset yet: the derivative starts from e
+    prm = planner.pack(hold=False)
+    assert prm.shape == (N_PARAMETERS,)
+    p = prm.view(PLATFORM_PARAMETERS)[0]
+    assert (p["kind"], p["hold"], p["law"]) == (KIND_PLATFORM, 0.0, LAW_PID)
+    assert (p["kp"], p["ki"], p["kd"]) == (8.0, 1e-3, 0.02)
+    assert (p["speed_limit"], p["z_hold"]) == (0.1, 0.6)
+    memory = np.zeros(N_MEMORY)
+    planner.pack_memory(memory)
+    assert memory_record(memory)["has_previous"] == 0.0  # no reset: the derivative starts from e
     planner.integral = np.array([1.0, 2.0, 3.0, 4.0])
-    planner._previous_error = np.array([5.0, 6.0, 7.0, 8.0])
+    planner.previous_error = np.array([5.0, 6.0, 7.0, 8.0])
     prm, memory = kernel.pack_platform(planner, hold=True)
-    np.testing.assert_array_equal(memory[kernel.M_INTEGRAL : kernel.M_INTEGRAL + 4], [1, 2, 3, 4])
-    np.testing.assert_array_equal(memory[kernel.M_PREVIOUS : kernel.M_PREVIOUS + 4], [5, 6, 7, 8])
-    assert (memory[kernel.M_HAS_PREVIOUS], prm[P_HOLD]) == (1.0, 1.0)
+    m = memory_record(memory)
+    np.testing.assert_array_equal(m["integral"], [1, 2, 3, 4])
+    np.testing.assert_array_equal(m["previous"], [5, 6, 7, 8])
+    assert (m["has_previous"], prm.view(PLATFORM_PARAMETERS)[0]["hold"]) == (1.0, 1.0)
     ik = PlatformPlanner(PlatformModel(Upu3Up()), "ik", 0.1)
-    prm, _ = kernel.pack_platform(ik, hold=True)
-    assert (prm[kernel.P_LAW], prm[kernel.P_SPEED_LIMIT]) == (kernel.LAW_IK, 100.0)
-
-
-def test_tolerances_are_the_oracles() -> None:
-    """The kernel's Newton-Raphson stops as `Upu3Up.forward` (called with its defaults by
-    `PlatformModel.fit`); the Gauss-Newton constants are imported from the planner."""
-    defaults = inspect.signature(Upu3Up.forward).parameters
-    assert kernel.FORWARD_TOL == defaults["tol"].default
-    assert kernel.FORWARD_MAX_ITER == defaults["max_iter"].default
-    assert (FIT_TOL, FIT_MAX_ITER) == (1e-8, 30)
+    p = ik.pack(hold=True).view(PLATFORM_PARAMETERS)[0]
+    assert (p["law"], p["speed_limit"]) == (LAW_IK, 100.0)

@@ -1,7 +1,9 @@
 """The qp kernel (twin.sim.kernels.qp) assembles the planner object's QP to 1e-9, packs only
-what it assembles, and guards its steps as `run_hybrid` does."""
+what it assembles, and its lanes step in the hybrid runner as the planner object steps."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,6 +19,8 @@ from twin.sim.faults import Fault
 from twin.sim.kernels import layout
 from twin.sim.kernels import qp as kq
 from twin.sim.kernels.hybrid import hybrid_constants
+from twin.sim.kernels.hybrid_runner import compiled_hybrid, run_hybrid
+from twin.sim.kernels.records import N_TIP
 from twin.spatial import so3_exp
 
 H = HybridBoardingSystem()
@@ -45,24 +49,17 @@ def random_target(xi: np.ndarray, rng: np.random.Generator) -> TipTarget:
 
 
 def kernel_problem(
-    prepare: object, xi: np.ndarray, row: np.ndarray, prm: np.ndarray, dt: float
+    xi: np.ndarray, row: np.ndarray, prm: np.ndarray, dt: float
 ) -> tuple[np.ndarray, ...]:
-    """(H, f, A, lower, upper) of one lane from `qp_prepare` (compiled or plain)."""
-    xs = np.array([[xi, xi]])
-    Hk, f = np.empty((1, 9, 9)), np.empty((1, 9))
-    A, lower, upper = np.empty((1, N, 9)), np.empty((1, 9 + N)), np.empty((1, 9 + N))
-    prepare(xs, 0, row[None, None], prm[None], CONST, dt, Hk, f, A, lower, upper)
-    return Hk[0], f[0], A[0], lower[0], upper[0]
+    """(H, f, A, lower, upper) of one lane from `qp_problem_lane` (interpreted: the compiled
+    one is held to it by the chunk test below)."""
+    Hk, f = np.empty((9, 9)), np.empty(9)
+    A, lower, upper = np.empty((N, 9)), np.empty(9 + N), np.empty(9 + N)
+    kq.qp_problem_lane(xi, row, prm, CONST, dt, Hk, f, A, lower, upper, kq.problem_work())
+    return Hk, f, A, lower, upper
 
 
-@pytest.fixture(params=["compiled", "plain"])
-def prepare(request: pytest.FixtureRequest) -> object:
-    return kq.compiled_qp()[0] if request.param == "compiled" else kq.qp_prepare
-
-
-def test_the_kernel_assembles_the_planners_qp(
-    prepare: object, rng: np.random.Generator
-) -> None:
+def test_the_kernel_assembles_the_planners_qp(rng: np.random.Generator) -> None:
     """H, f, A and the bounds equal `QPPlanner.problem`'s to 1e-9 (relative to their size) on
     random states (in and out of the limits), targets, knobs and control periods."""
     states = np.concatenate([random_hybrid_states(rng, 30), random_hybrid_states(rng, 10, 1.3)])
@@ -73,17 +70,34 @@ def test_the_kernel_assembles_the_planners_qp(
         dt = float(rng.choice([0.005, 0.05, 0.2]))
         want = planner.problem(xi, target, dt)
         prm = kq.pack_qp(planner, False)
-        got = kernel_problem(prepare, xi, pack_target(target), prm, dt)
+        got = kernel_problem(xi, pack_target(target), prm, dt)
         for name, a, b in zip(("H", "f", "A", "lower", "upper"), got, want[:5], strict=True):
             scale = max(1.0, float(np.max(np.abs(b))))
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * scale, err_msg=name)
         assert prm[kq.P_QP_POSITION] == want.position_weight
 
 
+def run_lanes(
+    xi0: np.ndarray, targets: np.ndarray, prm: np.ndarray, dt: float, compiled: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(xs, diag, faults) of the hybrid runner (compiled serial, or the plain `run_hybrid`)
+    over lanes prm (N, N_PARAMETERS) from xi0 through targets (N, B, N_TARGET)."""
+    N, B = targets.shape[:2]
+    xs = np.empty((N, B + 1, 9))
+    xs[:, 0] = xi0
+    diag = np.zeros((N, B + 1, layout.N_HYBRID_DIAGNOSTICS))  # row k + 1: step k's
+    faults = np.zeros((N, B), dtype=np.int64)
+    run = compiled_hybrid(False) if compiled else run_hybrid
+    run(xs, targets, prm, np.zeros((N, layout.N_MEMORY)), CONST, dt, diag, faults, 1,
+        np.zeros((N, B + 1, 6)), np.zeros((N, B + 1, N_TIP)))  # fmt: skip
+    return xs, diag, faults
+
+
 def test_a_chunk_equals_the_planner_stepped(rng: np.random.Generator) -> None:
-    """`run_qp` (compiled and plain) over 40 steps of a moving target, two lanes (record and
-    hold), equals `hybrid_advance` of the planner object step by step: states to 1e-9, the
-    level, the active count, the limit scale, the fault bits."""
+    """The hybrid runner (compiled and plain) over 40 steps of a moving target, two qp lanes
+    (record and hold), equals `hybrid_advance` of the planner object step by step: states to
+    1e-9, the level, the active count, the limit scale, the fault bits; and the object with
+    DAQP as its solver (the engine's solver before issue 29) to 1e-7, at the same levels."""
     xi0 = H.working_state + 0.6 * np.r_[0, 0, 0, 0, 0, 1, 1, 1, 0] * (H.upper - H.working_state)
     n, dt = 40, 0.05
     targets = np.empty((2, n, layout.N_TARGET))
@@ -95,17 +109,14 @@ def test_a_chunk_equals_the_planner_stepped(rng: np.random.Generator) -> None:
         moved[:3, :3] = so3_exp(turn) @ T[:3, :3]
         targets[:, k] = pack_target(TipTarget(moved, np.r_[0.3, -0.2, 0.1, 0.05, 0.0, 0.02]))
     planner = build(PlannerParameters(), xi0)
+    daqp = replace(planner, solver="daqp")
     prm = np.stack([kq.pack_qp(planner, False), kq.pack_qp(planner, True)])
     for compiled in (True, False):
-        xs = np.empty((2, n + 1, 9))
-        xs[:, 0] = xi0
-        diag = np.zeros((2, n + 1, layout.N_HYBRID_DIAGNOSTICS))  # row k + 1: step k's
-        faults = np.zeros((2, n), dtype=np.int64)
-        kq.run_qp(xs, targets, prm, CONST, dt, diag, faults, compiled)
+        xs, diag, faults = run_lanes(xi0, targets, prm, dt, compiled)
         assert not diag[:, 0].any()  # row 0, the chunk's start, is left alone
         diag = diag[:, 1:]
         for lane, hold in enumerate((False, True)):
-            x = xi0.copy()
+            x, x_daqp = xi0.copy(), xi0.copy()
             for k in range(n):
                 target = TipTarget(np.eye(4), np.zeros(6))
                 target.transform[:3, :3] = targets[lane, k, :9].reshape(3, 3)
@@ -114,6 +125,10 @@ def test_a_chunk_equals_the_planner_stepped(rng: np.random.Generator) -> None:
                 out = hybrid_advance(planner, H, x, target, dt, hold)
                 x = out.x
                 np.testing.assert_allclose(xs[lane, k + 1], x, rtol=0, atol=1e-9)
+                by_daqp = hybrid_advance(daqp, H, x_daqp, target, dt, hold)
+                x_daqp = by_daqp.x
+                np.testing.assert_allclose(xs[lane, k + 1], x_daqp, rtol=0, atol=1e-7)
+                assert by_daqp.diagnostics["qp_level"] == out.diagnostics["qp_level"]
                 assert diag[lane, k, layout.D_QP_LEVEL] == out.diagnostics["qp_level"]
                 assert diag[lane, k, layout.D_QP_ACTIVE] == out.diagnostics["qp_active"]
                 assert diag[lane, k, layout.D_LIMIT_SCALE] == out.scale
@@ -121,27 +136,22 @@ def test_a_chunk_equals_the_planner_stepped(rng: np.random.Generator) -> None:
         assert diag[:, :, layout.D_QP_ACTIVE].max() > 0  # the limits did bind
 
 
-def test_the_guard() -> None:
-    """`qp_finish_lane`: a NaN rate holds the state (PLANNER, scale 0, no active rows); level 2
-    sets INFEASIBLE; in hold mode a step past a limit is shortened (JOINT_LIMIT), as
-    `run_hybrid`'s guard does."""
-    xi = H.working_state.copy()
-    A, lower, upper = np.zeros((N, 9)), np.full(9 + N, -1.0), np.full(9 + N, 1.0)
-    d = np.zeros(layout.N_HYBRID_DIAGNOSTICS)
-    x_next = np.empty(9)
-    bits = kq.qp_finish_lane(xi, np.full(9, np.nan), 2, False, CONST, 0.05, A, lower, upper,
-                             x_next, d)  # fmt: skip
-    assert bits == Fault.PLANNER | Fault.INFEASIBLE
-    np.testing.assert_array_equal(x_next, xi)
-    assert d[layout.D_LIMIT_SCALE] == 0.0 and d[layout.D_QP_LEVEL] == 2
-    at_top = xi.copy()
-    at_top[8] = H.upper[8] - 1e-3
-    v = np.r_[np.zeros(8), 1.0]  # 5 cm further out in one step
-    bits = kq.qp_finish_lane(at_top, v, 0, True, CONST, 0.05, A, lower, upper, x_next, d)
-    assert bits == Fault.JOINT_LIMIT and 0 < d[layout.D_LIMIT_SCALE] < 0.03
-    assert x_next[8] <= H.upper[8]
-    bits = kq.qp_finish_lane(at_top, v, 1, False, CONST, 0.05, A, lower, upper, x_next, d)
-    assert bits == 0 and x_next[8] == pytest.approx(H.upper[8] + 0.049)
+def test_the_lanes_faults() -> None:
+    """In the runner, a qp lane with a NaN target is held (PLANNER, scale 0, no active rows)
+    and one started 0.2-0.3 m past the stroke solves level 2 (INFEASIBLE) and still moves."""
+    past = H.working_state.copy()
+    past[2], past[3] = 3.595, 0.3
+    planner = build(PlannerParameters(), H.working_state)
+    prm = kq.pack_qp(planner, False)[None]
+    nan = np.full((1, 2, layout.N_TARGET), np.nan)
+    xs, diag, faults = run_lanes(H.working_state, nan, prm, 0.05, False)
+    assert np.all(faults == Fault.PLANNER)
+    np.testing.assert_array_equal(xs[0, 2], H.working_state)
+    assert not diag[0, 1:, layout.D_LIMIT_SCALE].any() and not diag[0, 1:, layout.D_QP_ACTIVE].any()
+    held = pack_target(TipTarget(H.end_effector(past), np.zeros(6)))
+    xs, diag, faults = run_lanes(past, np.tile(held, (1, 2, 1)), prm, 0.05, False)
+    assert faults[0, 0] == Fault.INFEASIBLE and diag[0, 1, layout.D_QP_LEVEL] == 2
+    assert H.leg_lengths(xs[0, 1]).max() < H.leg_lengths(past).max()
 
 
 def test_the_fault_bit_and_rows() -> None:
@@ -173,6 +183,8 @@ def test_packing_refuses_what_the_kernel_cannot_assemble() -> None:
         QPPlanner(tip, (legs, joints), rate, orientation_weight=-1.0),
         QPPlanner(TipPoseTask(other), (legs, joints), rate),
         get_planner("mtmp", "hybrid").build(H, PlannerParameters(), H.working_state),
+        QPPlanner(tip, (legs, joints), rate, solver="daqp"),  # a library: not in a lane
+        QPPlanner(tip, (legs, joints), rate, damping=0.0),  # not strictly convex
     ]
     for planner in refused:
         with pytest.raises(TwinError):
@@ -182,15 +194,17 @@ def test_packing_refuses_what_the_kernel_cannot_assemble() -> None:
 
 
 def test_solve_levels_reads_the_kernels_arrays() -> None:
-    """The arrays `run_qp` hands `solve_levels` are a `QPProblem` (views of one lane): the same
-    rates as the planner's own problem."""
+    """The kernel's arrays are a `QPProblem` (those of one lane): `solve_levels` gives the same
+    level and rates as on the planner's own problem (to 1e-8: this target's step is level 1,
+    whose position weight 1e4 magnifies the arrays' 1e-14 differences; DAQP's rates move by
+    1.5e-10 between the two, ours by 1.0e-9)."""
     planner = build(PlannerParameters(), H.working_state)
     target = random_target(H.working_state, np.random.default_rng(3))
     prm = kq.pack_qp(planner, False)
-    arrays = kernel_problem(kq.qp_prepare, H.working_state, pack_target(target), prm, 0.05)
+    arrays = kernel_problem(H.working_state, pack_target(target), prm, 0.05)
     from twin.planners.qp import QPProblem
 
     got = solve_levels(QPProblem(*arrays, prm[kq.P_QP_POSITION]))
     want = solve_levels(planner.problem(H.working_state, target, 0.05))
     assert got.level == want.level
-    np.testing.assert_allclose(got.velocity, want.velocity, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got.velocity, want.velocity, rtol=0, atol=1e-8)

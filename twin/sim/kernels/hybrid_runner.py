@@ -4,7 +4,7 @@ Per lane and step, with ᴮR_P computed once for all of them:
 
 1. the planner of prm[n, P_KIND] gives the velocity v (differential: `differential_velocity`,
    finished by `damped_differential_velocity` where it returns NEEDS_SVD; allocation:
-   `allocation_velocity`);
+   `allocation_velocity`; qp: `twin.sim.kernels.qp.qp_velocity`, its QP solved in the lane);
 2. the guard of the former `HybridRig.advance`: a non-finite v holds the mechanism
    (FAULT_PLANNER, D_LIMIT_SCALE = 0); otherwise a lane with prm[n, P_HOLD] > 0 shortens the
    step to s = `limit_scale_lane` (FAULT_JOINT_LIMIT when s < 1), D_LIMIT_SCALE = s, and xi
@@ -25,7 +25,9 @@ from functools import cache
 
 import numpy as np
 
-from twin.compiled import compile_runner, prange, register_borrowing
+from twin.compiled import compile_runner, prange, register_borrowing, register_inline
+from twin.planners.allocation import ALLOCATION_PARAMETERS
+from twin.planners.differential import DIFFERENTIAL_PARAMETERS
 from twin.sim.kernels.allocation import allocation_velocity, allocation_work
 from twin.sim.kernels.hybrid import (
     NEEDS_SVD,
@@ -43,9 +45,11 @@ from twin.sim.kernels.layout import (
     FAULT_PLANNER,
     KIND_ALLOCATION,
     KIND_DIFFERENTIAL,
+    KIND_QP,
     P_HOLD,
     P_KIND,
 )
+from twin.sim.kernels.qp import qp_lane_work, qp_velocity
 from twin.sim.kernels.records import hand_over
 from twin.spatial import rpy_to_matrix_lane
 
@@ -70,6 +74,7 @@ def hybrid_lane(
     differential: tuple,
     allocation: tuple,
     limit: tuple,
+    qp: tuple,
 ) -> int:
     """Steps start, start + 1, … of one lane (`run_hybrid`'s arrays without the lane axis):
     the step loop is here, not in the runner, because a borrowing function takes its per-step
@@ -81,7 +86,7 @@ def hybrid_lane(
         start: the first step to take; resumed: −1, or the fault bits of step start's
             planner, whose velocity the runner has put in v (and ᴮR_P in R) already.
         R: (3, 3), v: (9,): scratch (ᴮR_P and the velocity of the step last taken);
-            differential, allocation, limit: the planners' and the guard's work.
+            differential, allocation, limit, qp: the planners' and the guard's work.
 
     Returns:
         B when the chunk is done; else the step k whose differential solve needs the SVD
@@ -90,6 +95,9 @@ def hybrid_lane(
         (`damped_differential_velocity`) and calls again from k, resumed.
     """
     kind, hold = row[P_KIND], row[P_HOLD] > 0.0
+    # the row by name, as the lane's family reads it (one of the two is used)
+    differential_row = row.view(DIFFERENTIAL_PARAMETERS)[0]
+    allocation_row = row.view(ALLOCATION_PARAMETERS)[0]
     for k in range(start, xs.shape[0] - 1):
         x, x_next, d = xs[k], xs[k + 1], diag[k + 1]
         if k == start and resumed >= 0:  # the runner has taken this step's SVD branch
@@ -97,38 +105,53 @@ def hybrid_lane(
         else:
             rpy_to_matrix_lane(x[3], x[4], x[5], R)  # ᴮR_P: the planner's, guard's, step's
             if kind == KIND_DIFFERENTIAL:
-                bits = differential_velocity(x, R, targets[k], row, const, differential, v, d)
+                bits = differential_velocity(x, R, targets[k], differential_row, const,
+                                             differential, v, d)  # fmt: skip
                 if bits == NEEDS_SVD:
                     return k
             elif kind == KIND_ALLOCATION:
-                bits = allocation_velocity(x, R, targets[k], row, memory, const, dt,
+                bits = allocation_velocity(x, R, targets[k], allocation_row, memory, const, dt,
                                            allocation, v, d)  # fmt: skip
+            elif kind == KIND_QP:  # its QP solved in the lane (`twin.sim.kernels.qp`)
+                bits = qp_velocity(x, targets[k], row, const, dt, qp, v, d)
             else:  # not a hybrid planner: held, as a planner fault
                 for j in range(9):
                     v[j] = math.nan
                 bits = FAULT_PLANNER
         if kind == KIND_DIFFERENTIAL and k >= first:  # what the record would compute again
             hand_over(R, differential[3][1], differential[5][W_ERROR], tips[k], errors[k])
-        finite = True
-        for j in range(9):
-            finite = finite and math.isfinite(v[j])
-        if not finite:  # a planner fault holds the mechanism still
-            bits |= FAULT_PLANNER
-            d[D_LIMIT_SCALE] = 0.0
-            for j in range(9):
-                x_next[j] = x[j]
-        else:
-            s = 1.0
-            if hold:
-                s = limit_scale_lane(x, R, v, dt, const, limit)
-                if s < 1.0:
-                    bits |= FAULT_JOINT_LIMIT
-            d[D_LIMIT_SCALE] = s
-            for j in range(9):
-                v[j] = s * v[j]
-            integrate_hybrid(x, R, v, dt, x_next)
-        faults[k] = bits
+        faults[k] = guarded_step(x, R, v, bits, hold, const, dt, limit, d, x_next)
     return xs.shape[0] - 1
+
+
+@register_inline
+def guarded_step(
+    x: np.ndarray, R: np.ndarray, v: np.ndarray, bits: int, hold: bool, const: np.ndarray,
+    dt: float, limit: tuple, d: np.ndarray, x_next: np.ndarray,
+) -> int:  # fmt: skip
+    """The guard of the former `HybridRig.advance` and the step (module doc): a non-finite
+    velocity v (9,) holds xi x (9,) (FAULT_PLANNER, d[D_LIMIT_SCALE] = 0); else, holding the
+    joint limits, v is shortened to s·v (`limit_scale_lane`, FAULT_JOINT_LIMIT when s < 1),
+    d[D_LIMIT_SCALE] = s, and x_next (9,) = x after s·v for dt (`integrate_hybrid`). R is x's
+    ᴮR_P, limit the guard's work; the planner's fault bits come in, the step's go out."""
+    finite = True
+    for j in range(9):
+        finite = finite and math.isfinite(v[j])
+    if not finite:  # a planner fault holds the mechanism still
+        d[D_LIMIT_SCALE] = 0.0
+        for j in range(9):
+            x_next[j] = x[j]
+        return bits | FAULT_PLANNER
+    s = 1.0
+    if hold:
+        s = limit_scale_lane(x, R, v, dt, const, limit)
+        if s < 1.0:
+            bits |= FAULT_JOINT_LIMIT
+    d[D_LIMIT_SCALE] = s
+    for j in range(9):
+        v[j] = s * v[j]
+    integrate_hybrid(x, R, v, dt, x_next)
+    return bits
 
 
 def run_hybrid(
@@ -168,24 +191,16 @@ def run_hybrid(
         # scratch allocated once per lane (numba puts every array on the heap)
         R, v = np.empty((3, 3)), np.empty(9)
         differential, allocation, limit = differential_work(), allocation_work(), limit_work()
+        qp = qp_lane_work()
         k, bits = 0, -1
         while k < n_steps:
             k = hybrid_lane(xs[n], targets[n], prm[n], memory[n], const, dt, diag[n],
                             faults[n], first, errors[n], tips[n], k, bits, R, v, differential,
-                            allocation, limit)  # fmt: skip
+                            allocation, limit, qp)  # fmt: skip
             if k < n_steps:  # step k needs the SVD (near a singularity), which allocates
-                bits = damped_differential_velocity(xs[n, k], prm[n], differential, v,
+                row = prm[n].view(DIFFERENTIAL_PARAMETERS)[0]
+                bits = damped_differential_velocity(xs[n, k], row, differential, v,
                                                     diag[n, k + 1])  # fmt: skip
-
-
-#: modules whose register_jitable functions `run_hybrid` compiles in
-KERNEL_MODULES = (
-    "twin.sim.kernels.hybrid_runner",
-    "twin.sim.kernels.hybrid",
-    "twin.sim.kernels.layout",
-    "twin.sim.kernels.allocation",
-    "twin.sim.kernels.records",
-)
 
 
 def run_hybrid_lanes(
@@ -202,21 +217,25 @@ def run_hybrid_lanes(
     tips: np.ndarray,
 ) -> None:
     """`run_hybrid` with its lanes in parallel (numba's prange), each lane a one-lane call of
-    the compiled serial runner (`serial_hybrid`, a global `compiled_hybrid` gives it): numba
-    compiles a function called inside a parallel loop again, and the step, inlined into
-    `hybrid_lane`, is the costliest code to compile. Arguments as `run_hybrid`'s."""
+    the compiled serial runner `serial_hybrid`: numba compiles a function called inside a
+    parallel loop again, and the step, inlined into `hybrid_lane`, is the costliest code to
+    compile. Arguments as `run_hybrid`'s."""
     for n in prange(xs.shape[0]):
         lane = slice(n, n + 1)
-        serial_hybrid(xs[lane], targets[lane], prm[lane], memory[lane], const, dt, diag[lane],  # noqa: F821
+        serial_hybrid(xs[lane], targets[lane], prm[lane], memory[lane], const, dt, diag[lane],
                       faults[lane], first, errors[lane], tips[lane])  # fmt: skip
+
+
+#: `run_hybrid` compiled serial (lazily, on its first call; `twin.compiled`), or the plain
+#: function without numba: what `run_hybrid_lanes` calls per lane
+serial_hybrid = compile_runner(run_hybrid, parallel=False)
 
 
 @cache
 def compiled_hybrid(parallel: bool) -> Callable:
-    """`run_hybrid` compiled by numba, parallel over lanes (`run_hybrid_lanes`) or serial (one
-    thread, e.g. one per Dask worker), cached on disk (`compile_runner`); the plain
-    `run_hybrid` without numba."""
-    serial = compile_runner(run_hybrid, False, KERNEL_MODULES)
-    if not parallel or serial is run_hybrid:
-        return serial
-    return compile_runner(run_hybrid_lanes, True, KERNEL_MODULES, {"serial_hybrid": serial})
+    """`run_hybrid` compiled by numba, parallel over lanes (`run_hybrid_lanes`) or serial
+    (`serial_hybrid`: one thread, e.g. one per Dask worker), cached on disk
+    (`twin.compiled.compile_runner`); the plain `run_hybrid` without numba."""
+    if not parallel or serial_hybrid is run_hybrid:
+        return serial_hybrid
+    return compile_runner(run_hybrid_lanes, parallel=True)

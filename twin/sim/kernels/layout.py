@@ -14,22 +14,30 @@ kernel runner with
 - `faults` (N, B) int64: written, one row per step.
 
 Row 0 of `prm` names the lane's planner family (`KIND_*`), row 1 whether the lane holds its
-joint limits (1.0) or only records passing them (0.0); the rest belongs to the family's kernel.
+joint limits (1.0) or only records passing them (0.0) (`twin.planners.parameters.COMMON_FIELDS`);
+the rest belongs to the family. The differential and allocation families read their rows by
+name, as records (`twin.planners.parameters.family_dtype`: `DIFFERENTIAL_PARAMETERS`,
+`ALLOCATION_PARAMETERS`); the qp and platform families read offsets from `P_FAMILY` on.
 """
 
 from __future__ import annotations
+
+# Planner families (prm[P_KIND]; KIND_QP: the `qp` planner, `twin.sim.kernels.qp`) and the
+# row size, defined once where the families' records are (`twin.planners.parameters`)
+from twin.planners.parameters import KIND_ALLOCATION as KIND_ALLOCATION
+from twin.planners.parameters import KIND_DIFFERENTIAL as KIND_DIFFERENTIAL
+from twin.planners.parameters import KIND_PLATFORM as KIND_PLATFORM
+from twin.planners.parameters import KIND_QP as KIND_QP
+from twin.planners.parameters import ROW_SIZE
 
 #: Target rows: ᴮR_d row-major (9), ᴮp_d [m] (3), twist ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s] (6).
 TARGET_R, TARGET_P, TARGET_V, TARGET_W = 0, 9, 12, 15
 N_TARGET = 18
 
-#: Planner families (prm[P_KIND]).
-KIND_DIFFERENTIAL, KIND_ALLOCATION, KIND_PLATFORM = 0, 1, 2
-#: the `qp` planner (`twin.sim.kernels.qp`: assembled compiled, solved by a QP library)
-KIND_QP = 3
-#: Common prm rows; a family's own rows start at P_FAMILY.
+#: Common prm rows (the fields `COMMON_FIELDS` names); a flat family's own rows start at
+#: P_FAMILY.
 P_KIND, P_HOLD, P_FAMILY = 0, 1, 2
-N_PARAMETERS = 48
+N_PARAMETERS = ROW_SIZE
 N_MEMORY = 48
 
 #: Fault bits, the values of `twin.sim.faults.Fault` (tested equal), as plain ints for numba.

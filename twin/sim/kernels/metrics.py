@@ -2,7 +2,7 @@ r"""The numbers a hybrid-system run is judged by, reduced from its series for ev
 compiled.
 
 `twin.sim.metrics.hybrid_metrics` turns one lane's row of reductions into its metrics dict
-(units, names, `finite`); this module computes the rows: a few passes per lane, row by row,
+(units, names, `finite`); this module computes the rows: one pass per lane, row by row,
 over its own first `end` samples (lanes of one Simulation may last differently), parallel over
 lanes, reading the history's arrays in place. Everything is in the series' units: m, rad, s.
 
@@ -13,7 +13,8 @@ Per lane, over samples k = 0 … T−1 (T = end), S = min(SETTLE, T − 1) the f
   `LEG_TOL`; all samples;
 - per joint and over all legs: min and max over k ≥ S;
 - drift of each joint and leg: the least-squares slope of x(t) times the run's duration,
-  Σ (t_k − t̄)(x_k − x̄) / max(Σ (t_k − t̄)², 1e-300) · (t_{T−1} − t_0), all samples;
+  Σ (t_k − t̄)(x_k − x̄) / max(Σ (t_k − t̄)², 1e-300) · (t_{T−1} − t_0), all samples, its sums
+  updated sample by sample (Welford 1962's running means and co-moments, `trend_add`);
 - tip error (in B): RMS and max over k ≥ S of |e_p| [m] and |e_R| [rad];
 - manipulability min, and φe, θe's signed value of largest magnitude (the first on a tie),
   over k ≥ S;
@@ -21,9 +22,15 @@ Per lane, over samples k = 0 … T−1 (T = end), S = min(SETTLE, T − 1) the f
   α_bottom > 1e-9 rad (0 if none); SPEC erratum 11's integral form 1 − Σ|α_top| / Σ|α_bottom|
   (0 if the base never tilts); both as fractions, all samples.
 
-Sums run sample by sample, in order (no fast-math): the compiled and the interpreted runner
-give the same bits, and numpy's pairwise sums agree to rounding. The records carry no NaN (the
-engine holds non-finite samples), so min, max and the extremes need not order NaN as numpy does.
+Every reduction is a running one: a lane's accumulator row (`A_*`, N_ACC floats) takes its
+samples in order, in as many chunks as come (`hybrid_add_lane`), and `hybrid_finish_lane`
+turns it into the row of results. A whole series is one chunk (`hybrid_reduction_lane`); a
+run that keeps no series (`twin.sim.engine.Simulation`'s keep="metrics") feeds each chunk as it
+is stepped, so its memory does not grow with its length, and it gets the same bits: the sums
+run sample by sample, in order, whatever the chunks (no fast-math), so the compiled and the
+interpreted runner give the same bits too, and numpy's pairwise sums agree to rounding. The
+records carry no NaN (the engine holds non-finite samples), so min, max and the extremes need
+not order NaN as numpy does.
 """
 
 from __future__ import annotations
@@ -68,65 +75,235 @@ N_ROW = R_ETA + 1
 REDUCED = ("t", "xi", "legs", "tip_error", "manipulability", "phi_e", "theta_e", "alpha_top",
            "alpha_bottom")  # fmt: skip
 
+#: a running least-squares trend of k columns (`trend_add`, 4 + 2k floats): the first and last
+#: time, the running mean of t and Σ (t − t̄)², then the k running means and the k co-moments
+#: Σ (t − t̄)(x − x̄)
+TR_T0, TR_T_LAST, TR_T_MEAN, TR_T_SPREAD, TR_MEAN = 0, 1, 2, 3, 4
+#: running efficacy sums (`efficacy_add`): Σ (α_b − α_t)/α_b over tilted samples, their
+#: number, Σ|α_t|, Σ|α_b|
+E_PRINTED, E_TILTED, E_TOP, E_BOTTOM = 0, 1, 2, 3
+N_EFFICACY = 4
+#: a hybrid lane's accumulator row (`hybrid_add_lane`): samples seen, the first judged one, the
+#: counts, min/max and sums of the module docstring, then the efficacy sums and the joints' and
+#: legs' trends
+A_SEEN, A_FIRST, A_VIOLATIONS, A_JOINT_VIOLATIONS, A_LEG_VIOLATIONS = 0, 1, 2, 3, 4
+A_JOINT_MIN = 5
+A_JOINT_MAX = A_JOINT_MIN + N_JOINTS
+A_LEGS_MIN = A_JOINT_MAX + N_JOINTS
+A_LEGS_MAX = A_LEGS_MIN + 1
+A_POSITION, A_POSITION_MAX = A_LEGS_MAX + 1, A_LEGS_MAX + 2
+A_ORIENTATION, A_ORIENTATION_MAX = A_LEGS_MAX + 3, A_LEGS_MAX + 4
+A_MANIPULABILITY_MIN = A_LEGS_MAX + 5
+A_PHI_E, A_THETA_E = A_LEGS_MAX + 6, A_LEGS_MAX + 7
+A_EFFICACY = A_LEGS_MAX + 8
+A_JOINT_TREND = A_EFFICACY + N_EFFICACY
+A_LEG_TREND = A_JOINT_TREND + 4 + 2 * N_JOINTS
+N_ACC = A_LEG_TREND + 4 + 2 * N_LEGS
+
 
 @register_borrowing
-def drift_lane(t: np.ndarray, x: np.ndarray, mean: np.ndarray, out: np.ndarray) -> None:
+def trend_add(d: np.ndarray, n: int, t: float, x: np.ndarray) -> None:
+    """Add the n-th sample (n ≥ 1, in order) to a running least-squares trend of k columns.
+
+    Welford 1962's update of running means and corrected sums of products: with
+    δ = t − t̄_{n−1}, t̄_n = t̄_{n−1} + δ/n, Σ(t − t̄)² += δ (t − t̄_n), and per column
+    x̄_n = x̄_{n−1} + (x − x̄_{n−1})/n, Σ(t − t̄)(x − x̄) += δ (x − x̄_n): the two-pass sums
+    of `drift_lane`'s formula without knowing the means beforehand, as stable as they.
+
+    Args:
+        d: (4 + 2k,) the trend's running sums (`TR_*`), zero before the first sample.
+        n: this sample's count, 1 for the first; t: its time [s]; x: (k,) its values.
+    """
+    k = x.shape[0]
+    if n == 1:
+        d[TR_T0] = t
+    d[TR_T_LAST] = t
+    inverse = 1.0 / n
+    delta = t - d[TR_T_MEAN]
+    d[TR_T_MEAN] += delta * inverse
+    d[TR_T_SPREAD] += delta * (t - d[TR_T_MEAN])
+    for j in range(k):
+        d[TR_MEAN + j] += (x[j] - d[TR_MEAN + j]) * inverse
+        d[TR_MEAN + k + j] += delta * (x[j] - d[TR_MEAN + j])
+
+
+@register_borrowing
+def trend_finish(d: np.ndarray, out: np.ndarray) -> None:
+    """The drifts (k,) of a running trend `d` (`trend_add`) into out: the least-squares slope
+    times the duration, Σ (t − t̄)(x − x̄) / max(Σ (t − t̄)², 1e-300) · (t_last − t_0)."""
+    k = out.shape[0]
+    scale = (d[TR_T_LAST] - d[TR_T0]) / max(d[TR_T_SPREAD], 1e-300)
+    for j in range(k):
+        out[j] = d[TR_MEAN + k + j] * scale
+
+
+@register_borrowing
+def drift_lane(t: np.ndarray, x: np.ndarray, state: np.ndarray, out: np.ndarray) -> None:
     """Least-squares trend of each column of x (T, k) over the run, slope × duration, in x's
-    unit: Σ (t_i − t̄)(x_i − x̄) / max(Σ (t_i − t̄)², 1e-300) · (t_{T−1} − t_0).
+    unit (`trend_add` over every sample, then `trend_finish`).
 
     An oscillation around a steady mean has no drift; PI/WPI's divergence (seed 000 §5.3
-    analysis 1) shows as a trend. Row by row, so each sample's k values are read together.
+    analysis 1) shows as a trend.
 
     Args:
         t: (T,) sample times [s]; x: (T, k) samples.
-        mean: (≥ k,) scratch, overwritten; out: (k,) the drifts, written.
+        state: (≥ 4 + 2k,) scratch, overwritten; out: (k,) the drifts, written.
     """
     T, K = x.shape
-    t_mean = 0.0
+    for j in range(4 + 2 * K):
+        state[j] = 0.0
     for i in range(T):
-        t_mean += t[i]
-    t_mean /= T
-    for j in range(K):
-        mean[j], out[j] = 0.0, 0.0
-    for i in range(T):
-        for j in range(K):
-            mean[j] += x[i, j]
-    for j in range(K):
-        mean[j] /= T
-    spread = 0.0
-    for i in range(T):
-        tc = t[i] - t_mean
-        spread += tc * tc
-        for j in range(K):
-            out[j] += tc * (x[i, j] - mean[j])
-    for j in range(K):
-        out[j] = out[j] / max(spread, 1e-300) * (t[T - 1] - t[0])
+        trend_add(state, i + 1, t[i], x[i])
+    trend_finish(state, out)
 
 
 @register_borrowing
-def efficacy_sums(alpha_top: np.ndarray, alpha_bottom: np.ndarray) -> tuple[float, float]:
+def efficacy_add(e: np.ndarray, alpha_top: float, alpha_bottom: float) -> None:
+    """Add one sample's tilts [rad] to the running efficacy sums e (N_EFFICACY,) (`E_*`)."""
+    if alpha_bottom > TILTED:
+        e[E_PRINTED] += (alpha_bottom - alpha_top) / alpha_bottom
+        e[E_TILTED] += 1.0
+    e[E_TOP] += abs(alpha_top)
+    e[E_BOTTOM] += abs(alpha_bottom)
+
+
+@register_borrowing
+def efficacy_finish(e: np.ndarray) -> tuple[float, float]:
     """Seed 002 eq (29) as printed and SPEC erratum 11's integral form, as fractions (module
-    docstring), from the tilts α_top, α_bottom (T,) [rad] (uniform dt)."""
-    printed, tilted, top, bottom = 0.0, 0, 0.0, 0.0
-    for k in range(alpha_top.shape[0]):
-        a, b = alpha_top[k], alpha_bottom[k]
-        if b > TILTED:
-            printed += (b - a) / b
-            tilted += 1
-        top += abs(a)
-        bottom += abs(b)
-    return (printed / tilted if tilted > 0 else 0.0), (1.0 - top / bottom if bottom > 0 else 0.0)
+    docstring), from the running sums e (`efficacy_add`)."""
+    printed = e[E_PRINTED] / e[E_TILTED] if e[E_TILTED] > 0 else 0.0
+    return printed, (1.0 - e[E_TOP] / e[E_BOTTOM] if e[E_BOTTOM] > 0 else 0.0)
 
 
 @register_borrowing
-def extreme(x: np.ndarray, first: int) -> float:
-    """The signed value of x[first:] of largest magnitude, the first on a tie (seed 004 reports
-    φe, θe maxima with sign)."""
-    best = x[first]
-    for k in range(first + 1, x.shape[0]):
-        if abs(x[k]) > abs(best):
-            best = x[k]
-    return best
+def efficacy_sums(
+    alpha_top: np.ndarray, alpha_bottom: np.ndarray, e: np.ndarray
+) -> tuple[float, float]:
+    """Seed 002 eq (29) as printed and SPEC erratum 11's integral form, as fractions (module
+    docstring), from the tilts α_top, α_bottom (T,) [rad] (uniform dt); e (≥ N_EFFICACY,)
+    scratch, overwritten."""
+    for j in range(N_EFFICACY):
+        e[j] = 0.0
+    for k in range(alpha_top.shape[0]):
+        efficacy_add(e, alpha_top[k], alpha_bottom[k])
+    return efficacy_finish(e)
+
+
+@register_borrowing
+def hybrid_begin_lane(acc: np.ndarray, end: int) -> None:
+    """Clear a lane's accumulator row acc (N_ACC,) for a series of `end` samples (≥ 1): the
+    first judged sample is min(SETTLE, end − 1)."""
+    for j in range(acc.shape[0]):
+        acc[j] = 0.0
+    acc[A_FIRST] = min(SETTLE, end - 1)
+
+
+@register_borrowing
+def hybrid_add_lane(
+    t: np.ndarray,
+    xi: np.ndarray,
+    legs: np.ndarray,
+    tip_error: np.ndarray,
+    manipulability: np.ndarray,
+    phi_e: np.ndarray,
+    theta_e: np.ndarray,
+    alpha_top: np.ndarray,
+    alpha_bottom: np.ndarray,
+    hold: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    leg_min: float,
+    leg_max: float,
+    acc: np.ndarray,
+) -> None:
+    """Add a lane's next samples, in order, to its accumulator row (module docstring).
+
+    Args:
+        t: (S,) [s]; xi: (S, 9) [m, rad]; legs: (S, 6) [m]; tip_error: (S, 6) [m, rad] in B;
+            manipulability, phi_e, theta_e, alpha_top, alpha_bottom: (S,) [-, rad]: the samples
+            after those already added.
+        hold: the lane's `joint_limits` is "hold" (only samples past a limit count).
+        lower, upper: (9,) Table 6's joint limits [m, rad]; leg_min, leg_max: stroke [m].
+        acc: (N_ACC,) the lane's row (`hybrid_begin_lane`), updated.
+    """
+    first = int(acc[A_FIRST])
+    seen = int(acc[A_SEEN])
+    leg_low, leg_high = leg_min - LEG_TOL, leg_max + LEG_TOL
+    joint_bad, leg_bad, bad = 0, 0, 0
+    efficacy = acc[A_EFFICACY : A_EFFICACY + N_EFFICACY]
+    joint_trend = acc[A_JOINT_TREND:A_LEG_TREND]
+    leg_trend = acc[A_LEG_TREND:N_ACC]
+    e = tip_error
+    for i in range(t.shape[0]):
+        k = seen + i
+        joint = False
+        for j in range(N_JOINTS):
+            x = xi[i, j]
+            if hold:
+                joint |= (x < lower[j] - JOINT_TOL) | (x > upper[j] + JOINT_TOL)
+            else:
+                joint |= (x <= lower[j] + JOINT_TOL) | (x >= upper[j] - JOINT_TOL)
+        leg = False
+        for j in range(N_LEGS):
+            leg |= (legs[i, j] < leg_low) | (legs[i, j] > leg_high)
+        joint_bad += joint  # `|`, not `or`: no branch per comparison
+        leg_bad += leg
+        bad += joint | leg
+        # min and max, errors and the manipulability over the settled samples
+        if k >= first:
+            p = math.sqrt(e[i, 0] * e[i, 0] + e[i, 1] * e[i, 1] + e[i, 2] * e[i, 2])
+            r = math.sqrt(e[i, 3] * e[i, 3] + e[i, 4] * e[i, 4] + e[i, 5] * e[i, 5])
+            if k == first:
+                for j in range(N_JOINTS):
+                    acc[A_JOINT_MIN + j], acc[A_JOINT_MAX + j] = xi[i, j], xi[i, j]
+                acc[A_LEGS_MIN], acc[A_LEGS_MAX] = legs[i, 0], legs[i, 0]
+                acc[A_MANIPULABILITY_MIN] = manipulability[i]
+                acc[A_PHI_E], acc[A_THETA_E] = phi_e[i], theta_e[i]
+            for j in range(N_JOINTS):
+                acc[A_JOINT_MIN + j] = min(acc[A_JOINT_MIN + j], xi[i, j])
+                acc[A_JOINT_MAX + j] = max(acc[A_JOINT_MAX + j], xi[i, j])
+            for j in range(N_LEGS):
+                acc[A_LEGS_MIN] = min(acc[A_LEGS_MIN], legs[i, j])
+                acc[A_LEGS_MAX] = max(acc[A_LEGS_MAX], legs[i, j])
+            acc[A_POSITION] += p * p
+            acc[A_ORIENTATION] += r * r
+            acc[A_POSITION_MAX] = max(acc[A_POSITION_MAX], p)
+            acc[A_ORIENTATION_MAX] = max(acc[A_ORIENTATION_MAX], r)
+            acc[A_MANIPULABILITY_MIN] = min(acc[A_MANIPULABILITY_MIN], manipulability[i])
+            # the signed value of largest magnitude, the first on a tie (seed 004 reports φe,
+            # θe maxima with sign)
+            if abs(phi_e[i]) > abs(acc[A_PHI_E]):
+                acc[A_PHI_E] = phi_e[i]
+            if abs(theta_e[i]) > abs(acc[A_THETA_E]):
+                acc[A_THETA_E] = theta_e[i]
+        efficacy_add(efficacy, alpha_top[i], alpha_bottom[i])
+        trend_add(joint_trend, k + 1, t[i], xi[i])
+        trend_add(leg_trend, k + 1, t[i], legs[i])
+    acc[A_SEEN] = seen + t.shape[0]
+    acc[A_VIOLATIONS] += bad
+    acc[A_JOINT_VIOLATIONS] += joint_bad
+    acc[A_LEG_VIOLATIONS] += leg_bad
+
+
+@register_borrowing
+def hybrid_finish_lane(acc: np.ndarray, out: np.ndarray) -> None:
+    """A lane's row of reductions out (N_ROW,) from its accumulator row acc (N_ACC,), after
+    its last sample (`hybrid_add_lane`)."""
+    judged = acc[A_SEEN] - acc[A_FIRST]
+    out[R_VIOLATIONS] = acc[A_VIOLATIONS]
+    out[R_JOINT_VIOLATIONS] = acc[A_JOINT_VIOLATIONS]
+    out[R_LEG_VIOLATIONS] = acc[A_LEG_VIOLATIONS]
+    for j in range(N_JOINTS):
+        out[R_JOINT_MIN + j], out[R_JOINT_MAX + j] = acc[A_JOINT_MIN + j], acc[A_JOINT_MAX + j]
+    out[R_LEGS_MIN], out[R_LEGS_MAX] = acc[A_LEGS_MIN], acc[A_LEGS_MAX]
+    out[R_POSITION_RMS] = math.sqrt(acc[A_POSITION] / judged)
+    out[R_ORIENTATION_RMS] = math.sqrt(acc[A_ORIENTATION] / judged)
+    out[R_POSITION_MAX], out[R_ORIENTATION_MAX] = acc[A_POSITION_MAX], acc[A_ORIENTATION_MAX]
+    out[R_MANIPULABILITY_MIN] = acc[A_MANIPULABILITY_MIN]
+    out[R_PHI_E], out[R_THETA_E] = acc[A_PHI_E], acc[A_THETA_E]
+    out[R_ETA_PRINTED], out[R_ETA] = efficacy_finish(acc[A_EFFICACY : A_EFFICACY + N_EFFICACY])
+    trend_finish(acc[A_JOINT_TREND:A_LEG_TREND], out[R_JOINT_DRIFT : R_JOINT_DRIFT + N_JOINTS])
+    trend_finish(acc[A_LEG_TREND:N_ACC], out[R_LEG_DRIFT : R_LEG_DRIFT + N_LEGS])
 
 
 @register_borrowing
@@ -146,64 +323,19 @@ def hybrid_reduction_lane(
     leg_min: float,
     leg_max: float,
     out: np.ndarray,
-    mean: np.ndarray,
+    acc: np.ndarray,
 ) -> None:
-    """One lane's reductions (module docstring) over all the samples it is given.
+    """One lane's reductions (module docstring) over all the samples it is given: its series as
+    one chunk (`hybrid_begin_lane`, `hybrid_add_lane`, `hybrid_finish_lane`).
 
     Args:
-        t: (T,) [s]; xi: (T, 9) [m, rad]; legs: (T, 6) [m]; tip_error: (T, 6) [m, rad] in B;
-            manipulability, phi_e, theta_e, alpha_top, alpha_bottom: (T,) [-, rad].
-        hold: the lane's `joint_limits` is "hold" (only samples past a limit count).
-        lower, upper: (9,) Table 6's joint limits [m, rad]; leg_min, leg_max: stroke [m].
-        out: (N_ROW,) written; mean: (≥ 9,) scratch, overwritten.
+        t .. leg_max: as `hybrid_add_lane`'s, (T, ...) the whole series.
+        out: (N_ROW,) written; acc: (≥ N_ACC,) scratch, overwritten.
     """
-    T = t.shape[0]
-    first = min(SETTLE, T - 1)
-    joint_bad, leg_bad, bad = 0, 0, 0
-    leg_low, leg_high = leg_min - LEG_TOL, leg_max + LEG_TOL
-    for k in range(T):
-        joint = False
-        for j in range(N_JOINTS):
-            x = xi[k, j]
-            if hold:
-                joint |= (x < lower[j] - JOINT_TOL) | (x > upper[j] + JOINT_TOL)
-            else:
-                joint |= (x <= lower[j] + JOINT_TOL) | (x >= upper[j] - JOINT_TOL)
-        leg = False
-        for j in range(N_LEGS):
-            leg |= (legs[k, j] < leg_low) | (legs[k, j] > leg_high)
-        joint_bad += joint  # `|`, not `or`: no branch per comparison
-        leg_bad += leg
-        bad += joint | leg
-    out[R_VIOLATIONS], out[R_JOINT_VIOLATIONS], out[R_LEG_VIOLATIONS] = bad, joint_bad, leg_bad
-    # min and max, errors and the manipulability over the settled samples
-    for j in range(N_JOINTS):
-        out[R_JOINT_MIN + j], out[R_JOINT_MAX + j] = xi[first, j], xi[first, j]
-    legs_low, legs_high = legs[first, 0], legs[first, 0]
-    position, position_max, orientation, orientation_max = 0.0, 0.0, 0.0, 0.0
-    manipulability_min = manipulability[first]
-    e = tip_error
-    for k in range(first, T):
-        for j in range(N_JOINTS):
-            out[R_JOINT_MIN + j] = min(out[R_JOINT_MIN + j], xi[k, j])
-            out[R_JOINT_MAX + j] = max(out[R_JOINT_MAX + j], xi[k, j])
-        for j in range(N_LEGS):
-            legs_low, legs_high = min(legs_low, legs[k, j]), max(legs_high, legs[k, j])
-        p = math.sqrt(e[k, 0] * e[k, 0] + e[k, 1] * e[k, 1] + e[k, 2] * e[k, 2])
-        r = math.sqrt(e[k, 3] * e[k, 3] + e[k, 4] * e[k, 4] + e[k, 5] * e[k, 5])
-        position += p * p
-        orientation += r * r
-        position_max, orientation_max = max(position_max, p), max(orientation_max, r)
-        manipulability_min = min(manipulability_min, manipulability[k])
-    out[R_LEGS_MIN], out[R_LEGS_MAX] = legs_low, legs_high
-    out[R_POSITION_RMS] = math.sqrt(position / (T - first))
-    out[R_ORIENTATION_RMS] = math.sqrt(orientation / (T - first))
-    out[R_POSITION_MAX], out[R_ORIENTATION_MAX] = position_max, orientation_max
-    out[R_MANIPULABILITY_MIN] = manipulability_min
-    out[R_PHI_E], out[R_THETA_E] = extreme(phi_e, first), extreme(theta_e, first)
-    out[R_ETA_PRINTED], out[R_ETA] = efficacy_sums(alpha_top, alpha_bottom)
-    drift_lane(t, xi, mean, out[R_JOINT_DRIFT : R_JOINT_DRIFT + N_JOINTS])
-    drift_lane(t, legs, mean, out[R_LEG_DRIFT : R_LEG_DRIFT + N_LEGS])
+    hybrid_begin_lane(acc, t.shape[0])
+    hybrid_add_lane(t, xi, legs, tip_error, manipulability, phi_e, theta_e, alpha_top,
+                    alpha_bottom, hold, lower, upper, leg_min, leg_max, acc)  # fmt: skip
+    hybrid_finish_lane(acc, out)
 
 
 def run_hybrid_reductions(
@@ -238,7 +370,48 @@ def run_hybrid_reductions(
         hybrid_reduction_lane(t[n, :e], xi[n, :e], legs[n, :e], tip_error[n, :e],
                               manipulability[n, :e], phi_e[n, :e], theta_e[n, :e],
                               alpha_top[n, :e], alpha_bottom[n, :e], hold[n], lower, upper,
-                              leg_min, leg_max, out[n], np.empty(N_JOINTS))  # fmt: skip
+                              leg_min, leg_max, out[n], np.empty(N_ACC))  # fmt: skip
+
+
+def run_hybrid_add(
+    t: np.ndarray,
+    xi: np.ndarray,
+    legs: np.ndarray,
+    tip_error: np.ndarray,
+    manipulability: np.ndarray,
+    phi_e: np.ndarray,
+    theta_e: np.ndarray,
+    alpha_top: np.ndarray,
+    alpha_bottom: np.ndarray,
+    counts: np.ndarray,
+    hold: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    leg_min: float,
+    leg_max: float,
+    acc: np.ndarray,
+) -> None:
+    """A chunk of N lanes into their accumulator rows (`hybrid_add_lane`), lane n its first
+    counts[n] samples (0 … S: a lane past its end adds none).
+
+    Args:
+        t .. alpha_bottom: (N, S, ...) the chunk's records (`REDUCED`).
+        counts: (N,) int; hold, lower, upper, leg_min, leg_max: as `run_hybrid_reductions`'.
+        acc: (N, N_ACC), updated.
+    """
+    for n in prange(counts.shape[0]):
+        c = counts[n]
+        if c > 0:
+            hybrid_add_lane(t[n, :c], xi[n, :c], legs[n, :c], tip_error[n, :c],
+                            manipulability[n, :c], phi_e[n, :c], theta_e[n, :c],
+                            alpha_top[n, :c], alpha_bottom[n, :c], hold[n], lower, upper,
+                            leg_min, leg_max, acc[n])  # fmt: skip
+
+
+@cache
+def compiled_hybrid_add(parallel: bool) -> Callable:
+    """`run_hybrid_add` compiled (`compile_runner`); plain Python without numba."""
+    return compile_runner(run_hybrid_add, parallel, ("twin.sim.kernels.metrics",))
 
 
 @cache
@@ -250,12 +423,12 @@ def compiled_hybrid_reductions(parallel: bool) -> Callable:
 def run_drift(t: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
     """`drift_lane` of one series (the small platforms' metrics): t (T,) [s], x (T, k); the
     drifts (k,) written into out."""
-    drift_lane(t, x, np.empty(x.shape[1]), out)
+    drift_lane(t, x, np.empty(4 + 2 * x.shape[1]), out)
 
 
 def run_efficacy(alpha_top: np.ndarray, alpha_bottom: np.ndarray, out: np.ndarray) -> None:
     """`efficacy_sums` of one run's tilts (T,) [rad]: (printed, integral) written into out (2,)."""
-    out[0], out[1] = efficacy_sums(alpha_top, alpha_bottom)
+    out[0], out[1] = efficacy_sums(alpha_top, alpha_bottom, np.empty(N_EFFICACY))
 
 
 class SeriesReductions(NamedTuple):

@@ -1,17 +1,17 @@
-r"""The `qp` planner in the engine: its QP assembled per lane by compiled code, solved by the QP
-library from Python, then the runner's guard and integration, compiled again.
+r"""The `qp` planner in the engine: a family of the hybrid runner like the others, its step
+assembled, solved, guarded and integrated inside the compiled lane (issue 29 item 7).
 
 `twin.planners.qp.QPPlanner` states the step (tasks, limits, `solve_levels`); this module
-writes the same matrices for one lane from floats and small arrays (`register_jitable`, the
+writes the same matrices for one lane from floats and small arrays (`qp_problem_lane`, the
 shared primitives of `twin.sim.kernels.hybrid`), tested equal to the planner object's to 1e-9
-(tests/sim/kernels/test_qp_kernel.py). The solve is the planner's own `solve_levels` (DAQP by
-default): a library call, so the chunk is stepped from Python — per step, one compiled call
-assembles every qp lane's problem (`qp_prepare`), the library solves each, and one compiled call
-guards and integrates them all (`qp_finish`: `run_hybrid`'s guard, with `limit_scale_lane` in
-`hold` mode). Lanes of the compiled families run through `run_hybrid` for the whole chunk
-(`twin.sim.lanes.HybridLanes.run` splits them).
+(tests/sim/kernels/test_qp_kernel.py), and solves them with the object's own default solver,
+`twin.planners.qp.solve_levels_lane` (Goldfarb-Idnani, `twin.planners.active_set`): one
+statement of the math and no library call, so `qp_velocity` is the planner step of a
+`KIND_QP` lane in `twin.sim.kernels.hybrid_runner.hybrid_lane`, whose guard (`limit_scale_lane`
+in `hold` mode) and integration every hybrid family shares. Its scratch is allocated once per
+lane (`qp_lane_work`).
 
-The matrices handed to the library (one lane; the layout `QPProblem` keeps):
+The matrices (one lane; the layout `QPProblem` keeps):
 
 - H (9, 9), f (9,): w_o K_oᵀK_o, −w_o K_oᵀ ᴾb_o (the orientation rows in P, as the
   differential kernel solves in P: J = D K with D = diag(ᴮR_P, ᴮR_P) orthogonal, so
@@ -26,25 +26,22 @@ w_o; `P_QP_POSITION` the position weight of level 1; `P_QP_SECONDARY` w_s; `P_QP
 `P_QP_SPLIT` (9) the β split w_j; `P_QP_POSTURE_INDEX` (−1: none), `P_QP_POSTURE_GAIN` [1/s],
 `P_QP_POSTURE_SET`; `P_QP_YAW` (1: the yaw term on) and `P_QP_YAW_HOLD`; `P_QP_LEG_GAIN`,
 `P_QP_LEG_MARGIN` [m]; `P_QP_JOINT_GAIN`, `P_QP_JOINT_MARGIN` [m | rad]; `P_QP_RATE` (9)
-[m/s, rad/s]; `P_QP_SOLVER` (index into `twin.planners.qp.SOLVERS`).
+[m/s, rad/s]; `P_QP_SOLVER` (index into `twin.planners.qp.SOLVERS`: 0, the compiled solver, the one
+the engine runs).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from functools import cache
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from twin.compiled import compile_runner, register_jitable
+from twin.compiled import register_borrowing, register_inline, register_jitable
+from twin.planners.qp import N_POSITION, levels_work, solve_levels_lane
 from twin.sim.kernels.hybrid import (
     hybrid_constants,
     hybrid_tip_task,
-    integrate_hybrid,
-    limit_scale_lane,
-    limit_work,
     tip_task_lane,
 )
 from twin.sim.kernels.layout import (
@@ -54,12 +51,9 @@ from twin.sim.kernels.layout import (
     C_LOWER,
     C_PLATFORM_HINGES,
     C_UPPER,
-    D_LIMIT_SCALE,
     D_QP_ACTIVE,
     D_QP_LEVEL,
     FAULT_INFEASIBLE,
-    FAULT_JOINT_LIMIT,
-    FAULT_PLANNER,
     KIND_QP,
     N_PARAMETERS,
     P_FAMILY,
@@ -175,11 +169,19 @@ def pack_qp(planner: QPPlanner, hold: bool) -> np.ndarray:
     if not np.all(rate > 0) or not np.all(np.isfinite(rate)):
         raise refuse(f"the rate limits {rate.tolist()!r:.120} (finite and > 0)")
     prm[P_QP_RATE : P_QP_RATE + 9] = rate
+    if planner.solver != SOLVERS[0]:  # a library is called from Python, not in a lane
+        raise refuse(
+            f"the solver {planner.solver!r}: the engine solves with the compiled "
+            f"{SOLVERS[0]!r} (`twin.planners.active_set`); the others only through "
+            "QPPlanner.step"
+        )
+    if not planner.damping > 0:
+        raise refuse(f"the damping {planner.damping!r} (> 0: the QP must be strictly convex)")
     prm[P_QP_SOLVER] = SOLVERS.index(planner.solver)
     return prm
 
 
-@register_jitable
+@register_inline
 def damper_lane(value: float, low: float, high: float, gain: float, margin_low: float,
                 margin_high: float, dt: float, lower: np.ndarray, upper: np.ndarray,
                 i: int) -> None:  # fmt: skip
@@ -188,7 +190,7 @@ def damper_lane(value: float, low: float, high: float, gain: float, margin_low: 
     upper[i] = gain * (high - margin_high - value) / dt
 
 
-@register_jitable
+@register_inline
 def step_bounds_lane(prm: np.ndarray, dt: float, out: np.ndarray) -> None:
     """`twin.planners.qp.step_bounds` of the lane's rate box: out (4,) = θ, s, e_rot, e_trans."""
     r = P_QP_RATE
@@ -200,6 +202,16 @@ def step_bounds_lane(prm: np.ndarray, dt: float, out: np.ndarray) -> None:
 
 
 @register_jitable
+def problem_work() -> tuple:
+    """Scratch of `qp_problem_lane`, allocated once per lane: ᴮR_P (3, 3), K (6, 9), b (6,),
+    the tip task's frames (2, 4, 4), M (3, 3) and error (6,), ᴾb_o (3,), the step bounds (4,)."""
+    return (
+        np.empty((3, 3)), np.empty((6, 9)), np.empty(6), np.empty((2, 4, 4)), np.empty((3, 3)),
+        np.empty(6), np.empty(3), np.empty(4),
+    )  # fmt: skip
+
+
+@register_borrowing
 def qp_problem_lane(
     x: np.ndarray,
     target: np.ndarray,
@@ -211,19 +223,19 @@ def qp_problem_lane(
     A: np.ndarray,
     lower: np.ndarray,
     upper: np.ndarray,
+    work: tuple,
 ) -> None:
     """One lane's QP (`QPPlanner.problem`) at the state x (9,) and the target row (18,),
     written into H (9, 9), f (9,), A (N_QP_ROWS, 9), lower and upper (9 + N_QP_ROWS,)
-    (module doc)."""
+    (module doc); `work` from `problem_work`."""
     # the tip task: ᴮR_P, K and the demand b = ẋ_d + k_e e in B (eqs (14), (24), (34))
-    R, K, b = np.empty((3, 3)), np.empty((6, 9)), np.empty(6)
+    R, K, b, frames, M, error, bo, bounds = work
     rpy_to_matrix_lane(x[3], x[4], x[5], R)
-    tip_task_lane(x, R, target, prm[P_QP_GAIN], const, np.empty((2, 4, 4)), np.empty((3, 3)), K,
-                  b, np.empty(6))  # fmt: skip
+    tip_task_lane(x, R, target, prm[P_QP_GAIN], const, frames, M, K, b, error)
 
     # H, f: orientation (w_o, in P), posture and yaw terms (w_s), μ diag(1 / w_β)
     w_o, w_s, mu = prm[P_QP_ORIENTATION], prm[P_QP_SECONDARY], prm[P_QP_DAMPING]
-    bo = np.empty(3)  # ᴾb_o = ᴮR_Pᵀ b_o
+    # bo: ᴾb_o = ᴮR_Pᵀ b_o
     for i in range(3):
         bo[i] = R[0, i] * b[3] + R[1, i] * b[4] + R[2, i] * b[5]
     for i in range(9):
@@ -262,7 +274,6 @@ def qp_problem_lane(
 
     # the legs: l̇_i = (ᴮR_Pᵀ u_i)·ᴾṖ + (ᴾP_i × ᴮR_Pᵀ u_i)·ω_P (seed 000 eqs (4)-(8)), kept
     # from the stroke's ends by the step's second-order part too (`LegStrokeLimit.margins`)
-    bounds = np.empty(4)
     step_bounds_lane(prm, dt, bounds)
     theta, s_max, e_rot, e_trans = bounds[0], bounds[1], bounds[2], bounds[3]
     arm = 0.0
@@ -319,10 +330,8 @@ def qp_problem_lane(
                     lower, upper, 9 + 9 + j)  # fmt: skip
 
 
-@register_jitable
-def count_active_lane(
-    v: np.ndarray, A: np.ndarray, lower: np.ndarray, upper: np.ndarray
-) -> int:
+@register_inline
+def count_active_lane(v: np.ndarray, A: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> int:
     """`twin.planners.qp.count_active` on one lane's arrays: limit rows and rate bounds at
     their bound (to `ACTIVE_TOL`, relative to the bound's size); 0 for a non-finite v."""
     count = 0
@@ -340,136 +349,34 @@ def count_active_lane(
 
 
 @register_jitable
-def qp_finish_lane(
+def qp_lane_work() -> tuple:
+    """Scratch of `qp_velocity`, allocated once per lane: H (9, 9), f (9,), A (N_QP_ROWS, 9),
+    lower, upper (9 + N_QP_ROWS,), `problem_work`, `levels_work`."""
+    return (
+        np.empty((9, 9)), np.empty(9), np.empty((N_QP_ROWS, 9)), np.empty(9 + N_QP_ROWS),
+        np.empty(9 + N_QP_ROWS), problem_work(), levels_work(9, N_QP_ROWS - N_POSITION),
+    )  # fmt: skip
+
+
+@register_borrowing
+def qp_velocity(
     x: np.ndarray,
-    v: np.ndarray,
-    level: int,
-    hold: bool,
+    target: np.ndarray,
+    row: np.ndarray,
     const: np.ndarray,
     dt: float,
-    A: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    x_next: np.ndarray,
+    work: tuple,
+    v: np.ndarray,
     d: np.ndarray,
 ) -> int:
-    """`run_hybrid`'s guard on the solved rates v (9,): a non-finite v holds the state
-    (FAULT_PLANNER, D_LIMIT_SCALE = 0); otherwise in `hold` mode the step is shortened to
-    `limit_scale_lane` (FAULT_JOINT_LIMIT when < 1) and xi integrates (`integrate_hybrid`).
-    Level 2 (limits relaxed) sets FAULT_INFEASIBLE. Writes x_next (9,) and the diagnostics
-    D_LIMIT_SCALE, D_QP_LEVEL, D_QP_ACTIVE of d; returns the fault bits."""
-    bits = FAULT_INFEASIBLE if level == 2 else 0
+    """The qp planner's step in a hybrid lane (`twin.sim.kernels.hybrid_runner.hybrid_lane`
+    guards and integrates it): its QP at the state x (9,) and target row (18,)
+    (`qp_problem_lane`), solved by the planner object's own `solve_levels_lane`; v (9,)
+    written (NaN when no level is solved), and D_QP_LEVEL, D_QP_ACTIVE of d. Returns
+    FAULT_INFEASIBLE at level 2 (the limits relaxed), else 0. `work` from `qp_lane_work`."""
+    H, f, A, lower, upper, problem, levels = work
+    qp_problem_lane(x, target, row, const, dt, H, f, A, lower, upper, problem)
+    level = solve_levels_lane(H, f, A, lower, upper, row[P_QP_POSITION], levels, v)
     d[D_QP_LEVEL] = level
-    finite = True
-    for j in range(9):
-        finite = finite and math.isfinite(v[j])
-    if not finite:
-        d[D_QP_ACTIVE] = 0.0
-        d[D_LIMIT_SCALE] = 0.0
-        for j in range(9):
-            x_next[j] = x[j]
-        return bits | FAULT_PLANNER
-    d[D_QP_ACTIVE] = count_active_lane(v, A, lower, upper)
-    R = np.empty((3, 3))
-    rpy_to_matrix_lane(x[3], x[4], x[5], R)
-    s = 1.0
-    if hold:
-        s = limit_scale_lane(x, R, v, dt, const, limit_work())
-        if s < 1.0:
-            bits |= FAULT_JOINT_LIMIT
-    d[D_LIMIT_SCALE] = s
-    scaled = np.empty(9)
-    for j in range(9):
-        scaled[j] = s * v[j]
-    integrate_hybrid(x, R, scaled, dt, x_next)
-    return bits
-
-
-def qp_prepare(
-    xs: np.ndarray,
-    k: int,
-    targets: np.ndarray,
-    prm: np.ndarray,
-    const: np.ndarray,
-    dt: float,
-    H: np.ndarray,
-    f: np.ndarray,
-    A: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
-) -> None:
-    """Every lane's QP at step k of the chunk (`qp_problem_lane`; arrays with a leading lane
-    axis)."""
-    for n in range(xs.shape[0]):
-        qp_problem_lane(
-            xs[n, k], targets[n, k], prm[n], const, dt, H[n], f[n], A[n], lower[n], upper[n]
-        )
-
-
-def qp_finish(
-    xs: np.ndarray,
-    k: int,
-    V: np.ndarray,
-    levels: np.ndarray,
-    prm: np.ndarray,
-    const: np.ndarray,
-    dt: float,
-    A: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    diag: np.ndarray,
-    faults: np.ndarray,
-) -> None:
-    """Every lane's step k from its solved rates V (N, 9) and levels (N,) (`qp_finish_lane`):
-    xs[:, k + 1], diag[:, k + 1] and faults[:, k] written."""
-    for n in range(xs.shape[0]):
-        faults[n, k] = qp_finish_lane(
-            xs[n, k], V[n], levels[n], prm[n, P_HOLD] > 0.0, const, dt, A[n], lower[n],
-            upper[n], xs[n, k + 1], diag[n, k + 1],
-        )  # fmt: skip
-
-
-#: modules whose register_jitable functions `qp_prepare` and `qp_finish` compile in
-KERNEL_MODULES = ("twin.sim.kernels.hybrid", "twin.sim.kernels.layout", "twin.sim.kernels.qp")
-
-
-@cache
-def compiled_qp() -> tuple[Callable, Callable]:
-    """(`qp_prepare`, `qp_finish`) compiled by numba (serial: the lanes of a step are few and
-    the solve between them is Python), cached on disk (`compile_runner`); the plain functions
-    without numba."""
-    return (
-        compile_runner(qp_prepare, False, KERNEL_MODULES),
-        compile_runner(qp_finish, False, KERNEL_MODULES),
-    )
-
-
-def run_qp(
-    xs: np.ndarray,
-    targets: np.ndarray,
-    prm: np.ndarray,
-    const: np.ndarray,
-    dt: float,
-    diag: np.ndarray,
-    faults: np.ndarray,
-    compiled: bool = True,
-) -> None:
-    """Step N qp lanes through a chunk of B samples (arrays as `run_hybrid`'s): per step,
-    assemble every lane's QP (compiled), solve each with its library (`solve_levels`), guard
-    and integrate (compiled)."""
-    from twin.planners.qp import SOLVERS, QPProblem, solve_levels
-
-    N, B = xs.shape[0], xs.shape[1] - 1  # targets may have the chunk's end row too
-    H, f = np.empty((N, 9, 9)), np.empty((N, 9))
-    A = np.empty((N, N_QP_ROWS, 9))
-    lower, upper = np.empty((N, 9 + N_QP_ROWS)), np.empty((N, 9 + N_QP_ROWS))
-    V, levels = np.empty((N, 9)), np.zeros(N, dtype=np.int64)
-    prepare, finish = compiled_qp() if compiled else (qp_prepare, qp_finish)
-    solvers = [SOLVERS[int(row[P_QP_SOLVER])] for row in prm]
-    weights = prm[:, P_QP_POSITION].tolist()
-    for k in range(B):
-        prepare(xs, k, targets, prm, const, dt, H, f, A, lower, upper)
-        for n in range(N):
-            problem = QPProblem(H[n], f[n], A[n], lower[n], upper[n], weights[n])
-            V[n], levels[n] = solve_levels(problem, solvers[n])
-        finish(xs, k, V, levels, prm, const, dt, A, lower, upper, diag, faults)
+    d[D_QP_ACTIVE] = count_active_lane(v, A, lower, upper)  # 0 for a NaN v
+    return FAULT_INFEASIBLE if level == 2 else 0

@@ -33,8 +33,9 @@ from twin.compiled import (
     register_inline,
     register_jitable,
 )
-from twin.sim.kernels.allocation import leg_vectors_lane, manipulability_lane
-from twin.sim.kernels.hybrid import tip_error_lane
+from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
+from twin.planners.tasks import tip_error_lane
+from twin.sim.kernels.layout import C_A1, C_BASE_HINGES, C_D1, C_PLATFORM_HINGES
 from twin.spatial import rpy_to_matrix_lane
 
 #: Scalar record rows (`run_hybrid_records`' `scalars`).
@@ -124,8 +125,10 @@ def record_from_tip(
                 + held[i, 2] * target[3 * j + 2]
             )  # fmt: skip
     # legs and manipulability
-    leg_vectors_lane(R_BP, x[:3], const, vectors, legs_out)
-    scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, const, J)
+    platform = const[C_PLATFORM_HINGES : C_PLATFORM_HINGES + 18]
+    leg_vectors_lane(R_BP, x, const[C_BASE_HINGES : C_BASE_HINGES + 18], platform, vectors,
+                     legs_out)  # fmt: skip
+    scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, platform, J)
     # inertial directions of the tip's axes: ᴵR_B ᴮR_E e_x (up) and d3 ᴵR_B ᴮR_E e_z (gangway)
     for i in range(3):
         up[i] = R_IB[i, 0] * tip[TIP_X] + R_IB[i, 1] * tip[TIP_X + 1] + R_IB[i, 2] * tip[TIP_X + 2]
@@ -158,7 +161,7 @@ def sample_tip(
     rotations, frames, tip = work[0], work[1], work[6]
     R_BP = rotations[1]
     rpy_to_matrix_lane(x[3], x[4], x[5], R_BP)
-    tip_error_lane(x, R_BP, target, const, frames, work[2], error_out)
+    tip_error_lane(x, R_BP, target, const[C_D1], const[C_A1], frames, work[2], error_out)
     hand_over(R_BP, frames[1], error_out, tip, error_out)
 
 
@@ -269,33 +272,27 @@ def run_hybrid_records_lanes(
     tips: np.ndarray,
 ) -> None:
     """`run_hybrid_records` with its lanes in parallel, each a one-lane call of the compiled
-    serial runner (`serial_records`, a global `compiled_records` gives it), so the inlined
+    serial runner `serial_records`, so the inlined
     record is compiled once (`twin.sim.kernels.hybrid_runner.run_hybrid_lanes`). Arguments
     and errors as `run_hybrid_records`' (refused before the parallel loop: an exception
     raised inside it reaches Python as a SystemError)."""
     require_target_rows(targets, xs)
     for n in prange(xs.shape[0]):
         lane = slice(n, n + 1)
-        serial_records(targets[lane], xs[lane], first, handed[lane], held[lane], landing[lane],  # noqa: F821
+        serial_records(targets[lane], xs[lane], first, handed[lane], held[lane], landing[lane],
                        gangway0[lane], const, legs[lane], errors[lane], scalars[lane],
                        tips[lane])  # fmt: skip
 
 
-#: modules whose register_jitable functions the records runners compile in
-RECORD_MODULES = (
-    "twin.sim.kernels.records",
-    "twin.sim.kernels.hybrid",
-    "twin.sim.kernels.allocation",
-    "twin.sim.kernels.layout",
-)
+#: `run_hybrid_records` compiled serial (lazily, on its first call; `twin.compiled`), or the
+#: plain function without numba: what `run_hybrid_records_lanes` calls per lane
+serial_records = compile_runner(run_hybrid_records, parallel=False)
 
 
 @cache
 def compiled_records(parallel: bool) -> Callable:
-    """`run_hybrid_records` compiled (`compile_runner`), lanes in parallel
-    (`run_hybrid_records_lanes`) or serial; plain Python without numba."""
-    serial = compile_runner(run_hybrid_records, False, RECORD_MODULES)
-    if not parallel or serial is run_hybrid_records:
-        return serial
-    return compile_runner(run_hybrid_records_lanes, True, RECORD_MODULES,
-                          {"serial_records": serial})  # fmt: skip
+    """`run_hybrid_records` compiled (`twin.compiled.compile_runner`), lanes in parallel
+    (`run_hybrid_records_lanes`) or serial (`serial_records`); plain Python without numba."""
+    if not parallel or serial_records is run_hybrid_records:
+        return serial_records
+    return compile_runner(run_hybrid_records_lanes, parallel=True)

@@ -21,8 +21,8 @@ from twin.web.routers.responses import BAD_INPUT, REFUSED, STORE
 router = APIRouter(prefix="/api/live", tags=["live"])
 
 
-@router.get("")
-def get_live(session: Session) -> LiveState:
+@router.get("", response_model=LiveState)
+def get_live(session: Session) -> dict[str, Any]:
     """The live session: scenario fields, `t` [s], `speed`, `playing` and metrics; `compare`
     (planner, metrics) when a second planner runs beside the first; `replay` (run id, time)
     while a stored run is shown."""
@@ -64,20 +64,21 @@ def reset_live(session: Session) -> Any:
     return session.snapshot()
 
 
-@router.post("/pause", dependencies=GUARDED, responses=REFUSED)
-def pause_live(session: Session) -> LiveState:
+@router.post("/pause", response_model=LiveState, dependencies=GUARDED, responses=REFUSED)
+def pause_live(session: Session) -> dict[str, Any]:
     session.pause()
     return session.snapshot()
 
 
-@router.post("/play", dependencies=GUARDED, responses=REFUSED)
-def play_live(session: Session) -> LiveState:
+@router.post("/play", response_model=LiveState, dependencies=GUARDED, responses=REFUSED)
+def play_live(session: Session) -> dict[str, Any]:
     session.play()
     return session.snapshot()
 
 
 @router.post(
     "/step",
+    response_model=LiveState,
     dependencies=GUARDED,
     responses={
         200: {"headers": {"X-Steps-Taken": {"description": "steps taken (fewer than n when "
@@ -87,7 +88,7 @@ def play_live(session: Session) -> LiveState:
 )  # fmt: skip
 def step_live(
     session: Session, response: Response, n: Annotated[int, Query(ge=1, le=1000)] = 1
-) -> LiveState:
+) -> dict[str, Any]:
     """Advance n steps now, also while paused.
 
     The session's lock is taken a few steps at a time, so readers are served between them,

@@ -39,8 +39,8 @@ from twin.web.access import Access
 from twin.web.api import create_app
 from twin.web.frame import read_frame
 from twin.web.jobs import SweepRunner
-from twin.web.scene import FRAMING, Viewer, start_viewer
 from twin.web.store import RunStore
+from twin.web.viewer import FRAMING, Viewer, start_viewer
 
 CHROMIUM = Path("/usr/bin/chromium")
 #: the page drawn at half the resolution per side (viser's development parameter): a paused

@@ -27,10 +27,10 @@ from playwright.sync_api import Page, sync_playwright
 
 from tests.figures import record
 from tests.web.support import free_port, wait_for
-from tests.web.test_browser import ARGS, CHROMIUM, HALF_RESOLUTION
+from tests.web.viewer.test_browser import ARGS, CHROMIUM, HALF_RESOLUTION
 from twin.sim.live import LiveSession
 from twin.web.frame import VIEWS, read_frame
-from twin.web.scene import FRAMING, Viewer, framed_points, mechanism_points, start_viewer
+from twin.web.viewer import FRAMING, Viewer, framed_points, mechanism_points, start_viewer
 
 pytestmark = [
     pytest.mark.serial,

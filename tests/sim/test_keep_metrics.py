@@ -1,0 +1,122 @@
+"""Lanes that keep only what is asked (issue 28 item 6): `Simulation(keep="metrics")` reduces the
+hybrid system's metrics chunk by chunk (`twin.sim.metrics.HybridReduction`), to the bits of the
+whole-series reduction, with memory that does not grow with the run's length."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twin.errors import TwinError
+from twin.sim import simulate_many
+from twin.sim.engine import Simulation
+from twin.sim.kernels import metrics as kernel
+from twin.sim.metrics import HybridReduction, hybrid_metrics_lanes
+
+from .kernels.test_metrics_kernel import assert_matches_oracle
+
+#: hybrid lanes of every planner family, both joint-limit modes and different durations, in a
+#: sea rough enough that limits are reached (violations and fault counts are not all zero)
+LANES = [
+    {"planner": "mtmp", "duration": 6.0, "seed": 3},
+    {"planner": "pi", "duration": 4.35, "seed": 1, "joint_limits": "hold"},
+    {"planner": "dwa", "duration": 5.2, "seed": 2},
+    {"planner": "qp", "duration": 0.3, "seed": 4},
+]
+
+
+def held_bytes(simulation: Simulation) -> int:
+    """[bytes] the arrays a Simulation keeps between chunks: its history and its sums."""
+    kept = sum(values.nbytes for values in simulation.history.data.values())
+    if simulation._reduction is not None:
+        kept += simulation._reduction.acc.nbytes
+    return kept
+
+
+def test_chunk_by_chunk_metrics_are_the_whole_series_metrics_to_the_bit() -> None:
+    """Stepped in uneven pieces (a chunk boundary inside the settling samples and everywhere
+    else), the reduced lanes' metrics, fault counts included, equal the full series' exactly,
+    and those are the numpy formulas' (`assert_matches_oracle`, 1e-12)."""
+    scenarios = [{"sea_state": 7, **lane} for lane in LANES]
+    full = Simulation(scenarios)
+    full.run()
+    want = full.results()
+    reduced = Simulation(scenarios, keep="metrics")
+    for size in [3, 5, 1, 17, 64, 7]:
+        reduced.advance(size)
+    while not reduced.done:
+        reduced.advance(29)
+    got = reduced.results()
+    assert sum(r.metrics["violations"] for r in want) > 0  # a comparison that can differ
+    for lane, (g, w) in enumerate(zip(got, want, strict=True)):
+        assert g.series == {}
+        assert g.metrics == w.metrics, LANES[lane]
+        assert_matches_oracle(
+            {k: v for k, v in w.metrics.items() if k not in ("faults", "fault_counts")},
+            w.series,
+            w.scenario.joint_limits,
+        )
+
+
+@pytest.mark.parametrize("mechanism", ["hybrid", "upr4"])
+def test_simulate_many_keeping_metrics_gives_the_same_metrics_without_series(
+    mechanism: str,
+) -> None:
+    """`simulate_many(keep="metrics")`: the metrics of `simulate_many()`, series empty (the small
+    platforms' lanes reduce their whole series and drop it)."""
+    scenarios = [{"mechanism": mechanism, "sea_state": 6, "duration": 3.0, "seed": s}
+                 for s in range(3)]  # fmt: skip
+    full = simulate_many(scenarios)
+    reduced = simulate_many(scenarios, keep="metrics")
+    for r, f in zip(reduced, full, strict=True):
+        assert r.series == {} and len(f.series["t"]) == 61
+        assert r.metrics == f.metrics
+
+
+def test_memory_kept_does_not_grow_with_the_run() -> None:
+    """A reduced run of 2,000 s keeps the arrays of one of 200 s, byte for byte; a run keeping its
+    series keeps ten times more (the comparison can fail)."""
+    kept = {}
+    for duration in (200.0, 2000.0):
+        for keep in ("series", "metrics"):
+            simulation = Simulation({"sea_state": 5, "duration": duration}, keep=keep)
+            simulation.run()
+            kept[duration, keep] = held_bytes(simulation)
+    assert kept[200.0, "metrics"] == kept[2000.0, "metrics"]
+    assert kept[2000.0, "series"] > 9 * kept[200.0, "series"] > 100 * kept[200.0, "metrics"]
+
+
+def test_a_reduction_takes_samples_in_order_and_gives_metrics_at_the_end() -> None:
+    """`HybridReduction` refuses samples out of order and metrics before every lane's end; fed
+    a series in two pieces it equals `hybrid_metrics_lanes` of it."""
+    simulation = Simulation({"sea_state": 6, "duration": 2.0})
+    simulation.run()
+    data = {key: simulation.history.data[key] for key in kernel.REDUCED}
+    T = data["t"].shape[1]
+    reduction = HybridReduction(simulation.mechanism, np.array([T]), ["record"], False)
+    with pytest.raises(ValueError, match="samples from 5 on"):
+        reduction.add({key: v[:, 5:] for key, v in data.items()}, 5)
+    reduction.add({key: v[:, :12] for key, v in data.items()}, 0)
+    with pytest.raises(ValueError, match=f"have \\[12\\] of \\[{T}\\] samples"):
+        reduction.results()
+    reduction.add({key: v[:, 12:] for key, v in data.items()}, 12)
+    want = hybrid_metrics_lanes(data, np.array([T]), simulation.mechanism, ["record"], True)
+    assert reduction.results() == want
+
+
+def test_keep_is_checked() -> None:
+    """An unknown keep, a ring with keep="metrics", results before the end and a new duration
+    while reducing are each refused, saying what is allowed."""
+    with pytest.raises(TwinError, match=r"keep: unknown 'all'; allowed: \['series', 'metrics'\]"):
+        Simulation({"duration": 1.0}, keep="all")
+    with pytest.raises(TwinError, match="history_limit"):
+        Simulation({"duration": 1.0}, history_limit=100, keep="metrics")
+    simulation = Simulation({"duration": 1.0}, keep="metrics")
+    simulation.advance(5)
+    with pytest.raises(TwinError, match="at step 5 of 20"):
+        simulation.results()
+    with pytest.raises(TwinError, match="duration cannot change"):
+        simulation.update({"duration": 2.0})
+    simulation.update({"hs": 1.0})  # a sea change is fine
+    simulation.run()
+    assert simulation.result().metrics["violations"] >= 0

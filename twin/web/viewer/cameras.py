@@ -1,0 +1,140 @@
+"""The camera presets (overview, walkway, close-up): what each view keeps in sight and where
+its camera stands, clear of the control panel.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+import viser
+
+from twin.web.frame import VIEWS, FrameState, View
+
+logger = logging.getLogger(__name__)
+
+#: the view every browser gets when a mechanism is built: the mechanism and its target fill
+#: it, however small the mechanism is next to its vessel
+FRAMING: View = "close-up"
+#: [rad] the cameras' vertical field of view (viser's default, set on every camera)
+FOV = float(np.radians(75.0))
+#: [px] the overview draws the mechanism's longest side at least this long, face on, in a
+#: window this tall (a laptop's browser): seen at the overview's slant, ≥ 80 px (the issue's
+#: least; measured in tests/web/viewer/test_browser_scene.py). A small
+#: mechanism on a large vessel (the 3UPU_UP's 1.3 m on 70 m) is not shrunk to fit the whole
+#: vessel: the overview then comes in to the deck around it (the cameras zoom; the scene is
+#: never drawn out of scale)
+OVERVIEW_MIN_PX, VIEW_HEIGHT_PX = 120.0, 720.0
+#: [-] the close-up's distance over the one at which the mechanism and its target's bounding
+#: sphere just fits the field of view
+CLOSE_UP_MARGIN = 1.3
+#: [-] the views put what they show this fraction of the view's half-width left of its middle,
+#: clear of the control panel (about a third of a 1200 px window, on the right), for a
+#: window of width / height `VIEW_ASPECT`
+PANEL_SHIFT, VIEW_ASPECT = 0.3, 1.6
+#: [m] height of each target's prop above its held pose (UAV, hanging container), framed too
+TARGET_HEIGHT = {"hybrid": 0.0, "upu3up": 2.6, "upr4": 1.8}
+
+
+def mechanism_size(mechanism: Any) -> float:
+    """[m] radius of the base hinge circle: the length scale of cameras, lines and props."""
+    return float(np.max(np.linalg.norm(mechanism.layout.base_hinges, axis=-1)))
+
+
+def mechanism_points(fs: FrameState) -> np.ndarray:
+    """(n, 3) [m] inertial points that span the mechanism at the frame's state: its base
+    hinges, its platform hinges and its landing point (the gangway tip, the top)."""
+    layout, T_IB = fs.mechanism.layout, fs.transform_base
+    T_IP = T_IB @ fs.transform_platform
+    base = layout.base_hinges @ T_IB[:3, :3].T + T_IB[:3, 3]
+    top = layout.platform_hinges @ T_IP[:3, :3].T + T_IP[:3, 3]
+    return np.concatenate([base, top, fs.landing[None]])
+
+
+def framed_points(fs: FrameState) -> np.ndarray:
+    """(n, 3) [m] what a view of the mechanism and its target keeps in sight: the mechanism
+    (`mechanism_points`), the held pose and the top of the target's prop over it."""
+    held = fs.held[:3, 3]
+    prop = held + np.array([0.0, 0.0, TARGET_HEIGHT[fs.scenario.mechanism]])
+    return np.concatenate([mechanism_points(fs), [held, prop]])
+
+
+def beside_panel(
+    centre: np.ndarray, direction: np.ndarray, distance: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(camera position, look-at point) [m] that show `centre` from `direction` (unit, from
+    the centre to the camera) at `distance`, a little left of the middle of the view: viser's
+    control panel covers the right of the window (`PANEL_SHIFT`)."""
+    right = np.cross(-direction, np.array([0.0, 0.0, 1.0]))
+    right /= max(float(np.linalg.norm(right)), 1e-9)
+    look_at = centre + PANEL_SHIFT * distance * np.tan(FOV / 2) * VIEW_ASPECT * right
+    return look_at + distance * direction, look_at
+
+
+class Cameras:
+    """`TwinScene`'s camera presets (it has `hull`, `size`, `last`, `clip`, `server`)."""
+
+    hull: Any
+    size: float
+    last: FrameState | None
+    clip: tuple[float, float]
+    server: viser.ViserServer
+
+    def camera_pose(self, view: View, fs: FrameState) -> tuple[np.ndarray, np.ndarray]:
+        """(camera position, look-at point) [m] of a preset view at the frame's state."""
+        T_IB, held = fs.transform_base, fs.held[:3, 3]
+        up = np.array([0.0, 0.0, 1.0])
+        if view == "overview":  # high over the port bow: vessel, mechanism and target
+            centre = 0.5 * (held + T_IB[:3, 3])
+            reach = max(self.hull.length, 2.0 * float(np.linalg.norm(held - T_IB[:3, 3])))
+            direction = np.array([0.3, 0.8, 0.6]) / np.linalg.norm([0.3, 0.8, 0.6])
+            distance = 1.4 * reach * np.linalg.norm([0.3, 0.8, 0.6])
+            extent = float(np.ptp(mechanism_points(fs), axis=0).max())  # [m] longest side
+            # the farthest the camera may be for the mechanism to span OVERVIEW_MIN_PX
+            farthest = extent * VIEW_HEIGHT_PX / (OVERVIEW_MIN_PX * 2.0 * np.tan(FOV / 2))
+            if distance > farthest:  # a small mechanism: come in to it and its target
+                distance = farthest
+                points = framed_points(fs)
+                centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+            return beside_panel(centre, direction, distance)
+        if view == "walkway":
+            if fs.scenario.mechanism == "hybrid":
+                # a person at the gangway's slew bearing (3.1 m above the platform, URDF)
+                eye = (T_IB @ fs.transform_platform @ np.array([0.0, 0.0, 3.1, 1.0]))[:3]
+                return eye + 1.7 * up, held + 1.0 * up
+            eye = (T_IB @ np.array([-3.0 * self.size, -3.0 * self.size, 0.0, 1.0]))[:3]
+            return eye + 1.7 * up, held
+        if view == "close-up":  # from the vessel's side of the target, a little aside
+            back = T_IB[:2, 3] - held[:2]
+            # a target held over its own mechanism (the platforms) gives no steady "vessel's
+            # side": the base wanders around it with the waves, so the view is a fixed one
+            far = np.linalg.norm(back) > 3.0 * self.size
+            back = back / np.linalg.norm(back) if far else np.array([-0.6, -0.8])
+            side = np.array([-back[1], back[0]])
+            direction = np.r_[4.0 * np.asarray(back) + 2.5 * side, 3.0]
+            direction /= np.linalg.norm(direction)
+            # the whole mechanism (base to landing point) and its target's prop fit the view
+            points = framed_points(fs)
+            centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+            radius = float(np.max(np.linalg.norm(points - centre, axis=-1)))
+            distance = CLOSE_UP_MARGIN * radius / np.sin(FOV / 2)
+            return beside_panel(centre, direction, distance)
+        raise ValueError(f"unknown view {view!r}; allowed: {VIEWS}")
+
+    def set_camera(self, view: View, clients: Iterable[viser.ClientHandle]) -> None:
+        """Point the clients' cameras at a preset view of the latest frame."""
+        if self.last is None:
+            return
+        position, look_at = self.camera_pose(view, self.last)
+        for client in clients:
+            try:
+                with client.atomic():
+                    client.camera.up_direction = (0.0, 0.0, 1.0)
+                    client.camera.fov = FOV
+                    client.camera.position = position
+                    client.camera.look_at = look_at
+                    client.camera.near, client.camera.far = self.clip
+            except Exception:  # a browser that is leaving, or has not sent its camera yet
+                logger.debug("camera of client %s not set", client.client_id, exc_info=True)
