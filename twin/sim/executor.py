@@ -55,6 +55,19 @@ SWEEP_PRIORITY = 0
 CONNECT_TIMEOUT = 30.0
 #: [s] how long `Executor.close` gives the cluster to stop before its processes are killed
 CLOSE_TIMEOUT = 3.0
+#: Dask settings of the clusters `Executor.start` starts, for a server that rests when idle
+#: (issue 29 item 8): Dask's defaults wake the event loop of the scheduler and of an in-process
+#: worker every 10-100 ms (the profiler every 10 ms, the loop-blocked tick every 20 ms, the
+#: memory monitor every 100 ms, the system monitor every 500 ms), ~4.8 % of a core at rest.
+#: Longer periods cost nothing here: the tick still flags a loop blocked over its 3 s limit,
+#: the memory monitor still pauses or restarts a worker within half a second, and the profiler
+#: only feeds the Dask dashboard (kept on when the dashboard is asked for).
+QUIET_DASK = {
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+    "distributed.worker.memory.monitor-interval": "500ms",
+    "distributed.worker.profile.enabled": False,
+}
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -318,30 +331,35 @@ class Executor:
             ValueError: an address that is not a Dask scheduler's, or a bad `n_workers`.
             OSError, TimeoutError: the scheduler cannot be reached.
         """
+        import dask
         from distributed import Client, LocalCluster
 
         if n_workers is not None and not 1 <= n_workers <= 256:
             raise TwinError(f"n_workers: got {n_workers}; allowed 1 … 256")
         if scheduler is None or scheduler == IN_PROCESS:
             in_process = scheduler == IN_PROCESS
-            cluster = LocalCluster(
-                n_workers=1 if in_process else n_workers or os.cpu_count() or 1,
-                threads_per_worker=1,
-                processes=not in_process,
-                # no dashboard unless asked for (the scheduler's HTTP routes of health and
-                # metrics stay); on loopback (an in-process worker would listen on every
-                # interface) and on a free port (not 8787, which another cluster may hold)
-                dashboard_address="127.0.0.1:0",
-                scheduler_kwargs={"dashboard": dashboard},
-                worker_dashboard_address=None,
-                # the scheduler takes pickled functions from whoever connects: over TLS with a
-                # key made for this cluster and held only in memory (`Security.temporary`),
-                # another local user cannot submit one (an in-process cluster has no port)
-                security=None if in_process else True,
-                # workers log connection errors while a cluster shuts down; a task's own error
-                # still reaches its future
-                silence_logs=logging.CRITICAL,
-            )
+            quiet = dict(QUIET_DASK)
+            if dashboard:  # the dashboard's profile plots need the profiler
+                del quiet["distributed.worker.profile.enabled"]
+            with dask.config.set(quiet):  # read as the scheduler and workers are made
+                cluster = LocalCluster(
+                    n_workers=1 if in_process else n_workers or os.cpu_count() or 1,
+                    threads_per_worker=1,
+                    processes=not in_process,
+                    # no dashboard unless asked for (the scheduler's HTTP routes of health and
+                    # metrics stay); on loopback (an in-process worker would listen on every
+                    # interface) and on a free port (not 8787, which another cluster may hold)
+                    dashboard_address="127.0.0.1:0",
+                    scheduler_kwargs={"dashboard": dashboard},
+                    worker_dashboard_address=None,
+                    # the scheduler takes pickled functions from whoever connects: over TLS with a
+                    # key made for this cluster and held only in memory (`Security.temporary`),
+                    # another local user cannot submit one (an in-process cluster has no port)
+                    security=None if in_process else True,
+                    # workers log connection errors while a cluster shuts down; a task's own error
+                    # still reaches its future
+                    silence_logs=logging.CRITICAL,
+                )
             try:
                 client = Client(cluster, timeout=timeout, set_as_default=False)
             except BaseException:

@@ -1,0 +1,41 @@
+"""The executor's own cluster rests when idle (issue 29 item 8): the scheduler's and the
+in-process worker's periodic callbacks run at `QUIET_DASK`'s periods, not Dask's 10-100 ms
+defaults, and the cluster still runs tasks. (The CPU figure itself is a benchmark:
+benchmarks/idle.py.)"""
+
+from __future__ import annotations
+
+import operator
+
+import dask
+from dask.utils import parse_timedelta
+
+from twin.sim.executor import IN_PROCESS, QUIET_DASK, Executor
+
+
+def _ms(key: str) -> float:
+    """[ms] a `QUIET_DASK` period."""
+    return 1000.0 * parse_timedelta(QUIET_DASK[key])
+
+
+def test_in_process_cluster_runs_its_callbacks_at_the_quiet_periods() -> None:
+    with Executor.start(IN_PROCESS, warm=False) as executor:
+        scheduler = executor.cluster.scheduler
+        (worker,) = executor.cluster.workers.values()
+        tick = _ms("distributed.admin.tick.interval")
+        monitor = _ms("distributed.admin.system-monitor.interval")
+        assert scheduler.periodic_callbacks["tick"].callback_time == tick
+        assert scheduler.periodic_callbacks["monitor"].callback_time == monitor
+        assert worker.periodic_callbacks["tick"].callback_time == tick
+        assert worker.periodic_callbacks["memory_monitor"].callback_time == _ms(
+            "distributed.worker.memory.monitor-interval"
+        )
+        assert "profile" not in worker.periodic_callbacks  # no dashboard: no profiler
+        assert executor.submit(operator.add, 2, 3).result(timeout=30) == 5
+
+
+def test_quiet_settings_stay_with_the_cluster_not_the_process() -> None:
+    """`dask.config.set` is scoped to making the cluster: other Dask users keep their config."""
+    before = dask.config.get("distributed.admin.tick.interval")
+    with Executor.start(IN_PROCESS, warm=False):
+        assert dask.config.get("distributed.admin.tick.interval") == before
