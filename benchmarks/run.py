@@ -72,7 +72,7 @@ REFERENCE = "seed000_ss4" if "seed000_ss4" in PAPER_PRESETS else "seed000"
 #: issue 12's targets, as ratios to the peer measured in the same run
 SINGLE_TARGET = 0.3  # simulate() of the reference run, × the peer's time for as many steps
 OTHER_TARGET = 1.0  # simulate() of any other planner, mechanism or mode, × the peer per step
-QP_TARGET = 0.15  # issue 29: simulate() with the qp planner (its QP solved in the compiled lane), × peer
+QP_TARGET = 0.15  # issue 29: simulate() with qp (its QP solved in the compiled lane), × peer
 BATCH_TARGET = 20.0  # simulate_many at N = 256, × the peer's steps/s
 LIVE_CPU_TARGET = 0.05  # [core-s per simulated s] the live session alone at WMO 4, speed 1
 LIVE_SPEED = 8.0  # the live session keeps pace at this speed in a WMO 9 sea
@@ -644,10 +644,10 @@ What is measured:
   Algorithm 1 and rate limits included), against 0.3× the peer's time for as many steps; every
   other planner, mechanism and joint-limit mode (`hold`: the
   kernel holds the machine at its joint and leg limits) against 1.0×, and `qp` (its QP solved
-  inside the compiled lane by `twin.planners.active_set`, issue 29) against 0.15×. The platform rows run
-  the 3UPU_UP and the 4-UPR on their standard mounts at WMO 4. "Where the time goes" times the
-  engine's phases (`phases()` wraps its methods for the measurement); "other" is the rest
-  (scenario validation, the history, fault bits, bookkeeping).
+  inside the compiled lane by `twin.planners.active_set`, issue 29) against 0.15×. The
+  platform rows run the 3UPU_UP and the 4-UPR on their standard mounts at WMO 4. "Where the
+  time goes" times the engine's phases (`phases()` wraps its methods for the measurement);
+  "other" is the rest (scenario validation, the history, fault bits, bookkeeping).
 - **fallback**: the same kernels interpreted (`engine="python"`, for machines without numba),
   per step, as a multiple of the peer's time per step.
 - **N = 256**: 256 reference runs (sea seeds 0-255) in one `simulate_many`, end to end, best
