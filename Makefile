@@ -65,6 +65,7 @@ serve: $(SERVE_STAMP)
 # The serial pass runs even when the parallel one fails, so one failure hides no browser test.
 test: $(STAMP) /usr/bin/chromium
 	$(BIN)/ruff check .
+	$(BIN)/mypy
 	# the kernels compiled once, in two processes, before two test workers would each compile them
 	$(BIN)/python -m twin.cli warm --processes 2
 	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not serial" --durations=15; first=$$?; \

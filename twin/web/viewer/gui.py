@@ -22,7 +22,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import viser
@@ -168,7 +168,7 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
         self.restarted: tuple[float, str] | None = None  # (monotonic time, why), see update
         self._compare_seen: str | None = None
         gui = server.gui
-        shown = FOLDERS if store is not None else FOLDERS[:4]
+        shown: tuple[str, ...] = FOLDERS if store is not None else FOLDERS[:4]
         if sweeps is None:
             shown = tuple(f for f in shown if f != "Operability")
         self.folders = {name: gui.add_folder(name, order=i) for i, name in enumerate(shown)}
@@ -238,7 +238,7 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
         """The browser's address (viser keeps it on its connection), else one shared key."""
         return viser_adapter.remote_address(self.server, client) or "viewer"
 
-    def unlock(self, client: viser.ClientHandle, token: str) -> bool | str:
+    def unlock(self, client: viser.ClientHandle, token: str) -> Literal[True] | str:
         """Let a browser's edits apply if `token` is the server's (constant-time compare).
 
         Returns:

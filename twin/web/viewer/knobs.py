@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Any, get_args
+from typing import Any, SupportsFloat, cast, get_args
 
 import annotated_types as at
 import numpy as np
@@ -103,17 +103,18 @@ def knob(model: type[BaseModel], name: str, label: str, step: float | None = Non
         step: slider step; default a power of ten giving ≥ 100 steps over the range.
     """
     info = model.model_fields[name]
-    low = high = None
+    low: float | None = None
+    high: float | None = None
     strict = False
     for constraint in info.metadata:
         if isinstance(constraint, at.Ge):
-            low = constraint.ge
+            low = float(cast(SupportsFloat, constraint.ge))
         elif isinstance(constraint, at.Gt):
-            low, strict = constraint.gt, True
+            low, strict = float(cast(SupportsFloat, constraint.gt)), True
         elif isinstance(constraint, at.Le):
-            high = constraint.le
+            high = float(cast(SupportsFloat, constraint.le))
         elif isinstance(constraint, at.Lt):
-            high = constraint.lt
+            high = float(cast(SupportsFloat, constraint.lt))
     if low is None or high is None:
         raise ValueError(f"{model.__name__}.{name} needs lower and upper bounds for a widget")
     step = step or 10.0 ** np.floor(np.log10((high - low) / 100.0))

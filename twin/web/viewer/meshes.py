@@ -57,7 +57,7 @@ WHITE = (240, 242, 245)
 GREEN = (40, 170, 80)
 TRAIL = (214, 40, 160)
 #: the ghost's tip-error trail: its blue, opaque
-GHOST_TRAIL = tuple(int(255 * c) for c in GHOST[:3])
+GHOST_TRAIL: tuple[int, int, int] = (int(255 * GHOST[0]), int(255 * GHOST[1]), int(255 * GHOST[2]))
 
 
 def ocean_faces(n: int) -> np.ndarray:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import logging
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import viser
@@ -57,6 +57,7 @@ class SweepControls:
     def _add_sweep(self, folder: Any) -> None:
         """This browser's sweep controls: the Hs × Tp grid, seeds, run length, Run sweep."""
         cg, gui = self.client.gui, self.gui
+        panel = cast("ClientPanel", self)  # this mixin is only ever a ClientPanel
         with folder:
             for order, (name, (label, low, high, step, initial, hint)) in enumerate(
                 SWEEP_SLIDERS.items()
@@ -72,7 +73,7 @@ class SweepControls:
                 "server's executor",
             )  # fmt: skip
         self.buttons["Run sweep"].on_click(
-            lambda event: gui.act(lambda: gui.run_sweep(self), event.client, self)
+            lambda event: gui.act(lambda: gui.run_sweep(panel), event.client, panel)
         )
         for name in SWEEP_SETTINGS:
             self.settings[name].on_update(self._on_setting(name))

@@ -28,7 +28,7 @@ import viser
 from twin.planners.registry import PLANNERS
 from twin.sim.live import COMPARE
 from twin.sim.scenario import Scenario
-from twin.web.frame import VIEWS, View
+from twin.web.frame import View
 from twin.web.viewer.graphics import GRAPHICS
 from twin.web.viewer.knobs import (
     JOINT_LIMITS,
@@ -110,9 +110,7 @@ class ClientPanel(ReplayControls, SweepControls):
                 ("Reset", viser.Icon.REFRESH, session.reset),
             )):  # fmt: skip
                 self.buttons[label] = cg.add_button(label, icon=icon, order=order)
-                self.buttons[label].on_click(
-                    lambda event, action=action: gui.act(action, event.client, self)
-                )
+                self.buttons[label].on_click(self._run_button(action))
             self.inputs["speed"] = self._add_knob(SPEED_KNOB, controls.speed, order=10)
         with folders["Mechanism and planner"]:
             self.inputs["mechanism"] = cg.add_dropdown(
@@ -143,9 +141,9 @@ class ClientPanel(ReplayControls, SweepControls):
                 "Spectrum", SPECTRA, initial_value=s.spectrum
             )
         with folders["View"]:
-            for view in VIEWS:
+            for view in VIEW_LABELS:  # the keys of VIEWS, typed as View
                 button = cg.add_button(VIEW_LABELS[view], icon=viser.Icon.CAMERA)
-                button.on_click(lambda event, view=view: gui.on_camera(view, [client]))
+                button.on_click(self._view_button(view))
                 self.buttons[VIEW_LABELS[view]] = button
             self.show_trail = cg.add_checkbox("Tip-error trail", initial_value=gui.trail)
             self.graphics = cg.add_dropdown(
@@ -188,6 +186,14 @@ class ClientPanel(ReplayControls, SweepControls):
 
         return on_update
 
+    def _run_button(self, action: Callable[[], Any]) -> Callable[[viser.GuiEvent], None]:
+        """A run button's callback: `action` if the browser may (`TwinGui.act`)."""
+        return lambda event: self.gui.act(action, event.client, self)
+
+    def _view_button(self, view: View) -> Callable[[viser.GuiEvent], None]:
+        """A camera button's callback: this browser's camera to the preset `view`."""
+        return lambda event: self.gui.on_camera(view, [self.client])
+
     # -- access -------------------------------------------------------------------------------
     def _offer_unlock(self) -> None:
         """This browser's own Access panel: the token typed here reaches no other browser."""
@@ -206,7 +212,9 @@ class ClientPanel(ReplayControls, SweepControls):
                 self._access = None
                 self.client.add_notification("Unlocked", "controls apply", auto_close_seconds=3.0)
             else:
-                field.value = ""
+                # viser's typing: _GuiInputHandle.value has a setter, but mypy takes the
+                # plain field of GuiTextProps (GuiTextHandle's other base) as read-only
+                field.value = ""  # type: ignore[misc]
                 self.client.add_notification("Not unlocked", outcome, color="red")
 
         button.on_click(unlock)
@@ -248,7 +256,7 @@ class ClientPanel(ReplayControls, SweepControls):
             value = self.inputs[name].value
             changes = {name: None if name == COMPARE and value == NO_COMPARE else value}
             if name == "mechanism" and self.gui.session.scenario.planner not in planners_for(
-                changes[name]
+                value  # changes[name] itself: the mechanism is never COMPARE's "none"
             ):
                 changes["planner"] = None  # the new mechanism's default planner
             self.gui.patch(changes, event.client, self)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import viser
@@ -54,7 +54,7 @@ class PlotSpec:
 def _line(label: str, k: int, scale: str = "y", dash: bool = False) -> up.Series:
     series = up.Series(label=label, stroke=PALETTE[k % len(PALETTE)], width=1.5, scale=scale)
     if dash:
-        series.update(stroke="#d62728", dash=(6.0, 4.0), width=1.0)
+        series["stroke"], series["dash"], series["width"] = "#d62728", (6.0, 4.0), 1.0
     return series
 
 
@@ -87,7 +87,7 @@ def plot_specs(fs: FrameState) -> tuple[PlotSpec, ...]:
         ],
     )
     if fs.scenario.mechanism == "hybrid":
-        joints: PlotSpec | None = PlotSpec(
+        joints = PlotSpec(
             "Gangway joints: q1, q2 [deg] (left), d3 [m] (right)",
             (_line("q1 [deg]", 0, "a"), _line("q2 [deg]", 1, "a"), _line("d3 [m]", 2, "b")),
             two,
@@ -132,7 +132,7 @@ def _with_ghost(spec: PlotSpec, fs: FrameState) -> PlotSpec:
         return spec
     name = fs.ghost.scenario.planner
     ghosts = tuple(
-        up.Series(**{**dict(line), "label": f"{line.get('label')} · {name}", "dash": (5.0, 3.0)})
+        cast(up.Series, {**line, "label": f"{line.get('label')} · {name}", "dash": (5.0, 3.0)})
         for line in spec.series
     )
     own = spec.values
@@ -203,7 +203,7 @@ class LivePlots:
         if fs.t < last + PLOT_DT - 1e-9:
             return
         ghost = fs.ghost.landing_offset if fs.ghost is not None else np.zeros(3)
-        self._tips.append((np.linalg.norm(fs.landing_offset), np.linalg.norm(ghost)))
+        self._tips.append((float(np.linalg.norm(fs.landing_offset)), float(np.linalg.norm(ghost))))
         if self._count == PLOT_SAMPLES:
             self._samples = np.roll(self._samples, -1, axis=1)
             self._count -= 1

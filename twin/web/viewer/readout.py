@@ -99,7 +99,7 @@ def limit_violations(fs: FrameState) -> list[str]:
 
 
 #: fault kinds that hold the mechanism for a step (a fault proper), and what the others mean
-HELD_KINDS = tuple(f.name.lower() for f in Fault if f in HOLDS)
+HELD_KINDS = tuple(f.name.lower() for f in Fault if f in HOLDS and f.name)  # members: named
 LIMIT_KINDS = {
     "joint_limit": "stopped at a limit",
     "singular": "damped near a singularity",
@@ -158,8 +158,8 @@ class Readout:
             f"**t = {fs.t:.2f} s** · {where}, {'playing' if fs.playing else 'paused'} at "
             f"{fs.speed:g}× · {s.mechanism} / {s.planner} · {sea}",
             "",
-            f"- tip error now: {mm(np.linalg.norm(fs.landing_offset))} "
-            f"({HOLDS_WHAT[s.mechanism]}), orientation {si(np.linalg.norm(e[3:]), 'rad')}",
+            f"- tip error now: {mm(float(np.linalg.norm(fs.landing_offset)))} "
+            f"({HOLDS_WHAT[s.mechanism]}), orientation {si(float(np.linalg.norm(e[3:])), 'rad')}",
             f"- leg margin: {si(margin[worst], 'm')} (leg {worst + 1})",
         ]
         if "manipulability" in fs.record:
@@ -184,7 +184,7 @@ class Readout:
             ghost = tips[:, 1] if tips.size else np.zeros(1)
             lines.append(
                 f"- ghost {c['planner']}: tip error now "
-                f"{mm(np.linalg.norm(fs.ghost.landing_offset))}, over {window} rms "
+                f"{mm(float(np.linalg.norm(fs.ghost.landing_offset)))}, over {window} rms "
                 f"{mm(np.sqrt(np.mean(ghost**2)))}, max {mm(ghost.max())}; "
                 f"{cm['violations']} samples beyond a limit"
             )

@@ -6,7 +6,7 @@ the time slider, Back to live), which act as `POST /api/live/replay` does
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import viser
 
@@ -40,6 +40,7 @@ class ReplayControls:
     def _add_replay(self, folder: Any) -> None:
         """This browser's replay controls: a stored run, Watch, the time slider, Back to live."""
         cg, gui = self.client.gui, self.gui
+        panel = cast("ClientPanel", self)  # this mixin is only ever a ClientPanel
         with folder:
             self.settings["replay_run"] = cg.add_dropdown(
                 "Stored run", gui.run_options, initial_value=NO_RUN, order=0,
@@ -56,13 +57,13 @@ class ReplayControls:
                 "Back to live", icon=viser.Icon.REFRESH, order=3
             )
         self.buttons["Watch in 3D"].on_click(
-            lambda event: gui.act(lambda: gui.watch(self), event.client, self)
+            lambda event: gui.act(lambda: gui.watch(panel), event.client, panel)
         )
         self.buttons["Back to live"].on_click(
-            lambda event: gui.act(gui.session.reset, event.client, self)
+            lambda event: gui.act(gui.session.reset, event.client, panel)
         )
         self.settings["replay_t"].on_update(self._on_seek)
-        self.settings["replay_run"].on_update(self._on_setting("replay_run"))
+        self.settings["replay_run"].on_update(panel._on_setting("replay_run"))
 
     def _on_seek(self, event: viser.GuiEvent) -> None:
         if event.client is None:

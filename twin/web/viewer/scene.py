@@ -28,7 +28,7 @@ newest value of each property and a slow browser only ever receives the latest f
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import viser
@@ -77,7 +77,7 @@ logger = logging.getLogger(__name__)
 #: draw as darker bands, so wave fronts and crests read at a glance, in either graphics
 #: mode (the per-vertex normals are three.js', computed from the moving vertices); a calm
 #: sea stays one colour. Per pixel it costs what the standard material does, less.
-SEA_MATERIAL = "toon3"
+SEA_MATERIAL: Literal["standard", "toon3", "toon5"] = "toon3"
 
 #: render frames kept in the tip-error trail
 TRAIL_LENGTH = 240
@@ -302,7 +302,7 @@ class TwinScene(Cameras):
             )
             self.ghost_label = scene.add_label("/ghost_label", "", anchor="top-center")
             self.ghost_trail = Trail(scene, "/ghost_trail", GHOST_TRAIL, 0.02 * self.size)
-        self.ghost_label.text = f"ghost: {fs.ghost.scenario.planner.upper()}"
+        self.ghost_label.text = f"ghost: {fs.ghost.scenario.planner_name.upper()}"
 
     # -- per frame ----------------------------------------------------------------------------
     def update(self, fs: FrameState, show_trail: bool = True) -> None:
@@ -344,6 +344,7 @@ class TwinScene(Cameras):
         # world, where this frame's origin is at U t along x (heading 0).
         shift = fs.scenario.forward_speed * fs.t
         x, y = self._grid
+        assert self._sea is not None  # drawn above on the first frame
         points = gerstner_points(self._sea, x + shift, y, fs.t, GERSTNER_Q)
         points[..., 0] -= shift
         points = self._flat + self._weight * (points - self._flat)  # calm beyond the waves
