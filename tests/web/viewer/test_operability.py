@@ -12,6 +12,7 @@ from twin.web.viewer import (
     start_viewer,
     sweep_text,
 )
+from twin.web.viewer.operability import STARTING
 
 
 def test_the_sweep_grid_comes_from_the_panel(session: LiveSession, tmp_path) -> None:
@@ -47,7 +48,8 @@ def test_the_sweep_grid_comes_from_the_panel(session: LiveSession, tmp_path) -> 
             assert wait_for(lambda: [panel.settings[name].value for name in SWEEP_SETTINGS]
                             == list(chosen.values()))  # fmt: skip
             client.update(client.wait_widget("Run sweep"), value=True)
-            assert wait_for(lambda: viewer.gui.sweep_id is not None, 10.0)
+            # STARTING while the panel submits it (no second sweep meanwhile), then its id
+            assert wait_for(lambda: viewer.gui.sweep_id not in (None, STARTING), 10.0)
             sweep = store.get_sweep(viewer.gui.sweep_id)
             spec = SweepSpec(**sweep.spec)
             hs, tp = session.scenario.sea()
