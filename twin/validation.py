@@ -52,6 +52,21 @@ def check_range(value: np.ndarray, name: str, low: ArrayLike, high: ArrayLike) -
         )
 
 
+def error_message(message: str, where: str) -> str:
+    """One pydantic error's message as a person reads it, for the line `where: message`
+    that the CLI (`explain`) and the REST API's 422 (`twin.web.models.unprocessable`) write:
+    without pydantic's "Value error, " (a validator's ValueError, e.g. a `TwinError`) and,
+    when the message names its field first (a TwinError's "sea_state: given together …"),
+    without that name, which `where` already says.
+
+    Args:
+        message: pydantic's `msg` of the error.
+        where: the field's dotted location ("" for the whole document: nothing stripped).
+    """
+    message = str(message).removeprefix("Value error, ")
+    return message.removeprefix(f"{where}: ") if where else message
+
+
 def explain(error: ValidationError) -> str:
     """A pydantic error as a person reads it: one `field: what is wrong (got …)` per mistake,
     without pydantic's type codes and documentation links; a document that is not JSON says so.
@@ -65,9 +80,7 @@ def explain(error: ValidationError) -> str:
             lines.append(f"not valid JSON: {detail}")
             continue
         where = ".".join(str(part) for part in item["loc"])
-        message = str(item["msg"]).removeprefix("Value error, ")
-        if where and message.startswith(f"{where}: "):
-            message = message.removeprefix(f"{where}: ")
+        message = error_message(item["msg"], where)
         got = item.get("input")
         shown = (
             f" (got {got!r})"

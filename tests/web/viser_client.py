@@ -15,9 +15,10 @@ from typing import Any
 
 import msgspec
 import viser
-import viser._messages as messages
 import zstandard
 from websockets.sync.client import connect
+
+from twin.web.viewer.viser_adapter import browser_message
 
 PROTOCOL = f"viser-v{viser.__version__}"
 
@@ -71,13 +72,15 @@ class ViserClient:
         except Exception:  # closed
             return
 
-    def send(self, message: messages.Message) -> None:
+    def send(self, message: Any) -> None:
+        """Send one of viser's messages (`browser_message`)."""
         self.ws.send(msgspec.msgpack.encode(message.as_serializable_dict()))
 
     def hello(self) -> None:
         """The camera message a browser sends first: viser then calls it connected."""
         self.send(
-            messages.ViewerCameraMessage(
+            browser_message(
+                "ViewerCameraMessage",
                 wxyz=(1.0, 0.0, 0.0, 0.0), position=(3.0, 3.0, 3.0), fov=1.3, near=0.01,
                 far=1000.0, image_height=600, image_width=800, look_at=(0.0, 0.0, 0.0),
                 up_direction=(0.0, 0.0, 1.0),
@@ -113,7 +116,7 @@ class ViserClient:
 
     def update(self, uuid: str, **updates: Any) -> None:
         """What a browser sends when a widget changes (any property, as a hostile one may)."""
-        self.send(messages.GuiUpdateMessage(uuid, updates))
+        self.send(browser_message("GuiUpdateMessage", uuid, updates))
 
     def close(self) -> None:
         self.ws.close()

@@ -30,6 +30,7 @@ from twin.sim.live import COMPARE, LiveControls
 from twin.sim.live import LIVE_FIELDS as SESSION_FIELDS
 from twin.sim.scenario import DEFAULT_PLANNER, check_one_sea
 from twin.sim.sweep import SweepSpec
+from twin.validation import error_message
 from twin.vessel.rao import available_raos
 
 # -- response models -------------------------------------------------------------------------
@@ -382,8 +383,7 @@ def unprocessable(
             lines.append(f"the body is not valid JSON: {reason} (at character {loc[-1]})")
             continue
         name = ".".join(map(str, loc[1:] or loc))
-        # a TwinError located at its field already names it: "sea_state: given together …"
-        message = str(error["msg"]).removeprefix("Value error, ").removeprefix(f"{name}: ")
+        message = error_message(error["msg"], name)  # as the CLI says it (`explain`)
         lines.append(f"{name}: {message}" + (f" (allowed: {item['allowed']})"
                                              if "allowed" in item else ""))  # fmt: skip
     return JSONResponse({"detail": detail, "message": "; ".join(lines), **extra}, status_code=422)

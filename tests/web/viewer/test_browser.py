@@ -37,10 +37,10 @@ from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web.access import Access
 from twin.web.api import create_app
-from twin.web.frame import read_frame
 from twin.web.jobs import SweepRunner
 from twin.web.store import RunStore
 from twin.web.viewer import FRAMING, Viewer, start_viewer
+from twin.web.viewer.frame_state import read_frame
 
 CHROMIUM = Path("/usr/bin/chromium")
 #: the page drawn at half the resolution per side (viser's development parameter): a paused

@@ -29,8 +29,9 @@ from tests.figures import record
 from tests.web.support import free_port, wait_for
 from tests.web.viewer.test_browser import ARGS, CHROMIUM, HALF_RESOLUTION
 from twin.sim.live import LiveSession
-from twin.web.frame import VIEWS, read_frame
 from twin.web.viewer import FRAMING, Viewer, framed_points, mechanism_points, start_viewer
+from twin.web.viewer.cameras import VIEWS
+from twin.web.viewer.frame_state import read_frame
 
 pytestmark = [
     pytest.mark.serial,

@@ -12,7 +12,6 @@ from twin.web.viewer import (
     start_viewer,
     sweep_text,
 )
-from twin.web.viewer.operability import STARTING
 
 
 def test_the_sweep_grid_comes_from_the_panel(session: LiveSession, tmp_path) -> None:
@@ -40,6 +39,7 @@ def test_the_sweep_grid_comes_from_the_panel(session: LiveSession, tmp_path) -> 
             assert wait_for(lambda: any("Sweep not started: tp_points: got 12" in n
                                         for n in client.notifications()), 5.0)  # fmt: skip
             assert store.pending("sweeps") == 0 and viewer.gui.sweep_id is None
+            assert not viewer.gui.submitting
 
             chosen = {"Hs cells": 7, "Hs span [±%]": 30.0, "Tp cells": 5, "Tp span [± s]": 1.0,
                       "Seeds per cell": 3, "Run length [s]": 20.0}  # fmt: skip
@@ -48,8 +48,9 @@ def test_the_sweep_grid_comes_from_the_panel(session: LiveSession, tmp_path) -> 
             assert wait_for(lambda: [panel.settings[name].value for name in SWEEP_SETTINGS]
                             == list(chosen.values()))  # fmt: skip
             client.update(client.wait_widget("Run sweep"), value=True)
-            # STARTING while the panel submits it (no second sweep meanwhile), then its id
-            assert wait_for(lambda: viewer.gui.sweep_id not in (None, STARTING), 10.0)
+            # `submitting` while the panel submits it (no second sweep meanwhile), then its id
+            assert wait_for(lambda: viewer.gui.sweep_id is not None, 10.0)
+            assert not viewer.gui.submitting
             sweep = store.get_sweep(viewer.gui.sweep_id)
             spec = SweepSpec(**sweep.spec)
             hs, tp = session.scenario.sea()
@@ -60,6 +61,11 @@ def test_the_sweep_grid_comes_from_the_panel(session: LiveSession, tmp_path) -> 
             assert sweep.total == 7 * 5 * 3 and store.pending("sweeps") == 1
             assert wait_for(lambda: any("Hs 7 × Tp 5 cells × 3 seeds = 105 runs of 20 s" in n
                                         for n in client.notifications()), 5.0)  # fmt: skip
+            # a second press while it is followed starts nothing, and says so
+            client.update(client.wait_widget("Run sweep"), value=True)
+            assert wait_for(lambda: any("A sweep is running" in n
+                                        for n in client.notifications()), 5.0)  # fmt: skip
+            assert store.pending("sweeps") == 1 and viewer.gui.sweep_id == sweep.id
             client.close()
         finally:
             viewer.stop()
@@ -76,3 +82,29 @@ def test_sweep_text_counts_rightly_and_explains_a_cell() -> None:
     assert "can differ from the live run" in one
     many = sweep_text("0123456789ab", 30, 2, 60.0, (1.0, 6.0), "http://h/api/sweeps/x")
     assert "30 runs, 2 seeds per cell" in many
+
+
+def test_no_sweep_starts_while_one_is_being_submitted(session: LiveSession, tmp_path) -> None:
+    """While a browser's sweep is being submitted (`submitting`, under the GUI's lock), another
+    press starts nothing and is told one is starting; once it is done, a press starts one."""
+    from twin.web.jobs import SweepRunner
+    from twin.web.store import RunStore
+
+    with RunStore(tmp_path / "runs.sqlite") as store:
+        viewer = start_viewer(session, port=free_port(), store=store, sweeps=SweepRunner(store))
+        try:
+            client, _ = connect(viewer)
+            with viewer.gui._lock:  # as another browser's press, mid-submission
+                viewer.gui.submitting = True
+            client.update(client.wait_widget("Run sweep"), value=True)
+            assert wait_for(lambda: any("A sweep is starting" in n
+                                        for n in client.notifications()), 5.0)  # fmt: skip
+            assert store.pending("sweeps") == 0 and viewer.gui.sweep_id is None
+            with viewer.gui._lock:
+                viewer.gui.submitting = False
+            client.update(client.wait_widget("Run sweep"), value=True)
+            assert wait_for(lambda: viewer.gui.sweep_id is not None, 10.0)
+            assert store.pending("sweeps") == 1 and not viewer.gui.submitting
+            client.close()
+        finally:
+            viewer.stop()

@@ -21,7 +21,9 @@ from twin.web.viewer import (
     Viewer,
     knob,
     start_viewer,
+    viser_adapter,
 )
+from twin.web.viewer.viser_adapter import browser_message
 
 
 def test_slider_patches_the_session(
@@ -106,8 +108,6 @@ def test_a_locked_browsers_writes_change_nothing(session: LiveSession) -> None:
     sends - a value, a hostile property (`update_cb`, `removed`), another browser's widget id,
     a share-tunnel request - changes neither the session nor another browser's widgets. After
     a wrong token (rate-limited) and the right one, its edits apply."""
-    from viser import _messages
-
     viewer = start_viewer(session, port=free_port(), access=Access(token=TOKEN, failure_burst=2))
     try:
         attacker, locked = connect(viewer)
@@ -123,11 +123,11 @@ def test_a_locked_browsers_writes_change_nothing(session: LiveSession) -> None:
         attacker.update(beta, update_cb=[])  # on shared handles: every browser's β dead
         attacker.update(attacker.wait_widget("Planner"), removed=True)
         attacker.update(operator.wait_widget("β"), value=0.1)  # the operator's widget id
-        attacker.send(_messages.ShareUrlRequest())
+        attacker.send(browser_message("ShareUrlRequest"))
         assert wait_for(lambda: "locked" in (viewer.gui.last_error or ""), 5.0)
         time.sleep(0.5)
         assert (session.scenario, session.controls.model_dump(), session.version) == before
-        assert viewer.server._share_tunnel is None
+        assert viser_adapter.share_tunnel(viewer.server) is None
         assert wait_for(lambda: locked.inputs["beta"].value == 0.7)  # undone, for it alone
         # the operator's controls still work
         operator.update(operator.wait_widget("β"), value=0.45)

@@ -11,7 +11,6 @@ from tests.web.support import free_port, wait_for
 from tests.web.viewer.support import caught_up, connect
 from tests.web.viser_client import ViserClient
 from twin.sim.live import LiveSession
-from twin.web.frame import read_frame
 from twin.web.viewer import (
     ClientPanel,
     Viewer,
@@ -21,6 +20,7 @@ from twin.web.viewer import (
     si,
     start_viewer,
 )
+from twin.web.viewer.frame_state import read_frame
 
 
 def test_limit_readout_names_the_violation(session: LiveSession) -> None:

@@ -21,7 +21,6 @@ from twin.assets import asset_path
 from twin.mechanisms.urdf import joint_configuration
 from twin.sim.live import LiveSession
 from twin.spatial import matrix_to_wxyz, pose_to_transform
-from twin.web.frame import VIEWS, read_frame
 from twin.web.viewer import (
     FOV,
     PAINT_METALLIC,
@@ -37,6 +36,8 @@ from twin.web.viewer import (
     start_viewer,
     trail_label,
 )
+from twin.web.viewer.cameras import VIEWS
+from twin.web.viewer.frame_state import read_frame
 
 
 def test_scene_has_its_nodes(viewer: Viewer) -> None:

@@ -9,6 +9,7 @@ import viser.infra._infra as viser_infra
 
 from tests.web.support import free_port
 from tests.web.viewer.support import connect
+from twin.errors import TwinError
 from twin.web.viewer import Viewer, start_viewer, viser_adapter
 from twin.web.viewer.viser_adapter import ViserInternalsMissing, check_internals
 
@@ -19,6 +20,7 @@ def test_the_installed_viser_has_what_the_adapter_uses(viewer: Viewer) -> None:
     check_internals()
     check_internals(viewer.server)
     assert viser_adapter.share_handlers(viewer.server) == []  # dropped by start_viewer
+    assert viser_adapter.share_tunnel(viewer.server) is None
     client, panel = connect(viewer)
     try:
         assert viser_adapter.remote_address(viewer.server, panel.client) == "127.0.0.1"
@@ -40,6 +42,7 @@ def test_the_handshake_stand_in_is_seen_by_viser_alone(viewer: Viewer) -> None:
         (viser_infra, "websockets", "viser.infra._infra.websockets.asyncio.server.serve"),
         (viser._messages, "ShareUrlRequest", "viser._messages.ShareUrlRequest"),
         (viser._messages, "RunJavascriptMessage", "viser._messages.RunJavascriptMessage"),
+        (viser._messages, "GuiUpdateMessage", "viser._messages.GuiUpdateMessage"),
     ],
 )
 def test_a_viser_without_an_internal_fails_loudly(
@@ -63,3 +66,23 @@ def test_a_server_without_its_websocket_internals_fails_loudly(
     monkeypatch.delattr(viewer.server._websock_server, "_live_connections")
     with pytest.raises(ViserInternalsMissing, match=r"WebsockServer\._live_connections"):
         check_internals(viewer.server)
+
+
+def test_a_server_without_its_share_tunnel_slot_fails_loudly(
+    viewer: Viewer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`share_tunnel` reads the server's own slot: a viser that renamed it is named, not
+    mistaken for "no tunnel" (viser's deprecation shim answers unknown attributes)."""
+    monkeypatch.delitem(vars(viewer.server), "_share_tunnel")
+    with pytest.raises(ViserInternalsMissing, match=r"ViserServer\._share_tunnel"):
+        check_internals(viewer.server)
+
+
+def test_browser_messages_are_viser_own_and_named() -> None:
+    """The tests' raw client builds viser's own message classes; an unknown name is refused
+    with the ones allowed."""
+    update = viser_adapter.browser_message("GuiUpdateMessage", "some-uuid", {"value": 1.0})
+    assert type(update) is viser._messages.GuiUpdateMessage
+    assert update.as_serializable_dict()["updates"] == {"value": 1.0}
+    with pytest.raises(TwinError, match="'Nope' unknown; one of: ViewerCameraMessage"):
+        viser_adapter.browser_message("Nope")

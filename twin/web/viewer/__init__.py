@@ -3,6 +3,8 @@
 - `viewer`: `start_viewer` and `Viewer`, the render loop (it rests while no browser is
   connected);
 - `scene`: the scene's nodes per mechanism and per frame (`TwinScene`, the tip-error `Trail`);
+- `frame_state`: one reading of the live session per render frame (`read_frame` →
+  `FrameState`), which the scene, the cameras and the GUI draw from;
 - `meshes`: the static geometry (sea grid, vessel, targets); `urdf`: the painted mechanism
   (`LiveUrdf`); `cameras`: the camera presets; `graphics`: lights and WebGL renderer checks;
 - `gui`: the control panel (`TwinGui`), with `panel` (one browser's controls, `ClientPanel`),
@@ -13,8 +15,7 @@
 Re-exported here: what the rest of the twin (`twin.web.server`), its tests and benchmarks use.
 """
 
-from twin.web.frame import VIEWS
-from twin.web.viewer.cameras import FOV, FRAMING, framed_points, mechanism_points
+from twin.web.viewer.cameras import FOV, FRAMING, VIEWS, framed_points, mechanism_points
 from twin.web.viewer.graphics import (
     AMBIENT,
     GRAPHICS,

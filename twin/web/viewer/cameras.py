@@ -6,14 +6,18 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterable
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import viser
 
-from twin.web.frame import VIEWS, FrameState, View
+from twin.web.viewer.frame_state import FrameState
 
 logger = logging.getLogger(__name__)
+
+#: the camera presets
+VIEWS = ("overview", "walkway", "close-up")
+View = Literal["overview", "walkway", "close-up"]
 
 #: the view every browser gets when a mechanism is built: the mechanism and its target fill
 #: it, however small the mechanism is next to its vessel

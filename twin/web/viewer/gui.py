@@ -29,8 +29,9 @@ import viser
 
 from twin.sim.live import COMPARE, LiveControls, LiveSession
 from twin.web.access import Access
-from twin.web.frame import FrameState, View
 from twin.web.viewer import viser_adapter
+from twin.web.viewer.cameras import View
+from twin.web.viewer.frame_state import FrameState
 from twin.web.viewer.graphics import GRAPHICS
 from twin.web.viewer.knobs import PLANNER_KNOBS, READOUT_ORDER, SEA_KNOBS, assign
 from twin.web.viewer.operability import Sweeps
@@ -141,14 +142,15 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
         self.sweeps = sweeps
         self.api_url = (api_url or "").rstrip("/")
         self.run_options: tuple[str, ...] = (NO_RUN,)
-        self.sweep_id: str | None = None
+        self.sweep_id: str | None = None  # the sweep followed (progress, then heatmap)
+        self.submitting = False  # a browser's sweep is being submitted (`Sweeps.run_sweep`)
         self.heatmap: viser.GuiImageHandle | None = None
         self._stop = threading.Event()
         self.on_camera = on_camera
         self.access = access if access is not None else Access()
         self._failures = self.access.failure_limit()
         self._unlocked: set[int] = set()  # client ids that entered the token
-        # panels, unlocked ids, trail, last_error and sweep_id: callbacks and render loop
+        # panels, unlocked ids, trail, last_error, sweep_id and submitting: callbacks, render loop
         self._lock = threading.Lock()
         self._building = threading.Lock()  # a shared folder is entered by one thread at a time
         self.panels: dict[int, ClientPanel] = {}

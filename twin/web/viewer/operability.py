@@ -23,8 +23,6 @@ log = logging.getLogger(__name__)
 
 #: [s] how often a sweep's progress is read
 SWEEP_POLL = 0.5
-#: `TwinGui.sweep_id` while a sweep is being submitted (no second one starts meanwhile)
-STARTING = "starting"
 #: a browser's sweep settings (`ClientPanel.settings`, read by `TwinGui.run_sweep`), in panel
 #: order: name → (label, min, max, step, initial value, hint)
 SWEEP_SLIDERS: dict[str, tuple[str, float, float, float, float, str]] = {
@@ -88,6 +86,7 @@ class Sweeps:
     sweeps: Any
     api_url: str
     sweep_id: str | None
+    submitting: bool
     heatmap: Any
     sweep_status: Any
     folders: dict[str, Any]
@@ -104,9 +103,11 @@ class Sweeps:
         from twin.web.deps import MAX_PENDING_SWEEPS
 
         with self._lock:  # two browsers pressing at once start one sweep
-            running, self.sweep_id = self.sweep_id, self.sweep_id or STARTING
-        if running is not None:
-            panel.client.add_notification("A sweep is running", "wait for its heatmap",
+            busy = "starting" if self.submitting else None if self.sweep_id is None else "running"
+            if not busy:
+                self.submitting = True  # until the sweep is stored (its id known) or refused
+        if busy:
+            panel.client.add_notification(f"A sweep is {busy}", "wait for its heatmap",
                                           auto_close_seconds=5.0, color="yellow")  # fmt: skip
             return
         try:
@@ -126,16 +127,16 @@ class Sweeps:
             sweep = submit_sweep(self.store, self.sweeps, spec)
         except (TypeError, ValueError) as err:  # TypeError: a setting that is not a number
             with self._lock:
-                self.sweep_id = None
+                self.submitting = False
             self.note_error(str(err))
             panel.client.add_notification("Sweep not started", str(err), color="red")
             return
         except BaseException:
             with self._lock:
-                self.sweep_id = None
+                self.submitting = False
             raise
-        with self._lock:
-            self.sweep_id = sweep.id
+        with self._lock:  # followed from now on: no second sweep until it ends
+            self.sweep_id, self.submitting = sweep.id, False
         panel.client.add_notification(
             "Sweep started",
             f"Hs {len(spec.hs)} × Tp {len(spec.tp)} cells × {spec.seeds} seeds = {sweep.total} "

@@ -28,7 +28,7 @@ import viser
 from twin.planners.registry import PLANNERS
 from twin.sim.live import COMPARE
 from twin.sim.scenario import Scenario
-from twin.web.frame import View
+from twin.web.viewer.cameras import View
 from twin.web.viewer.graphics import GRAPHICS
 from twin.web.viewer.knobs import (
     JOINT_LIMITS,

@@ -18,7 +18,7 @@ import numpy as np
 import viser
 import viser.uplot as up
 
-from twin.web.frame import FrameState
+from twin.web.viewer.frame_state import FrameState
 from twin.web.viewer.knobs import assign
 
 #: [s] simulated time between plotted samples, and samples kept (a 30 s window)

@@ -13,7 +13,7 @@ import numpy as np
 
 from twin.mechanisms.hybrid import JOINT_NAMES
 from twin.sim.faults import HOLDS, Fault
-from twin.web.frame import FrameState
+from twin.web.viewer.frame_state import FrameState
 from twin.web.viewer.plots import PLOT_DT
 
 #: [s] how long the readout says that live time restarted (a compare planner change)

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import viser
 
-from twin.web.frame import FrameState
+from twin.web.viewer.frame_state import FrameState
 from twin.web.viewer.knobs import assign
 
 if TYPE_CHECKING:

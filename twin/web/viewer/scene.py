@@ -39,8 +39,8 @@ from twin.sea.surface import gerstner_points
 from twin.spatial import invert_transform, matrix_to_wxyz
 from twin.vessel import MOUNTS
 from twin.vessel.hulls import Hull
-from twin.web.frame import FrameState
 from twin.web.viewer.cameras import FOV, FRAMING, Cameras, mechanism_size
+from twin.web.viewer.frame_state import FrameState
 from twin.web.viewer.graphics import SUN_AZIMUTH, sun_azimuth, sun_position
 from twin.web.viewer.meshes import (
     FOG_FAR,

@@ -36,8 +36,8 @@ from twin.errors import TwinError
 from twin.sim.live import LiveSession
 from twin.web.access import Access
 from twin.web.connections import quiet_malformed_messages
-from twin.web.frame import FrameState, read_frame
 from twin.web.viewer import viser_adapter
+from twin.web.viewer.frame_state import FrameState, read_frame
 from twin.web.viewer.graphics import (
     DETECT_RENDERER_JS,
     RENDERER_PATH,

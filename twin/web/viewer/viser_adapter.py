@@ -11,11 +11,14 @@ viser (1.1) has no public hook for these, so the viewer reaches in here and nowh
   Nothing else in the process sees the stand-in: the `websockets` package is never changed.
 - the share tunnel (`drop_share_handlers`): a browser's `ShareUrlRequest` would have the
   server open a public tunnel to itself; its handlers are unregistered from viser's
-  websocket server (`_websock_server`, `_incoming_handlers`, `viser._messages`).
+  websocket server (`_websock_server`, `_incoming_handlers`, `viser._messages`); whether a
+  tunnel was opened all the same (`share_tunnel`: `ViserServer._share_tunnel`).
 - a browser's address (`remote_address`), for the per-address limit of wrong tokens
   (`_websock_server._live_connections`).
 - a script run in one browser (`run_javascript`), viser's own `RunJavascriptMessage`, as
   viser itself sends plotly.js (`ClientHandle._websock_connection`).
+- what a browser sends (`browser_message`), for the tests' raw websocket client
+  (tests/web/viser_client.py), which speaks viser's wire format without a browser.
 
 `check_internals()` names whatever a viser upgrade removed; `start_viewer` calls it before it
 starts anything and tests/web/viewer/test_viser_adapter.py runs it against the installed viser.
@@ -38,6 +41,8 @@ from twin.errors import TwinError
 _STARTING = threading.Lock()
 #: messages from a browser that ask the server to open (or close) a public share tunnel
 SHARE_MESSAGES = ("ShareUrlRequest", "ShareUrlDisconnect")
+#: messages a browser sends: its camera (then viser counts it connected) and a widget's update
+BROWSER_MESSAGES = ("ViewerCameraMessage", "GuiUpdateMessage")
 
 #: check(connection, request) → an HTTP response that refuses, or None to go on
 Handshake = Callable[[Any, Any], Any]
@@ -58,12 +63,15 @@ def check_internals(server: viser.ViserServer | None = None) -> None:
     if serve is None:
         missing.append("`viser.infra._infra.websockets.asyncio.server.serve`")
     messages = getattr(viser, "_messages", None)
-    for name in (*SHARE_MESSAGES, "RunJavascriptMessage"):
+    for name in (*SHARE_MESSAGES, *BROWSER_MESSAGES, "RunJavascriptMessage"):
         if not hasattr(messages, name):
             missing.append(f"`viser._messages.{name}`")
     if not hasattr(WebsockServer, "unregister_handler"):
         missing.append("`WebsockServer.unregister_handler`")
     if server is not None:
+        # vars(): a missing attribute would go to viser's deprecation shim (`__getattr__`)
+        if "_share_tunnel" not in vars(server):
+            missing.append("`ViserServer._share_tunnel`")
         websock = getattr(server, "_websock_server", None)
         if websock is None:
             missing.append("`ViserServer._websock_server`")
@@ -90,8 +98,6 @@ class _Namespace(types.SimpleNamespace):
 
 
 @contextlib.contextmanager
-
-
 def checked_handshake(check: Handshake) -> Iterator[list[bool]]:
     """While viser starts its websocket server, give it `check` as the first step of every
     opening handshake: `check(connection, request)` returns a refusal (an HTTP response) or
@@ -140,6 +146,22 @@ def share_handlers(server: viser.ViserServer) -> list[str]:
     `drop_share_handlers`)."""
     handlers = server._websock_server._incoming_handlers
     return [name for name in SHARE_MESSAGES if getattr(viser._messages, name) in handlers]
+
+
+def share_tunnel(server: viser.ViserServer) -> Any:
+    """The public share tunnel the server has open, or None (for tests: none is ever opened,
+    whatever a browser asks)."""
+    return vars(server)["_share_tunnel"]
+
+
+def browser_message(name: str, *args: Any, **kwargs: Any) -> Any:
+    """One of viser's wire messages (`name`: its class, one of `BROWSER_MESSAGES` or
+    `SHARE_MESSAGES`) built from `args` and `kwargs`, as a browser would send it (for the
+    tests' raw websocket client; `.as_serializable_dict()` is what goes on the wire)."""
+    known = (*BROWSER_MESSAGES, *SHARE_MESSAGES)
+    if name not in known:
+        raise TwinError(f"browser message {name!r} unknown; one of: {', '.join(known)}")
+    return getattr(viser._messages, name)(*args, **kwargs)
 
 
 def remote_address(server: viser.ViserServer, client: viser.ClientHandle) -> str | None:

@@ -1,9 +1,10 @@
-"""One reading of the live session per render frame, shared by the scene and the GUI."""
+"""One reading of the live session per render frame (`read_frame` → `FrameState`), shared by
+the scene, the cameras and the GUI: what each frame draws comes from one consistent reading."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
@@ -15,9 +16,6 @@ from twin.spatial import pose_to_transform
 
 #: record key of the mechanism state, when not "state"
 STATE_KEY = {"hybrid": "xi"}
-#: camera presets
-VIEWS = ("overview", "walkway", "close-up")
-View = Literal["overview", "walkway", "close-up"]
 
 
 @dataclass(frozen=True)
