@@ -757,29 +757,22 @@ if __name__ == "__main__":
         help="only the site-workability rows (benchmarks/workability_bench.py), printed",
     )
     args = parser.parse_args()
-    if args.idle_only:
-        logging.disable(logging.INFO)
-        print(f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
-        idle_rows(
-            lambda figure, value, target="", met=None: print(
-                f"{figure:<66} {value:>30}  {target:<22} "
-                + ("" if met is None else ("met" if met else "not met")),
-                flush=True,
+    # --idle-only and --workability-only print their rows alone, the first given one
+    for only, rows in ((args.idle_only, idle_rows), (args.workability_only, workability_rows)):
+        if only:
+            logging.disable(logging.INFO)
+            print(f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
+            rows(
+                lambda figure, value, target="", met=None: print(
+                    f"{figure:<66} {value:>30}  {target:<22} "
+                    + ("" if met is None else ("met" if met else "not met")),
+                    flush=True,
+                )
             )
-        )
-        print(f"load average {os.getloadavg()[0]:.1f} at the end", flush=True)
-    elif args.workability_only:
-        logging.disable(logging.INFO)
-        print(f"load average {os.getloadavg()[0]:.1f} at the start", flush=True)
-        workability_rows(
-            lambda figure, value, target="", met=None: print(
-                f"{figure:<66} {value:>30}  {target:<22} "
-                + ("" if met is None else ("met" if met else "not met")),
-                flush=True,
-            )
-        )
-        print(f"load average {os.getloadavg()[0]:.1f} at the end", flush=True)
-    elif args.server_only:
-        server_only()
+            print(f"load average {os.getloadavg()[0]:.1f} at the end", flush=True)
+            break
     else:
-        main(quick=args.quick)
+        if args.server_only:
+            server_only()
+        else:
+            main(quick=args.quick)

@@ -23,8 +23,9 @@ def test_the_hybrid_runner_reaches_the_layers_it_composes() -> None:
     expected = {
         "twin.compiled", "twin.spatial", "twin.mechanisms.legs", "twin.mechanisms.gangway",
         "twin.mechanisms.hybrid", "twin.planners.linalg", "twin.planners.weights",
-        "twin.planners.limits", "twin.planners.tasks", "twin.sim.kernels.hybrid",
-        "twin.sim.kernels.allocation", "twin.sim.kernels.records", "twin.sim.kernels.layout",
+        "twin.planners.limits", "twin.planners.tasks", "twin.planners.differential_step",
+        "twin.planners.allocation_step", "twin.planners.qp_step", "twin.sim.kernels.hybrid",
+        "twin.sim.kernels.records", "twin.sim.kernels.layout",
     }  # fmt: skip
     assert expected <= modules
 

@@ -10,7 +10,10 @@ belongs to (`twin.spatial`, `twin.mechanisms`, `twin.planners`), marked
   record's small functions).
 
 Without numba each decorator is the identity, so the interpreted engine runs the very same
-functions. A chunk runner (`twin.sim.kernels.*_runner`, `run_*`) composes them and is compiled
+functions. The objects' vectorised API runs them too, over a batch of lanes (`LaneUfunc` below
+for scalar lanes, `twin.batch.LaneBatch` for lanes of small arrays).
+
+A chunk runner (`twin.sim.kernels.*_runner`, `run_*`) composes them and is compiled
 by `compile_runner(runner, parallel)`: lazily, on its first call, with `nogil` (`simulate_many`
 runs groups of lanes on threads of its own, each group's runners serial on its thread,
 `limit_threads`, so one group's Python bookkeeping overlaps another's compiled steps). A runner

@@ -32,10 +32,16 @@ def eq10(q: np.ndarray) -> np.ndarray:
     )
 
 
-def test_dh_product_equals_eq10(rng: np.random.Generator) -> None:
-    """The eq (9) DH product equals the paper's closed form eq (10)."""
-    for q in random_q(rng, 50):
+def test_dh_product_and_forward_equal_eq10(rng: np.random.Generator) -> None:
+    """The eq (9) DH product (`links`) and `forward` (the closed-form `gangway_tip_lane`, one
+    lane at a time and over a batch) equal the paper's closed form eq (10)."""
+    qs = random_q(rng, 50)
+    batch = GANGWAY.forward(qs)
+    assert batch.shape == (50, 4, 4)
+    for q, T in zip(qs, batch, strict=True):
+        np.testing.assert_allclose(GANGWAY.links(q)[2], eq10(q), atol=1e-12)
         np.testing.assert_allclose(GANGWAY.forward(q), eq10(q), atol=1e-12)
+        np.testing.assert_allclose(T, eq10(q), atol=1e-12)
 
 
 def test_working_state_tip() -> None:

@@ -17,18 +17,17 @@ from tests.sim.oracle import pack_target
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import HYBRID_RATE_LIMITS, AllocationPlanner, PlannerOutput, TipTarget
 from twin.planners.allocation import ALLOCATION_PARAMETERS
+from twin.planners.allocation_step import allocation_velocity, allocation_work, pack_allocation
 from twin.planners.differential import DIFFERENTIAL_PARAMETERS
-from twin.sim.kernels import layout
-from twin.sim.kernels.allocation import allocation_velocity, allocation_work, pack_allocation
-from twin.sim.kernels.hybrid import (
+from twin.planners.differential_step import (
     NEEDS_SVD,
     W_ERROR,
     damped_differential_velocity,
     differential_velocity,
     differential_work,
-    hybrid_constants,
     pack_differential,
 )
+from twin.sim.kernels import layout
 from twin.spatial import rpy_to_matrix_lane
 
 #: the two paths a planner test runs on: the object's numpy `step`, the engine's lane step
@@ -44,7 +43,7 @@ def engine_step(
     differential planner; `position_share` for an allocation planner)."""
     mechanism = getattr(planner, "mechanism", None) or planner.tip.mechanism
     assert isinstance(mechanism, HybridBoardingSystem)
-    const = hybrid_constants(mechanism, HYBRID_RATE_LIMITS)
+    const = mechanism.pack(HYBRID_RATE_LIMITS)
     x, row = np.array(xi, dtype=float), pack_target(target)
     R, v = np.empty((3, 3)), np.empty(9)
     rpy_to_matrix_lane(x[3], x[4], x[5], R)

@@ -9,7 +9,6 @@ import pytest
 from tests.planners.engine_step import PATHS, step
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import PLANNERS, PlannerParameters, TipTarget, reachable_range
-from twin.planners.allocation import reachable_range_lane
 from twin.spatial import pose_to_transform
 
 H = HybridBoardingSystem()
@@ -37,17 +36,14 @@ def test_reachable_range_equals_a_brute_force_search(pose: list[float]) -> None:
         assert closed[axis] == pytest.approx(brute_range(pose, axis), abs=3e-4)
 
 
-@pytest.mark.parametrize(
-    "pose", [[0, 0, 2.475, 0, 0, 0], [0.1, -0.2, 2.6, 0.05, -0.08, 0.1], [0, 0, 5.0, 0, 0, 0]]
-)
-def test_reachable_range_lane_is_the_batched_function(pose: list[float]) -> None:
-    """The engine's `reachable_range_lane` gives `reachable_range`'s numbers (one statement
-    of the closed form would be better; until the object calls the lane, they are held equal)."""
-    pose = np.array(pose, dtype=float)
-    state = H.stewart.legs(pose)
-    out = np.empty(3)
-    reachable_range_lane(state.vectors, state.lengths, H.stewart.leg_min, H.stewart.leg_max, out)
-    np.testing.assert_allclose(out, reachable_range(H, pose), rtol=0, atol=1e-12)
+def test_reachable_range_of_a_batch_is_each_poses() -> None:
+    """Poses (2, 3, 6) give ranges (2, 3, 3), each its pose's own (`reachable_range_lane` per
+    lane; the brute-force search above holds the numbers)."""
+    poses = H.working_state[:6] + np.linspace(-0.1, 0.1, 6)[:, None] * [1, 1, 1, 0.1, 0.1, 0.1]
+    batch = reachable_range(H, poses.reshape(2, 3, 6))
+    assert batch.shape == (2, 3, 3)
+    for pose, got in zip(poses, batch.reshape(6, 3), strict=True):
+        np.testing.assert_array_equal(got, reachable_range(H, pose))
 
 
 def test_reachable_range_is_zero_outside() -> None:

@@ -42,3 +42,20 @@ def test_batched_equals_single(rng: np.random.Generator) -> None:
     batch, _ = weighted_pinv(J, w)
     for k in range(4):
         np.testing.assert_allclose(batch[k], weighted_pinv(J[k], w[k])[0], atol=1e-12)
+
+
+def test_damped_inverse_is_the_regularised_normal_equations(rng: np.random.Generator) -> None:
+    """With the λ it reports, J_W⁺ = W⁻¹Jᵀ(J W⁻¹ Jᵀ + λ² I)⁻¹ (seed 000 eq (31), damped),
+    solved here by numpy: near-singular J (rows 5 and 6 almost equal) and random weights,
+    each problem of a batch and of several sizes m ≤ n."""
+    for m, n in ((6, 9), (3, 5), (1, 4)):
+        J, w = rng.normal(size=(8, m, n)), rng.uniform(0.1, 2.0, (8, n))
+        J[:4, -1] = J[:4, 0] * (1 + 1e-9)
+        pinv, damping = weighted_pinv(J, w, epsilon=0.3, damping_max=0.2)
+        assert pinv.shape == (8, n, m) and damping.shape == (8,)
+        if m > 1:
+            assert np.all(damping[:4] > 0.19)  # σ_min ≈ 0: nearly λ_max
+        for k in range(8):
+            JW = J[k] * w[k]
+            gram = JW @ J[k].T + damping[k] ** 2 * np.eye(m)
+            np.testing.assert_allclose(pinv[k], np.linalg.solve(gram, JW).T, atol=1e-12)

@@ -1,327 +1,220 @@
-"""The oracle of the compiled kernels and of the engine: the planner objects, stepped as the
-deleted per-step rigs stepped them.
+"""Independent statements the engine's tests check its output against (issue 29 item 5).
 
-`twin.sim.hybrid_rig.HybridRig` and `twin.sim.platform_rig.PlatformRig` (removed with the
-one engine, `git show 3a6bc9a~1:twin/sim/hybrid_rig.py`) were the readable statement of a
-simulation step: ask the planner object, hold on a non-finite answer, stop at the limits,
-integrate (hybrid) or move the actuators and fit the state (small platforms); the former
-engine around them flagged a step whose base motion failed. Their step is restated here once,
-in numpy, for the kernel tests (`tests/sim/kernels`) and the engine test
-(`tests/sim/test_engine_oracle.py`):
+Nothing here steps a simulation: the engine (`twin.sim.engine`, its kernels in
+`twin/sim/kernels`) is the one statement of a step, and its tests judge what it wrote. What is
+kept here is what must not share the package's code, stated from the papers and from scipy:
 
-- `held_target`: the held target of one sample (`twin.sim.target.held_targets` compiled);
-- `pack_target` / `unpack_target`: a `TipTarget` as the kernels' (18,) row and back;
-- `limit_scale`, `hybrid_advance`: `HybridRig.advance` on one state;
-- `platform_advance`: `PlatformRig.advance` on one state;
-- `OracleRun`: one lane of a `Simulation` stepped by planner objects built from the registry.
+- `held_target`, `pack_target`: the held target of one sample and its kernel row (seed 000
+  §5.1; the rotation's logarithm by `scipy.spatial.transform.Rotation`, not `twin.spatial`);
+- `rotation`, `integrate`, `step_twist`: the platform's body twist integrated on SE(3) by the
+  matrix exponential (`scipy.linalg.expm`) and read back from two states (`logm`);
+- `leg_lengths`, `limit_excess`: seed 000 eq (5) from Table 1's hinges, and the distance past
+  Table 6's joint limits and Table 1's stroke;
+- `Guard`: what the joint-limit guard's outcome must satisfy: a shortened step stays within
+  the limits, the full step would have left them, the step is the longest that fits to the
+  resolution measured from the outcomes; nothing is taken from the package's bisection.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
+from scipy.linalg import expm, logm
+from scipy.spatial.transform import Rotation
 
-from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms.hybrid import HybridBoardingSystem
-from twin.planners import PlatformModel, PlatformPlanner, TipTarget, get_planner
-from twin.sim.base_motion import BaseMotion, BaseSamples
-from twin.sim.engine import Simulation
+from twin.planners import TipTarget
+from twin.sim.base_motion import BaseSamples
 from twin.sim.faults import Fault
-from twin.sim.kernels.hybrid import LIMIT_BISECTIONS, LIMIT_SLACK
-from twin.sim.kernels.layout import N_TARGET, TARGET_P, TARGET_R, TARGET_V
-from twin.sim.scenario import Scenario
-from twin.spatial import invert_transform, so3_log
-
-#: what the former engine caught around a rig's step or the base motion's evaluation and held
-#: as a fault (`twin.sim.engine` before the one engine: ValueError covers TwinError and
-#: numpy's LinAlgError)
-NUMERICAL = (ArithmeticError, ValueError)
-
-
-def raised(exc: Exception) -> int:
-    """The fault bits the former engine gave a step whose rig raised `exc`: KINEMATICS for a
-    kinematics failure (no convergence, unreachable), else PLANNER."""
-    kinematics = isinstance(exc, ConvergenceError | UnreachableError)
-    return int(Fault.KINEMATICS if kinematics else Fault.PLANNER)
-
 
 # ------------------------------------------------------------------------------------ targets
-
 
 
 def held_target(held: np.ndarray, base: BaseSamples, k: int, dt: float) -> TipTarget:
     """Desired pose in B at sample k and its mean twist to sample k + 1, for the inertial pose
     `held` (4, 4); the twist is [ᴮṗ; ᴮω] in B [m/s, rad/s] (seed 000 §5.1, docs/planners.md:
     ᴮT_d = ᴵT_B⁻¹ ᴵT*, and the rate that carries it to the next sample over dt)."""
-    T0 = invert_transform(base.transform[k]) @ held
-    T1 = invert_transform(base.transform[k + 1]) @ held
+    T0 = np.linalg.solve(base.transform[k], held)
+    T1 = np.linalg.solve(base.transform[k + 1], held)
     v = (T1[:3, 3] - T0[:3, 3]) / dt
-    w = so3_log(T1[:3, :3] @ T0[:3, :3].T) / dt
+    R = T1[:3, :3] @ T0[:3, :3].T
+    finite = np.all(np.isfinite(R))  # a failed base sample: a NaN target (a planner fault)
+    w = Rotation.from_matrix(R).as_rotvec() / dt if finite else np.full(3, np.nan)
     return TipTarget(transform=T0, twist=np.r_[v, w])
 
 
 def pack_target(target: TipTarget) -> np.ndarray:
-    """A `TipTarget` as the kernels' (N_TARGET,) row: ᴮR_d row-major, ᴮp_d, twist
-    (`twin.sim.kernels.layout.TARGET_*`)."""
-    row = np.empty(N_TARGET)
-    row[TARGET_R : TARGET_R + 9] = target.transform[:3, :3].reshape(9)
-    row[TARGET_P : TARGET_P + 3] = target.transform[:3, 3]
-    row[TARGET_V : TARGET_V + 6] = target.twist
-    return row
+    """A `TipTarget` as the kernels' (18,) row, as twin/sim/target.py states it: ᴮR_d
+    row-major, ᴮp_d, then the twist [ᴮṗ; ᴮω]."""
+    return np.r_[target.transform[:3, :3].ravel(), target.transform[:3, 3], target.twist]
 
 
-def unpack_target(row: np.ndarray) -> TipTarget:
-    """The `TipTarget` of a kernel row (18,): `pack_target`'s inverse."""
+# -------------------------------------------------------------------- the hybrid's kinematics
+
+
+def rotation(rpy: np.ndarray) -> np.ndarray:
+    """ᴮR_P = Rz(yaw) Ry(pitch) Rx(roll) (seed 000 eq (3)) of `rpy` (3,) [rad]: (3, 3)."""
+    return Rotation.from_euler("ZYX", np.asarray(rpy)[::-1]).as_matrix()
+
+
+def _transform(x: np.ndarray) -> np.ndarray:
     T = np.eye(4)
-    T[:3, :3] = row[TARGET_R : TARGET_R + 9].reshape(3, 3)
-    T[:3, 3] = row[TARGET_P : TARGET_P + 3]
-    return TipTarget(T, np.array(row[TARGET_V : TARGET_V + 6], dtype=float))
+    T[:3, :3], T[:3, 3] = rotation(x[3:6]), x[:3]
+    return T
 
 
-# ------------------------------------------------------------------------------------- hybrid
+def _hat(twist: np.ndarray) -> np.ndarray:
+    """The 4 × 4 matrix of a twist [v; ω] (se(3))."""
+    (vx, vy, vz), (wx, wy, wz) = twist[:3], twist[3:]
+    return np.array([[0, -wz, wy, vx], [wz, 0, -wx, vy], [-wy, wx, 0, vz], [0, 0, 0, 0.0]])
 
 
-def limit_scale(
-    mechanism: HybridBoardingSystem, xi: np.ndarray, velocity: np.ndarray, dt: float
-) -> float:
-    """The former `twin.sim.hybrid_rig.limit_scale`, verbatim: the largest s in [0, 1] such that
-    the step s·velocity·dt carries no joint and no leg further past its limit than it already
-    is (`LIMIT_SLACK` allowed), bisected `LIMIT_BISECTIONS` times."""
-    now = mechanism.limit_excess(xi) + LIMIT_SLACK
+def integrate(x: np.ndarray, v: np.ndarray, dt: float) -> np.ndarray:
+    """xi (9,) after the virtual-joint velocity v (9,) held for dt [s]: ᴮT_P ← ᴮT_P exp(V̂ dt)
+    with V = [ᴾṖ; ω_P] the platform's body twist (seed 000 eq (24): the Jacobian's columns
+    0-5), by `scipy.linalg.expm`; the gangway joints add q̇ dt."""
+    T = _transform(x) @ expm(_hat(np.asarray(v[:6]) * dt))
+    rpy = Rotation.from_matrix(T[:3, :3]).as_euler("ZYX")[::-1]
+    return np.r_[T[:3, 3], rpy, x[6:] + np.asarray(v[6:]) * dt]
 
-    def fits(s: float) -> bool:
+
+def step_twist(x: np.ndarray, x_next: np.ndarray, dt: float) -> np.ndarray:
+    """The velocity (9,) that `integrate` carries x to x_next with over dt, read from the two
+    states (`scipy.linalg.logm` of ᴮT_P⁻¹ ᴮT_P'), for rotations by less than π."""
+    relative = np.linalg.solve(_transform(x), _transform(x_next))
+    M = np.real(logm(relative))
+    twist = np.r_[M[:3, 3], M[2, 1], M[0, 2], M[1, 0]]
+    return np.r_[twist, x_next[6:] - x[6:]] / dt
+
+
+def leg_lengths(mechanism: HybridBoardingSystem, x: np.ndarray) -> np.ndarray:
+    """Leg lengths (6,) [m], seed 000 eq (5): |ᴮp_P + ᴮR_P ᴾp_i − ᴮb_i| with Table 1's hinges."""
+    hinges = mechanism.layout
+    tops = x[:3] + hinges.platform_hinges @ rotation(x[3:6]).T
+    return np.linalg.norm(tops - hinges.base_hinges, axis=-1)
+
+
+def limit_excess(mechanism: HybridBoardingSystem, x: np.ndarray) -> np.ndarray:
+    """How far (15,) [m, rad] each joint is past Table 6's limits and each leg past Table 1's
+    stroke; 0 inside."""
+    legs, stewart = leg_lengths(mechanism, x), mechanism.stewart
+    joints = np.maximum(mechanism.lower - x, 0) + np.maximum(x - mechanism.upper, 0)
+    return np.r_[
+        joints, np.maximum(stewart.leg_min - legs, 0) + np.maximum(legs - stewart.leg_max, 0)
+    ]
+
+
+# ------------------------------------------------------------------------------------ the guard
+
+
+#: [m, rad] how far past what it was the guard may let a limit move in a step it allows (the
+#: guard's rounding slack must be below this; the test's own rounding is ~1e-15)
+FIT_TOL = 1e-9
+
+
+def dyadic_exponent(s: float) -> int:
+    """The least m with s·2^m an integer (s in [0, 1], a bisection's outcome)."""
+    m = 0
+    while s * 2.0**m != np.floor(s * 2.0**m):
+        m += 1
+    return m
+
+
+class Guard:
+    """The joint-limit guard's outcome judged on its own (seed 000's limits, the former
+    `HybridRig.advance`'s contract): for the hybrid mechanism and control period dt [s]."""
+
+    def __init__(self, mechanism: HybridBoardingSystem, dt: float) -> None:
+        self.mechanism, self.dt = mechanism, dt
+
+    def fits(self, x: np.ndarray, v: np.ndarray, s: float) -> bool:
+        """Whether the step s·v from x carries no joint and no leg further past its limit than
+        it already is (`FIT_TOL` allowed)."""
+        now = limit_excess(self.mechanism, x)
         return bool(
-            np.all(mechanism.limit_excess(mechanism.integrate(xi, s * velocity, dt)) <= now)
+            np.all(limit_excess(self.mechanism, integrate(x, s * v, self.dt)) <= now + FIT_TOL)
         )
 
-    if fits(1.0):
-        return 1.0
-    low, high = 0.0, 1.0
-    for _ in range(LIMIT_BISECTIONS):
-        mid = 0.5 * (low + high)
-        low, high = (mid, high) if fits(mid) else (low, mid)
-    return low
+    def check(
+        self, x: np.ndarray, x_next: np.ndarray, s: float, bits: int | None, hold: bool,
+        v: np.ndarray | None = None, resolution: float | None = None,
+    ) -> None:  # fmt: skip
+        """Assert one guarded step x → x_next (9,) with limit scale s and fault bits (None: not
+        known per step; the caller checks the counts).
+
+        The planner's velocity v (9,) if known, else read from the outcome (`step_twist` / s;
+        not for s = 0). Non-finite v: held (x_next == x, s = 0, PLANNER). Else x_next is
+        `integrate`(x, s·v); `record` mode (hold False): s = 1 and no JOINT_LIMIT; `hold`: s = 1
+        or JOINT_LIMIT, a step that fits, and when shortened the full step does not fit, nor
+        does s + `resolution` (the bisection's, measured from the outcomes: `resolution_of`).
+        """
+        if v is not None and not np.all(np.isfinite(v)):
+            np.testing.assert_array_equal(x_next, x)
+            assert s == 0.0
+            assert bits is None or (bits & Fault.PLANNER and not bits & Fault.JOINT_LIMIT)
+            return
+        assert 0.0 <= s <= 1.0
+        if bits is not None:
+            assert not bits & Fault.PLANNER
+            assert bool(bits & Fault.JOINT_LIMIT) == (s < 1.0)
+        if not hold:
+            assert s == 1.0
+            if v is not None:
+                np.testing.assert_allclose(x_next, integrate(x, v, self.dt), rtol=0, atol=1e-9)
+            return
+        if s == 0.0:  # stood on a limit: nothing moved (to the rpy round trip)
+            np.testing.assert_allclose(x_next, x, rtol=0, atol=1e-12)
+            if v is not None:
+                assert not self.fits(x, v, 1.0)
+            return
+        if v is None:
+            v = step_twist(x, x_next, self.dt) / s
+        else:
+            np.testing.assert_allclose(x_next, integrate(x, s * v, self.dt), rtol=0, atol=1e-9)
+        assert self.fits(x, v, s)
+        if s < 1.0:
+            assert not self.fits(x, v, 1.0)
+            if resolution is not None:
+                assert not self.fits(x, v, s + resolution)
 
 
-class HybridStep(NamedTuple):
-    """One `hybrid_advance`: the planner's velocity (9,) and diagnostics, the next xi (9,), the
-    fraction of the step taken (0 on a hold), the fault bits (`Fault`)."""
-
-    velocity: np.ndarray
-    diagnostics: dict
-    x: np.ndarray
-    scale: float
-    faults: int
-
-
-def hybrid_advance(
-    planner: object,
-    mechanism: HybridBoardingSystem,
-    x: np.ndarray,
-    target: TipTarget,
-    dt: float,
-    hold: bool,
-) -> HybridStep:
-    """The former `HybridRig.advance` on one state xi (9,): plan; SINGULAR when the planner
-    damped (diagnostics `damping` > 0), INFEASIBLE when the qp planner relaxed its limits
-    (diagnostics `qp_level` 2); a non-finite velocity holds the state (PLANNER, scale
-    0); in hold mode (`joint_limits == "hold"`) the step is shortened to `limit_scale`
-    (JOINT_LIMIT when < 1); integrate the (scaled) velocity for dt. A planner that raises
-    (`NUMERICAL`; e.g. `AllocationPlanner` on a NaN target) holds the state as the former
-    engine held the rig (`raised`; velocity NaN, no diagnostics, scale 0)."""
-    try:
-        out = planner.step(x, target, dt)  # type: ignore[attr-defined]
-    except NUMERICAL as exc:
-        return HybridStep(np.full(x.shape, np.nan), {}, x.copy(), 0.0, raised(exc))
-    v = out.velocity
-    bits = Fault.SINGULAR if out.diagnostics.get("damping", 0.0) > 0 else Fault(0)
-    if out.diagnostics.get("qp_level", 0.0) == 2:  # the qp planner relaxed its limits
-        bits |= Fault.INFEASIBLE
-    if not np.all(np.isfinite(v)):
-        return HybridStep(v, out.diagnostics, x.copy(), 0.0, int(bits | Fault.PLANNER))
-    scale = limit_scale(mechanism, x, v, dt) if hold else 1.0
-    if scale < 1.0:
-        bits |= Fault.JOINT_LIMIT
-    return HybridStep(v, out.diagnostics, mechanism.integrate(x, scale * v, dt), scale, int(bits))
+def resolution_of(scales: np.ndarray) -> float:
+    """The bisection's resolution 2^-N measured from its outcomes: N the largest
+    `dyadic_exponent` of the scales of the steps shortened but taken (0 < s < 1; each is then a
+    multiple of 2^-N)."""
+    shortened = [float(s) for s in np.ravel(scales) if 0.0 < s < 1.0]
+    assert shortened, "no step was shortened and taken: nothing to measure the resolution from"
+    return 2.0 ** -max(dyadic_exponent(s) for s in shortened)
 
 
 # ---------------------------------------------------------------------------------- platforms
 
 
-class PlatformStep(NamedTuple):
-    """One `platform_advance`: the next state (3,) and actuator lengths (n,) [native], the
-    planner's diagnostics, the fault bits (`Fault`)."""
-
-    state: np.ndarray
-    legs: np.ndarray
-    diagnostics: dict
-    faults: int
-
-
-def platform_advance(
-    planner: PlatformPlanner,
-    model: PlatformModel,
-    state: np.ndarray,
-    legs: np.ndarray,
-    target: TipTarget,
-    dt: float,
-) -> PlatformStep:
-    """The former `PlatformRig.advance` on one state (3,) and its lengths (n,): the planner's
-    rates; non-finite ones hold (PLANNER); the lengths move one dt and stop at the stroke's
-    ends (JOINT_LIMIT); `model.fit` warm-started at the state gives the new state, its failure
-    holds (KINEMATICS). `model` is the rig's (its z held from t = 0), not the planner's. A
-    planner that raises (`NUMERICAL`) holds, as the former engine held the rig (`raised`)."""
-    try:
-        out = planner.step(legs, target, dt)
-    except NUMERICAL as exc:
-        return PlatformStep(state.copy(), legs.copy(), {}, raised(exc))
-    v = np.asarray(out.velocity, dtype=float)
-    if not np.all(np.isfinite(v)):
-        return PlatformStep(state.copy(), legs.copy(), out.diagnostics, int(Fault.PLANNER))
-    fault = Fault(0)
-    low, high = model.stroke
-    lengths = np.clip(legs + v * dt, low, high)  # the actuators' end stops
-    if np.any(lengths != legs + v * dt):
-        fault |= Fault.JOINT_LIMIT
-    try:
-        new = model.fit(lengths, state)
-    except TwinError:  # no convergence, or lengths met only outside the workspace
-        new = None
-    if new is None or not np.all(np.isfinite(new)):
-        return PlatformStep(
-            state.copy(), legs.copy(), out.diagnostics, int(fault | Fault.KINEMATICS)
+def assert_platform_steps(
+    model: object, states: np.ndarray, legs: np.ndarray, held: np.ndarray | None = None,
+    limited: np.ndarray | None = None,
+) -> None:  # fmt: skip
+    """A small platform's samples states (S + 1, 3) and actuator lengths legs (S + 1, n)
+    [native] as the actuators and the rigid top allow (the former `PlatformRig.advance`'s
+    contract): the lengths inside the stroke; the state after each step the least-squares fit
+    of its lengths (the normal equations Jᵀ(l(x) − L) = 0 with J by central differences of
+    `model.leg_lengths`; three legs for three DOF: l(x) = L). Per-step masks (S,): `held`
+    steps (PLANNER, KINEMATICS) move nothing and fit nothing; `limited` (JOINT_LIMIT) steps
+    end with a leg on a stroke end."""
+    low, high = (np.asarray(b)[: legs.shape[1]] for b in model.stroke)  # type: ignore[attr-defined]
+    assert np.all((legs >= low) & (legs <= high))
+    held = np.zeros(len(states) - 1, dtype=bool) if held is None else held
+    still = np.all(states[1:] == states[:-1], -1) & np.all(legs[1:] == legs[:-1], -1)
+    assert np.all(still[held])
+    lengths_of = model.leg_lengths  # type: ignore[attr-defined]
+    h = 1e-6 * np.maximum(1.0, np.abs(states).max(axis=0))
+    for x, lengths in zip(states[1:][~held], legs[1:][~held], strict=True):
+        r = lengths_of(x) - lengths
+        J = np.stack(
+            [(lengths_of(x + e) - lengths_of(x - e)) / (2 * e.sum()) for e in np.diag(h)], -1
         )
-    return PlatformStep(new, lengths, out.diagnostics, int(fault))
-
-
-# ------------------------------------------------------------------------------- engine lanes
-
-
-class OracleRun:
-    """One lane of a `Simulation` stepped by planner objects, as the rigs stepped it.
-
-    What the oracle takes from the engine: the lane's start (`sim.lanes.x0`; for the small
-    platforms its actuator lengths `sim.lanes.extra` and its rig model `sim.lanes.models`) and
-    the held targets of each step (`sim.targets` of its current block, so a sea change or an
-    injected fault reaches both). Planners are built from the registry as `twin.sim.lanes`
-    builds them: the hybrid's with the lane's x0 (MTMP's q2 set-point, seed 000 eq (40)), a
-    platform's at the current state; each reset at the current state and target. What the
-    oracle judges itself: whether the base motion failed, from its own `BaseMotion.of` the
-    scenario at the step's start and end (`base_fault`), not from the engine's block.
-
-    Use: build it on a fresh Simulation; after the Simulation advanced, `follow()` steps the
-    oracle up to it (the steps must still be in the engine's current block); after
-    `sim.update(changes)`, `update(changes)` (the oracle must have followed first).
-
-    Attributes:
-        states: (k + 1, S) list: the state at every step so far.
-        legs: (k + 1, n) list (platforms): the actuator lengths at every step.
-        faults: (k,) list of fault bits; scales: (k,) hybrid limit scales.
-        diagnostics: (k,) list of the planner's diagnostics; targets: (k, 18) rows read.
-    """
-
-    def __init__(self, sim: Simulation, lane: int = 0) -> None:
-        if sim.k != 0:
-            raise ValueError(f"OracleRun needs a fresh Simulation; this one is at step {sim.k}")
-        self.sim, self.lane = sim, lane
-        self.mechanism = sim.mechanism
-        self.hybrid = sim.lanes.kind == "hybrid"
-        self.scenario = sim.scenarios[lane]
-        self.k = 0
-        self.x0 = np.array(sim.lanes.x0[lane], dtype=float)
-        self.x = self.x0.copy()
-        self.states = [self.x.copy()]
-        self.faults: list[int] = []
-        self.scales: list[float] = []
-        self.diagnostics: list[dict] = []
-        self.targets: list[np.ndarray] = []
-        if not self.hybrid:
-            self.model: PlatformModel = sim.lanes.models[lane]
-            self.leg = np.array(sim.lanes.extra[lane, : self.model.n_legs], dtype=float)
-            self.legs = [self.leg.copy()]
-        self.planner = self._build(self.scenario)
-        self.base = BaseMotion.of(self.scenario)
-
-    @property
-    def hold(self) -> bool:
-        return self.scenario.joint_limits == "hold"
-
-    def base_fault(self) -> int:
-        """BASE_MOTION if the base pose at the start or the end of step `self.k` is not finite
-        or cannot be evaluated (the former engine's flag; the target it holds meanwhile is the
-        engine's row, checked on its own by the engine test), else 0."""
-        t = np.array([self.k, self.k + 1]) * self.scenario.dt
-        try:
-            poses = self.base.poses(t)
-        except NUMERICAL:
-            return int(Fault.BASE_MOTION)
-        return 0 if np.all(np.isfinite(poses)) else int(Fault.BASE_MOTION)
-
-    def _row(self) -> np.ndarray:
-        """The engine's held target row (18,) for step `self.k`, from its current block."""
-        block = self.sim._block
-        local = self.k - block.start
-        if not 0 <= local < block.steps:
-            raise ValueError(
-                f"step {self.k} is outside the engine's block ({block.start} … "
-                f"{block.start + block.steps - 1}): follow before the engine re-samples"
-            )
-        return self.sim.targets(block, local, 1)[self.lane, 0]
-
-    def _build(self, scenario: Scenario) -> object:
-        """The registry's planner for `scenario`, built at the lane's start x0 (MTMP's q̃2, the
-        Upr4's held height), reset at the current state and target."""
-        target = unpack_target(self._row())
-        if self.hybrid:
-            planner = get_planner(scenario.planner, "hybrid").build(
-                self.mechanism, scenario.parameters(), self.x0
-            )
-            planner.reset(self.x.copy(), target)
-            return planner
-        planner = get_planner(scenario.planner, self.model.name).build(
-            self.mechanism, scenario.parameters(), self.x0
-        )
-        planner.reset(self.leg.copy(), target)
-        return planner
-
-    def step(self) -> None:
-        """One step from `self.k`, on the engine's target row for it."""
-        row = self._row()
-        target = unpack_target(row)
-        dt = self.scenario.dt
-        if self.hybrid:
-            out = hybrid_advance(self.planner, self.mechanism, self.x, target, dt, self.hold)
-            self.x = out.x
-            self.scales.append(out.scale)
-        else:
-            out = platform_advance(self.planner, self.model, self.x, self.leg, target, dt)
-            self.x, self.leg = out.state, out.legs
-            self.legs.append(self.leg.copy())
-        self.states.append(self.x.copy())
-        self.faults.append(out.faults | self.base_fault())
-        self.diagnostics.append(out.diagnostics)
-        self.targets.append(row)
-        self.k += 1
-
-    def follow(self) -> None:
-        """Step up to the engine's step."""
-        while self.k < self.sim.k:
-            self.step()
-
-    def update(self, changes: dict) -> None:
-        """The engine's `update(changes)` as the oracle sees it, at the engine's step: a planner
-        or a knob changed rebuilds the planner (reset at the current state and the engine's
-        target, a new sea's if the sea changed too); `joint_limits` switches hold mode; the
-        base motion is the new scenario's (the same sea unless a sea field changed)."""
-        if self.k != self.sim.k:
-            raise ValueError(f"update at step {self.sim.k}: the oracle is at {self.k}; follow")
-        new = Scenario(**{**self.scenario.model_dump(), **changes})
-        if (new.planner, new.parameters()) != (self.scenario.planner, self.scenario.parameters()):
-            self.planner = self._build(new)
-        self.scenario, self.base = new, BaseMotion.of(new)
-
-    def fault_counts(self) -> dict[str, int]:
-        """Steps flagged per kind, as `FaultLog.counts` names them."""
-        bits = np.array(self.faults, dtype=np.int64)
-        return {f.name.lower(): int(np.count_nonzero(bits & int(f))) for f in Fault}
+        assert np.abs(J.T @ r).max() <= 1e-7 * np.abs(J).max() * max(1.0, np.abs(lengths).max())
+        if legs.shape[1] == 3:
+            assert np.abs(r).max() <= 1e-9 * max(1.0, np.abs(lengths).max())
+    if limited is not None:
+        on_end = np.any((legs[1:] == low) | (legs[1:] == high), -1)
+        assert np.all(on_end[limited])

@@ -275,7 +275,7 @@ def test_bad_requests_name_the_field(kwargs: dict, message: str) -> None:
 
 H = HybridBoardingSystem()
 #: the platform yaw, q1 and q2 60 % of the way from the working state to their upper limits
-#: (tests/sim/test_engine_oracle.py's start): in sea state 7 a run meets a limit within 2 s
+#: (tests/sim/test_engine_steps.py's start): in sea state 7 a run meets a limit within 2 s
 NEAR_LIMITS = (
     H.working_state + 0.6 * np.r_[np.zeros(5), 1, 1, 1, 0] * (H.upper - H.working_state)
 ).tolist()

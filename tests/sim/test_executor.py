@@ -39,3 +39,36 @@ def test_quiet_settings_stay_with_the_cluster_not_the_process() -> None:
     before = dask.config.get("distributed.admin.tick.interval")
     with Executor.start(IN_PROCESS, warm=False):
         assert dask.config.get("distributed.admin.tick.interval") == before
+
+
+_NICE_CHILD = """
+import os, sys
+import twin.sim.engine
+twin.sim.engine.warm = lambda: None  # the kernels are not what is tested here
+from twin.sim.executor import _warm_plugin, lower_priority
+start = os.nice(0)
+_warm_plugin(freeze=False, nice=7).setup(None)  # a worker not of our own: left as it is
+foreign = os.nice(0)
+_warm_plugin(freeze=True, nice=7).setup(None)  # our own worker process
+own = os.nice(0)
+again = lower_priority(3)  # never less nice than it is
+print(start, foreign, own, again)
+"""
+
+
+def test_our_own_workers_run_nicer_than_the_server() -> None:
+    """The worker plugin of our own LocalCluster lowers the worker's priority to the nice
+    asked for (batch work yields the CPU to the front end); a worker of another cluster, or in
+    the caller's process, keeps its priority; a second call never raises the priority. In a
+    child process: a niceness cannot be taken back."""
+    import subprocess
+    import sys
+
+    out = subprocess.run(
+        [sys.executable, "-c", _NICE_CHILD], capture_output=True, text=True, timeout=120,
+        check=True,
+    ).stdout.split()  # fmt: skip
+    start, foreign, own, again = map(int, out)
+    assert foreign == start
+    assert own == max(start, 7) and again == own
+

@@ -1,6 +1,6 @@
-"""Lanes that keep only what is asked (issue 28 item 6): `Simulation(keep="metrics")` reduces the
-hybrid system's metrics chunk by chunk (`twin.sim.metrics.HybridReduction`), to the bits of the
-whole-series reduction, with memory that does not grow with the run's length."""
+"""Lanes that keep only what is asked (issue 28 item 6): `Simulation(keep="metrics")` reduces every
+mechanism's metrics chunk by chunk (`twin.sim.metrics.HybridReduction`, `PlatformReduction`), to
+the bits of the whole-series reduction, with memory that does not grow with the run's length."""
 
 from __future__ import annotations
 
@@ -58,12 +58,12 @@ def test_chunk_by_chunk_metrics_are_the_whole_series_metrics_to_the_bit() -> Non
         )
 
 
-@pytest.mark.parametrize("mechanism", ["hybrid", "upr4"])
+@pytest.mark.parametrize("mechanism", ["hybrid", "upu3up", "upr4"])
 def test_simulate_many_keeping_metrics_gives_the_same_metrics_without_series(
     mechanism: str,
 ) -> None:
-    """`simulate_many(keep="metrics")`: the metrics of `simulate_many()`, series empty (the small
-    platforms' lanes reduce their whole series and drop it)."""
+    """`simulate_many(keep="metrics")`: the metrics of `simulate_many()`, series empty, and the
+    history of one sample alone."""
     scenarios = [{"mechanism": mechanism, "sea_state": 6, "duration": 3.0, "seed": s}
                  for s in range(3)]  # fmt: skip
     full = simulate_many(scenarios)
@@ -71,15 +71,20 @@ def test_simulate_many_keeping_metrics_gives_the_same_metrics_without_series(
     for r, f in zip(reduced, full, strict=True):
         assert r.series == {} and len(f.series["t"]) == 61
         assert r.metrics == f.metrics
+    simulation = Simulation(scenarios, keep="metrics")
+    simulation.run()
+    assert {values.shape[1] for values in simulation.history.data.values()} == {1}
 
 
-def test_memory_kept_does_not_grow_with_the_run() -> None:
+@pytest.mark.parametrize("mechanism", ["hybrid", "upu3up", "upr4"])
+def test_memory_kept_does_not_grow_with_the_run(mechanism: str) -> None:
     """A reduced run of 2,000 s keeps the arrays of one of 200 s, byte for byte; a run keeping its
     series keeps ten times more (the comparison can fail)."""
     kept = {}
     for duration in (200.0, 2000.0):
         for keep in ("series", "metrics"):
-            simulation = Simulation({"sea_state": 5, "duration": duration}, keep=keep)
+            scenario = {"mechanism": mechanism, "sea_state": 5, "duration": duration}
+            simulation = Simulation(scenario, keep=keep)
             simulation.run()
             kept[duration, keep] = held_bytes(simulation)
     assert kept[200.0, "metrics"] == kept[2000.0, "metrics"]

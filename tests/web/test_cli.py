@@ -30,6 +30,7 @@ from tests.timing import scaled
 from tests.web.support import TOKEN
 from twin.cli import build_parser, main
 from twin.sim import PAPER_PRESETS, simulate
+from twin.sim.engine import WARM_TOTAL
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -163,9 +164,10 @@ def test_serve_answers_prints_its_urls_and_stops_cleanly(tmp_path: Path) -> None
     assert process.returncode == 0, stderr
     assert f"http://127.0.0.1:{port}/" in stdout
     # the start-up talks: each compiled (or loaded) lane set, then ready
-    assert re.search(r"kernels 5 of 5 ready \(.+\), [\d.]+ s", stdout), stdout
+    total = WARM_TOTAL
+    assert re.search(rf"kernels {total} of {total} ready \(.+\), [\d.]+ s", stdout), stdout
     assert "twin: ready in" in stdout
-    assert stdout.index(f"http://127.0.0.1:{port}/") < stdout.index("kernels 1 of 5")
+    assert stdout.index(f"http://127.0.0.1:{port}/") < stdout.index(f"kernels 1 of {total}")
     assert (tmp_path / "data" / "runs.sqlite").is_file()
 
 

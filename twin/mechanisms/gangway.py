@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline
 from twin.errors import UnreachableError
 from twin.validation import as_array
@@ -82,8 +83,10 @@ class Gangway:
         return np.stack([T01, T02, T02 @ T23], -3)
 
     def forward(self, q: ArrayLike) -> np.ndarray:
-        """Tip transform ⁰T_3 = ᴾT_E (..., 4, 4) for joints q (..., 3); eq (10)."""
-        return self.links(q)[..., 2, :, :]
+        """Tip transform ⁰T_3 = ᴾT_E (..., 4, 4) for joints q (..., 3); eq (10), in closed
+        form by `gangway_tip_lane` lane by lane (`links` multiplies the DH chain out)."""
+        q = as_array(q, "q", (3,))
+        return GANGWAY_TIP([q], [float(self.d1), float(self.a1)], [(4, 4)])[0]
 
     def jacobian(self, q: ArrayLike) -> np.ndarray:
         """J_s (..., 6, 3): [ᴾṖ_E; ᴾω_E] = J_s [q̇1, q̇2, ḋ3], in frame 0 = P; eq (11)."""
@@ -118,16 +121,7 @@ class Gangway:
             UnreachableError: with `check`, when the joints leave the Table 6 limits.
         """
         p = as_array(position, "position", (3,))
-        rho = np.hypot(p[..., 0], p[..., 1]) - self.a1
-        height = self.d1 - p[..., 2]
-        q = np.stack(
-            [
-                np.arctan2(p[..., 1], p[..., 0]),
-                np.arctan2(rho, height) - np.pi / 2,
-                np.hypot(rho, height),
-            ],
-            -1,
-        )
+        q = GANGWAY_INVERSE([p], [float(self.d1), float(self.a1)], [(3,)])[0]  # the lane's
         if check:
             bad = np.any((q < self.lower - 1e-12) | (q > self.upper + 1e-12), axis=-1)
             if np.any(bad):
@@ -201,3 +195,20 @@ def gangway_inverse_lane(
     q_out[0] = math.atan2(py, px)
     q_out[1] = math.atan2(rho, height) - math.pi / 2
     q_out[2] = math.hypot(rho, height)
+
+
+def _tip_batch(q: np.ndarray, d1: float, a1: float, out: np.ndarray) -> None:
+    """`gangway_tip_lane` over joints q (N, 3) into out (N, 4, 4)."""
+    for k in range(q.shape[0]):
+        gangway_tip_lane(q[k, 0], q[k, 1], q[k, 2], d1, a1, out[k])
+
+
+def _inverse_batch(p: np.ndarray, d1: float, a1: float, out: np.ndarray) -> None:
+    """`gangway_inverse_lane` over tip positions p (N, 3) into out (N, 3)."""
+    for k in range(p.shape[0]):
+        gangway_inverse_lane(p[k, 0], p[k, 1], p[k, 2], d1, a1, out[k])
+
+
+#: the lanes over a batch: what `Gangway.forward` and `Gangway.inverse` call
+GANGWAY_TIP = LaneBatch(_tip_batch, cores=(1,))
+GANGWAY_INVERSE = LaneBatch(_inverse_batch, cores=(1,))

@@ -26,6 +26,25 @@ DEG = np.pi / 180.0
 #: Names of the nine virtual joints, in xi order.
 JOINT_NAMES = ("x", "y", "z", "roll", "pitch", "yaw", "q1", "q2", "d3")
 
+#: The hybrid system as its lanes read it, by name (`HybridBoardingSystem.pack`): the Table 6
+#: joint limits (absolute, SPEC erratum 3) and the virtual-joint rate limits [m, rad, /s]; the
+#: gangway's d1 and a1 [m] (Table 1); the Stewart hinges, base hinges ᴮB_i and platform hinges
+#: ᴾP_i (6 × 3 row-major, seed 000 eqs (1)-(2)) [m]; the leg stroke [m] (Table 1). A lane
+#: function takes the float row (`N_HYBRID_CONSTANTS`,) and views it as this record.
+HYBRID_CONSTANTS = np.dtype(
+    (
+        np.record,
+        [
+            ("lower", np.float64, (9,)), ("upper", np.float64, (9,)),
+            ("rate", np.float64, (9,)), ("d1", np.float64), ("a1", np.float64),
+            ("base_hinges", np.float64, (18,)), ("platform_hinges", np.float64, (18,)),
+            ("leg_min", np.float64), ("leg_max", np.float64),
+        ],
+    )
+)  # fmt: skip
+#: float64 values in the constants row
+N_HYBRID_CONSTANTS = HYBRID_CONSTANTS.itemsize // 8
+
 
 @dataclass(frozen=True)
 class HybridBoardingSystem:
@@ -76,6 +95,23 @@ class HybridBoardingSystem:
     def layout(self) -> LegLayout:
         """The Stewart legs (for the URDF and the scene)."""
         return self.stewart.layout
+
+    def pack(self, rate_limit: ArrayLike) -> np.ndarray:
+        """The system as its lanes read it: a float row (N_HYBRID_CONSTANTS,) written by name
+        as one `HYBRID_CONSTANTS` record (a lane views it so).
+
+        Args:
+            rate_limit: (9,) [m/s, rad/s] virtual-joint rate limits (`HYBRID_RATE_LIMITS`).
+        """
+        row = np.zeros(N_HYBRID_CONSTANTS)
+        c = row.view(HYBRID_CONSTANTS)[0]
+        c["lower"], c["upper"] = self.lower, self.upper
+        c["rate"] = np.asarray(rate_limit, dtype=float)
+        c["d1"], c["a1"] = self.gangway.d1, self.gangway.a1
+        c["base_hinges"] = np.asarray(self.layout.base_hinges).reshape(18)
+        c["platform_hinges"] = np.asarray(self.layout.platform_hinges).reshape(18)
+        c["leg_min"], c["leg_max"] = self.stewart.leg_min, self.stewart.leg_max
+        return row
 
     def platform_pose(self, xi: ArrayLike) -> np.ndarray:
         """Platform pose (..., 6) [m, rad] in B from virtual joints (..., 9)."""

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from twin.batch import LaneBatch
 from twin.compiled import register_inline
 
 
@@ -69,11 +70,12 @@ class LegState:
 
 
 def legs(layout: LegLayout, transform: np.ndarray) -> LegState:
-    """Leg vectors for platform transforms ᴮT_P (..., 4, 4); seed 000 eqs (4)-(5)."""
-    R = transform[..., None, :3, :3]
-    arms = (R @ layout.platform_hinges[..., None])[..., 0]  # (..., n, 3)
-    vectors = arms + transform[..., None, :3, 3] - layout.base_hinges
-    lengths = np.linalg.norm(vectors, axis=-1)
+    """Leg vectors for platform transforms ᴮT_P (..., 4, 4); seed 000 eqs (4)-(5), computed
+    by `leg_vectors_lane` lane by lane (`LEGS`)."""
+    n = layout.n_legs
+    base, platform = layout.base_hinges.reshape(-1), layout.platform_hinges.reshape(-1)
+    vectors, lengths = LEGS([transform], [base, platform], [(n, 3), (n,)])
+    arms = (transform[..., None, :3, :3] @ layout.platform_hinges[..., None])[..., 0]  # ᴮR_P ᴾP_i
     return LegState(vectors, lengths, vectors / lengths[..., None], arms)
 
 
@@ -169,6 +171,18 @@ def leg_vectors_lane(
             vectors_out[i, k] = v
             s += v * v
         lengths_out[i] = math.sqrt(s)
+
+
+def _legs_batch(
+    T: np.ndarray, base: np.ndarray, platform: np.ndarray, vectors: np.ndarray, lengths: np.ndarray
+) -> None:
+    """`leg_vectors_lane` over transforms T (N, 4, 4) into vectors (N, n, 3), lengths (N, n)."""
+    for k in range(T.shape[0]):
+        leg_vectors_lane(T[k, :3, :3], T[k, :3, 3], base, platform, vectors[k], lengths[k])
+
+
+#: the legs of a batch of poses, lane by lane: what `legs` calls
+LEGS = LaneBatch(_legs_batch, cores=(2,))
 
 
 @register_inline

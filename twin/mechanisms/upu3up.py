@@ -23,6 +23,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
+from twin.batch import LaneBatch
 from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms import platforms
 from twin.mechanisms.legs import LegLayout, LegState, legs
@@ -33,51 +34,39 @@ from twin.mechanisms.platforms import (
     MECHANISM_UPU3UP,
     PLATFORM_GEOMETRY,
     STATE_SLACK,
+    coupled_frame_lane,
 )
 from twin.spatial import transform_to_pose
 from twin.validation import as_array, check_range
 
 
-def coupled_rotation(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
-    """ᴼR_O1 = Rx(α)·Ry(β), the rotation block of seed 001 eq (11).
-
-    Args:
-        alpha: (...) [rad] roll, about the base x axis (the UP U joint's first axis).
-        beta: (...) [rad] pitch, about the once-rotated y axis (its second axis).
-
-    Returns:
-        (..., 3, 3) rotation of the platform frame in the base frame.
-    """
-    ca, sa, cb, sb = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
-    o = np.zeros_like(ca)
-    return np.stack(
-        [
-            np.stack([cb, o, sb], -1),
-            np.stack([sa * sb, ca, -sa * cb], -1),
-            np.stack([-ca * sb, sa, ca * cb], -1),
-        ],
-        -2,
-    )
-
-
 def coupled_transform(z: np.ndarray, alpha: np.ndarray, beta: np.ndarray, l: float) -> np.ndarray:
-    """ᴼT_O1 (..., 4, 4) [mm]: rotation of eq (11), origin of eq (13).
+    """ᴼT_O1 (..., 4, 4) [mm]: ᴼR_O1 = Rx(α)·Ry(β) of eq (11), origin of eq (13), by
+    `platforms.coupled_frame_lane` lane by lane.
 
     The platform centre lies on the UP limb, l + z from O along the platform normal:
     ᴼO1 = (l + z) ᴼR_O1 e_z, which is eq (13) written as a vector.
 
     Args:
         z: (...) [mm] UP-limb extension beyond the initial length l.
-        alpha: (...) [rad] roll.
-        beta: (...) [rad] pitch.
+        alpha: (...) [rad] roll, about the base x axis (the UP U joint's first axis).
+        beta: (...) [rad] pitch, about the once-rotated y axis (its second axis).
         l: [mm] limb length at the initial pose.
     """
-    R = coupled_rotation(alpha, beta)
-    T = np.zeros((*R.shape[:-2], 4, 4))
-    T[..., :3, :3] = R
-    T[..., :3, 3] = (l + z)[..., None] * R[..., :, 2]  # seed 001 eq (13)
-    T[..., 3, 3] = 1.0
-    return T
+    return COUPLED_FRAME([z, alpha, beta], [float(l)], [(4, 4)])[0]
+
+
+def _coupled_batch(
+    z: np.ndarray, alpha: np.ndarray, beta: np.ndarray, l: float, T: np.ndarray
+) -> None:
+    """`coupled_frame_lane` over states z, alpha, beta (N,) into T (N, 4, 4)."""
+    for k in range(z.shape[0]):
+        coupled_frame_lane(z[k], alpha[k], beta[k], l, T[k, :3, :3], T[k, :3, 3])
+        T[k, 3, 0], T[k, 3, 1], T[k, 3, 2], T[k, 3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+#: the lane over a batch of states: what `coupled_transform` calls
+COUPLED_FRAME = LaneBatch(_coupled_batch, cores=(0, 0, 0))
 
 
 @dataclass(frozen=True)

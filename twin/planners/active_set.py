@@ -166,24 +166,16 @@ def drop_constraint(
         rotate_columns(J, n, j, j + 1, cos, sin)
 
 
-@register_borrowing
-def solve_dense_qp(
-    H: np.ndarray, f: np.ndarray, A: np.ndarray, box_lower: np.ndarray, box_upper: np.ndarray,
-    row_lower: np.ndarray, row_upper: np.ndarray, n_equal: int, work: tuple, x: np.ndarray,
-) -> int:  # fmt: skip
-    """Solve the module doc's QP: H (n, n), f (n,), the box (n,), the rows A (m, n) with their
-    bounds (m,), the first n_equal rows equalities (row_lower = row_upper). Writes x (n,);
-    returns OPTIMAL, INFEASIBLE (the constraints admit no x), NOT_CONVEX (H not positive
-    definite) or ITERATION_LIMIT. `work` from `qp_work`."""
-    n, m = f.shape[0], A.shape[0]
-    J, R, d, z, r, u, active, signs, flags = work
-    # H = L Lᵀ (L in R's lower triangle: R is free until a constraint is active)
+@register_inline
+def factor_hessian(H: np.ndarray, n: int, J: np.ndarray, R: np.ndarray) -> bool:
+    """H = L Lᵀ (Cholesky; L in R's lower triangle: R is free until a constraint is active) and
+    J = L⁻ᵀ (module doc, step 2); False where H is not positive definite."""
     for j in range(n):
         s = H[j, j]
         for k in range(j):
             s -= R[j, k] * R[j, k]
         if not s > 0.0:
-            return NOT_CONVEX
+            return False
         R[j, j] = math.sqrt(s)
         for i in range(j + 1, n):
             s = H[i, j]
@@ -200,7 +192,13 @@ def solve_dense_qp(
             for k in range(j, i):
                 s -= R[i, k] * J[j, k]
             J[j, i] = s / R[i, i]
-    # the unconstrained minimum x = −J Jᵀ f
+    return True
+
+
+@register_inline
+def unconstrained_minimum(f: np.ndarray, n: int, J: np.ndarray, d: np.ndarray,
+                          x: np.ndarray) -> None:  # fmt: skip
+    """x = −H⁻¹ f = −J Jᵀ f, the start (dual feasible, no constraint active); d scratch."""
     for i in range(n):
         s = 0.0
         for k in range(n):
@@ -211,11 +209,28 @@ def solve_dense_qp(
         for i in range(n):
             s += J[k, i] * d[i]
         x[k] = -s
-    for c in range(n + m):
-        flags[c] = 0.0
-    q = 0
 
-    # the equalities, each in the sense it is violated, their multipliers free
+
+@register_inline
+def step_by(n: int, q: int, t: float, move: bool, z: np.ndarray, r: np.ndarray, u: np.ndarray,
+            x: np.ndarray) -> None:  # fmt: skip
+    """The step of length t (module doc, step 3): x ← x + t z where the primal moves (`move`),
+    the active multipliers u ← u − t r."""
+    if move:
+        for i in range(n):
+            x[i] += t * z[i]
+    for j in range(q):
+        u[j] -= t * r[j]
+
+
+@register_inline
+def add_equalities(A: np.ndarray, row_upper: np.ndarray, n: int, n_equal: int, work: tuple,
+                   x: np.ndarray) -> int:  # fmt: skip
+    """The first n_equal rows made active, each in the sense it is violated and its multiplier
+    free of sign (module doc): the number of active constraints after them, or −1 where one
+    is a combination of the others that it contradicts (infeasible)."""
+    J, R, d, z, r, u, active, signs, flags = work
+    q = 0
     for e in range(n_equal):
         c = n + e
         b = row_upper[e]
@@ -224,72 +239,112 @@ def solve_dense_qp(
         slack *= sign
         if directions(A, n, q, c, sign, J, R, d, z, r) <= DEPENDENT_TOL:
             if -slack > PRIMAL_TOL * (1.0 + abs(b)):
-                return INFEASIBLE  # a combination of the others, which it contradicts
+                return -1
             continue
         zn = 0.0
         for i in range(q, n):
             zn += d[i] * d[i]  # zᵀ n_p = |d₂|²
         t = -slack / zn
-        for k in range(n):
-            x[k] += t * z[k]
-        for j in range(q):
-            u[j] -= t * r[j]
+        step_by(n, q, t, True, z, r, u, x)
         add_constraint(n, q, J, R, d)
         u[q], active[q], signs[q] = t, c, sign
         flags[c] = 1.0
         q += 1
+    return q
+
+
+@register_inline
+def most_violated(
+    A: np.ndarray, n: int, box_lower: np.ndarray, box_upper: np.ndarray, row_lower: np.ndarray,
+    row_upper: np.ndarray, n_equal: int, flags: np.ndarray, x: np.ndarray,
+) -> tuple[int, float, float]:  # fmt: skip
+    """The most violated inactive constraint of the n + m (module doc, step 1; each side of a
+    row is one, violations relative to 1 + |bound|, beyond PRIMAL_TOL): (p, its sign, its
+    bound b) as p_sign · a_p x ≥ p_sign · b, or p = −1 where none is (x is optimal)."""
+    m = A.shape[0]
+    p, p_sign, worst = -1, 0.0, 0.0
+    for c in range(n + m):
+        if flags[c] != 0.0 or (n <= c < n + n_equal):
+            continue
+        if c < n:
+            low, high = box_lower[c], box_upper[c]
+        else:
+            low, high = row_lower[c - n], row_upper[c - n]
+        value = normal_times(A, n, c, x)
+        if high < INF / 2:
+            over = (value - high) / (1.0 + abs(high))
+            if over > PRIMAL_TOL and over > worst:
+                p, p_sign, worst = c, -1.0, over
+        if low > -INF / 2:
+            under = (low - value) / (1.0 + abs(low))
+            if under > PRIMAL_TOL and under > worst:
+                p, p_sign, worst = c, 1.0, under
+    if p < 0:
+        return p, p_sign, 0.0
+    if p < n:
+        b = box_upper[p] if p_sign < 0 else box_lower[p]
+    else:
+        b = row_upper[p - n] if p_sign < 0 else row_lower[p - n]
+    return p, p_sign, b
+
+
+@register_inline
+def step_lengths(n: int, q_equal: int, q: int, free: float, slack: float, d: np.ndarray,
+                 r: np.ndarray, u: np.ndarray) -> tuple[float, int, float]:  # fmt: skip
+    """(t₁, k, t₂) of module doc step 3: the partial step t₁ = min u_j / r_j over the active
+    inequalities j with r_j > 0 (k the first reaching it, −1: none, t₁ = inf) and the full
+    step t₂ = max(−slack / zᵀn, 0) (inf where n_p depends on the active normals, `free`)."""
+    t1, k = math.inf, -1
+    for j in range(q_equal, q):
+        if r[j] > 0.0:
+            ratio = u[j] / r[j]
+            if ratio < t1:
+                t1, k = ratio, j
+    if free > DEPENDENT_TOL:
+        zn = 0.0
+        for i in range(q, n):
+            zn += d[i] * d[i]
+        t2 = max(-slack / zn, 0.0)
+    else:
+        t2 = math.inf
+    return t1, k, t2
+
+
+@register_borrowing
+def solve_dense_qp(
+    H: np.ndarray, f: np.ndarray, A: np.ndarray, box_lower: np.ndarray, box_upper: np.ndarray,
+    row_lower: np.ndarray, row_upper: np.ndarray, n_equal: int, work: tuple, x: np.ndarray,
+) -> int:  # fmt: skip
+    """Solve the module doc's QP: H (n, n), f (n,), the box (n,), the rows A (m, n) with their
+    bounds (m,), the first n_equal rows equalities (row_lower = row_upper). Writes x (n,);
+    returns OPTIMAL, INFEASIBLE (the constraints admit no x), NOT_CONVEX (H not positive
+    definite) or ITERATION_LIMIT. `work` from `qp_work`."""
+    n, m = f.shape[0], A.shape[0]
+    J, R, d, z, r, u, active, signs, flags = work
+    if not factor_hessian(H, n, J, R):
+        return NOT_CONVEX
+    unconstrained_minimum(f, n, J, d, x)
+    for c in range(n + m):
+        flags[c] = 0.0
+    q = add_equalities(A, row_upper, n, n_equal, work, x)
+    if q < 0:
+        return INFEASIBLE  # an equality is a combination of the others, which it contradicts
     q_equal = q
 
     for _ in range(10 * (n + m) + 100):
-        # the most violated constraint (each side of a row is one constraint)
-        p, p_sign, worst = -1, 0.0, 0.0
-        for c in range(n + m):
-            if flags[c] != 0.0 or (n <= c < n + n_equal):
-                continue
-            if c < n:
-                low, high = box_lower[c], box_upper[c]
-            else:
-                low, high = row_lower[c - n], row_upper[c - n]
-            value = normal_times(A, n, c, x)
-            if high < INF / 2:
-                over = (value - high) / (1.0 + abs(high))
-                if over > PRIMAL_TOL and over > worst:
-                    p, p_sign, worst = c, -1.0, over
-            if low > -INF / 2:
-                under = (low - value) / (1.0 + abs(low))
-                if under > PRIMAL_TOL and under > worst:
-                    p, p_sign, worst = c, 1.0, under
+        p, p_sign, b = most_violated(A, n, box_lower, box_upper, row_lower, row_upper, n_equal,
+                                     flags, x)  # fmt: skip
         if p < 0:
             return OPTIMAL
-        if p < n:
-            b = box_upper[p] if p_sign < 0 else box_lower[p]
-        else:
-            b = row_upper[p - n] if p_sign < 0 else row_lower[p - n]
         u[q] = 0.0  # u_p
-        while True:
+        while True:  # steps towards p until it is reached (joins) or it is infeasible
             slack = p_sign * (normal_times(A, n, p, x) - b)
             free = directions(A, n, q, p, p_sign, J, R, d, z, r)
-            t1, k = math.inf, -1
-            for j in range(q_equal, q):
-                if r[j] > 0.0:
-                    ratio = u[j] / r[j]
-                    if ratio < t1:
-                        t1, k = ratio, j
-            if free > DEPENDENT_TOL:
-                zn = 0.0
-                for i in range(q, n):
-                    zn += d[i] * d[i]
-                t2 = max(-slack / zn, 0.0)
-            else:
-                t2 = math.inf
+            t1, k, t2 = step_lengths(n, q_equal, q, free, slack, d, r, u)
             if k < 0 and t2 == math.inf:
                 return INFEASIBLE
             t = min(t1, t2)
-            if t2 < math.inf:
-                for i in range(n):
-                    x[i] += t * z[i]
-            for j in range(q):
-                u[j] -= t * r[j]
+            step_by(n, q, t, t2 < math.inf, z, r, u, x)
             u[q] += t
             if t2 <= t1:  # the constraint is reached: it joins the active set
                 add_constraint(n, q, J, R, d)

@@ -22,6 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from twin.batch import LaneBatch
 from twin.compiled import register_borrowing
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners.parameters import (
@@ -56,18 +57,9 @@ def reachable_range(mechanism: HybridBoardingSystem, pose: np.ndarray) -> np.nda
     """
     stewart = mechanism.stewart
     state = stewart.legs(pose)
-    b = state.vectors  # (..., 6, 3): leg i's component along axis k
-    c = state.lengths[..., None] ** 2
-    reach = np.sqrt(np.maximum(b**2 - c + stewart.leg_max**2, 0.0))
-    upper, lower = -b + reach, -b - reach
-    hole = b**2 - c + stewart.leg_min**2
-    half = np.sqrt(np.maximum(hole, 0.0))
-    has_hole = hole > 0
-    upper = np.where(has_hole & (-b > 0), np.minimum(upper, -b - half), upper)
-    lower = np.where(has_hole & (-b <= 0), np.maximum(lower, -b + half), lower)
-    span = np.min(upper, axis=-2) - np.max(lower, axis=-2)
-    inside = stewart.within_limits(state.lengths)
-    return np.where(inside[..., None], np.maximum(span, 0.0), 0.0)
+    limits = [float(stewart.leg_min), float(stewart.leg_max)]
+    return REACHABLE_RANGE([state.vectors, state.lengths], limits, [(3,)])[0]  # the lane's
+
 
 #: Methods, as a row's `method` names them
 METHODS = {"conv1": 0, "conv2": 1, "dwa": 2}
@@ -259,3 +251,15 @@ def reachable_range_lane(
             upper_min = min(upper_min, upper)
             lower_max = max(lower_max, lower)
         out[k] = max(upper_min - lower_max, 0.0) if inside else 0.0
+
+
+def _reachable_range_batch(
+    vectors: np.ndarray, lengths: np.ndarray, leg_min: float, leg_max: float, out: np.ndarray
+) -> None:
+    """`reachable_range_lane` over legs vectors (N, 6, 3), lengths (N, 6) into out (N, 3)."""
+    for k in range(vectors.shape[0]):
+        reachable_range_lane(vectors[k], lengths[k], leg_min, leg_max, out[k])
+
+
+#: the lane over a batch of poses: what `reachable_range` calls
+REACHABLE_RANGE = LaneBatch(_reachable_range_batch, cores=(2, 1))

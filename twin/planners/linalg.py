@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from twin.batch import LaneBatch
 from twin.compiled import register_inline, register_jitable
 
 #: machine epsilon of float64 (`np.finfo(float).eps`), the rank cut-off of the SVD form
@@ -30,24 +31,12 @@ def weighted_pinv(
         damping_max: λ_max, the damping at σ_min = 0.
 
     Returns:
-        J_W⁺ (..., n, m) and λ (...,).
+        J_W⁺ (..., n, m) and λ (...,), by `weighted_pinv_lane` problem by problem.
     """
-    sqrt_w = np.sqrt(w)
-    U, s, Vt = np.linalg.svd(J * sqrt_w[..., None, :], full_matrices=False)  # J_W = U S Vᵀ
-    sigma_min = s[..., -1]
-    ratio = np.clip(sigma_min / epsilon, 0.0, 1.0)
-    lam2 = (1.0 - ratio**2) * damping_max**2
-    # W⁻¹Jᵀ(J W⁻¹ Jᵀ + λ²I)⁻¹ = W^{-1/2} V diag(s / (s² + λ²)) Uᵀ, from the same SVD. Not a
-    # solve: with λ = 0 (damping_max = 0) and a rank-deficient J_W (β = 0 keeps three joints)
-    # J W⁻¹ Jᵀ is singular; singular values lost to rounding then get 0, as in numpy's pinv.
-    kept = s > s[..., :1] * max(J.shape[-2:]) * EPS
-    safe = np.where(kept, s, 1.0)
-    gain = np.where(kept, 1.0 / (safe + lam2[..., None] / safe), 0.0)  # s / (s² + λ²)
-    VG = np.swapaxes(Vt, -1, -2) * gain[..., None, :]  # (..., n, k)
-    pinv = sqrt_w[..., :, None] * (VG @ np.swapaxes(U, -1, -2))  # (..., n, m)
-    # λ itself from √(1 − r²) λ_max, not √λ²: for a λ_max under 1e-154, λ_max² is subnormal
-    # and its square root came back above λ_max (hypothesis found 1.31119e-158)
-    return pinv, np.sqrt(1.0 - ratio**2) * damping_max
+    J, w = np.asarray(J, dtype=float), np.asarray(w, dtype=float)
+    m, n = J.shape[-2:]
+    pinv, damping = WEIGHTED_PINV([J, w], [float(epsilon), float(damping_max)], [(n, m), ()])
+    return pinv, damping
 
 
 # ---------------------------------------------------------------------------------------------
@@ -56,6 +45,13 @@ def weighted_pinv(
 # The undamped solve is a Cholesky factorisation of K W Kᵀ; where `weighted_pinv`'s damping
 # test fails, the SVD form with `damped_gains_lane` (twin.planners.differential module doc).
 # ---------------------------------------------------------------------------------------------
+
+
+@register_inline
+def damping_ratio(sigma_min: float, epsilon: float) -> float:
+    """σ_min / ε clipped to [0, 1] [-]: the damping is λ = √(1 − ratio²) λ_max (numerical
+    filtering, `weighted_pinv`)."""
+    return min(max(sigma_min / epsilon, 0.0), 1.0)
 
 
 @register_inline
@@ -69,7 +65,7 @@ def damped_gains_lane(s: np.ndarray, n: int, epsilon: float, damping_max: float,
         epsilon: ε [task units]; damping_max: λ_max [-].
     """
     m = s.shape[0]
-    ratio = min(max(s[m - 1] / epsilon, 0.0), 1.0)
+    ratio = damping_ratio(s[m - 1], epsilon)
     lam2 = (1.0 - ratio**2) * damping_max**2
     for k in range(m):
         kept = s[k] > s[0] * n * EPS
@@ -172,16 +168,66 @@ def svd_pinv_apply(
     U: np.ndarray, gain: np.ndarray, Vt: np.ndarray, sqrt_w: np.ndarray, c: np.ndarray,
     out: np.ndarray,
 ) -> None:  # fmt: skip
-    """out (9,) = W^½ V diag(gain) Uᵀ c: `weighted_pinv`'s SVD form of J_W⁺ (in P) applied to
-    c (6,), with K W^½ = U S Vᵀ and gain_k = s_k / (s_k² + λ²) (0 for a dropped s_k)."""
-    g = np.empty(6)
-    for k in range(6):
+    """out (n,) = W^½ V diag(gain) Uᵀ c: `weighted_pinv`'s SVD form of J_W⁺ (in P) applied to
+    c (m,), with K W^½ = U S Vᵀ (K (m, n), thin: U (m, r), Vt (r, n)) and gain_k = s_k / (s_k²
+    + λ²) (0 for a dropped s_k); (6, 9) on the engine's lanes."""
+    r = gain.shape[0]
+    g = np.empty(r)
+    for k in range(r):
         s = 0.0
-        for a in range(6):
+        for a in range(U.shape[0]):
             s += U[a, k] * c[a]
         g[k] = gain[k] * s
-    for j in range(9):
+    for j in range(Vt.shape[1]):  # out may be longer than n (a row of the caller's scratch)
         s = 0.0
-        for k in range(6):
+        for k in range(r):
             s += Vt[k, j] * g[k]
         out[j] = sqrt_w[j] * s
+
+
+@register_jitable  # not borrowing: it allocates (the SVD)
+def weighted_pinv_lane(
+    J: np.ndarray, w: np.ndarray, epsilon: float, damping_max: float, pinv_out: np.ndarray
+) -> float:
+    """`weighted_pinv` on one problem: J_W⁺ = W^½ V diag(s / (s² + λ²)) Uᵀ with J W^½ = U S Vᵀ
+    (seed 000 eq (31), damped: `damped_gains_lane`) into pinv_out (n, m), column by column
+    (`svd_pinv_apply` on the unit vectors); λ returned, as √(1 − r²) λ_max rather than √λ²
+    (for a λ_max under 1e-154, λ_max² is subnormal and its square root came back above λ_max).
+
+    Not a solve: with λ = 0 and a rank-deficient J_W the Gram matrix is singular; the singular
+    values lost to rounding get a gain of 0, as in numpy's pinv.
+
+    Args:
+        J: (m, n) task Jacobian; w: (n,) diagonal of W⁻¹ (≥ 0).
+        epsilon: ε [task units]; damping_max: λ_max [-].
+    """
+    m, n = J.shape
+    sqrt_w = np.sqrt(w)
+    U, s, Vt = np.linalg.svd(J * sqrt_w, full_matrices=False)
+    gain = np.empty(s.shape[0])
+    damped_gains_lane(s, max(m, n), epsilon, damping_max, gain)
+    unit = np.zeros(m)
+    for i in range(m):
+        unit[i] = 1.0
+        svd_pinv_apply(U, gain, Vt, sqrt_w, unit, pinv_out[:, i])
+        unit[i] = 0.0
+    ratio = damping_ratio(s[s.shape[0] - 1], epsilon)
+    return math.sqrt(1.0 - ratio**2) * damping_max
+
+
+def _weighted_pinv_batch(
+    J: np.ndarray,
+    w: np.ndarray,
+    epsilon: float,
+    damping_max: float,
+    pinv: np.ndarray,
+    damping: np.ndarray,
+) -> None:
+    """`weighted_pinv_lane` over problems J (N, m, n), w (N, n) into pinv (N, n, m) and
+    damping (N,)."""
+    for k in range(J.shape[0]):
+        damping[k] = weighted_pinv_lane(J[k], w[k], epsilon, damping_max, pinv[k])
+
+
+#: the lane over a batch of problems: what `weighted_pinv` calls
+WEIGHTED_PINV = LaneBatch(_weighted_pinv_batch, cores=(2, 1))

@@ -141,6 +141,9 @@ class PlannerParameters(BaseModel):
 
 #: float64 values in one lane's parameter row (`twin.sim.kernels.layout.N_PARAMETERS` is this)
 ROW_SIZE = 64
+#: float64 values in one lane's planner state carried from step to step (DWA's shares, a
+#: PID's integral, …; `twin.sim.kernels.layout.N_MEMORY` is this)
+MEMORY_SIZE = 48
 
 #: Planner families: what a row's `kind` names (the kernel that steps the lane)
 KIND_DIFFERENTIAL, KIND_ALLOCATION, KIND_PLATFORM, KIND_QP = 0, 1, 2, 3

@@ -39,7 +39,7 @@ rates; the engine flags the step `Fault.INFEASIBLE`. The rate limits are never r
 `QPPlanner.problem` states the matrices; `solve_levels` solves them, by default with
 `solve_levels_lane`: the three levels over the compiled dual active-set method of Goldfarb and
 Idnani (`twin.planners.active_set`), the very function the engine's qp lanes run
-(`twin.sim.kernels.qp`, which assembles the same matrices, tested equal to 1e-9). DAQP,
+(`twin.planners.qp_step`, which assembles the same matrices, tested equal to 1e-9). DAQP,
 ProxQP and quadprog stay selectable on the object for comparison (docs/decisions.md, "The qp
 planner's solver" and "The qp planner in the compiled lane").
 """
@@ -57,6 +57,13 @@ from twin.compiled import register_borrowing, register_jitable
 from twin.errors import TwinError
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners.active_set import INF, OPTIMAL, qp_work, solve_dense_qp
+from twin.planners.parameters import (
+    KIND_QP,
+    family_dtype,
+    pack_part,
+    parameter_record,
+    parameter_row,
+)
 from twin.planners.target import PlannerOutput, TipTarget
 from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask
 from twin.planners.weights import BetaSplit
@@ -69,6 +76,45 @@ SOLVERS = ("active_set", "daqp", "proxqp", "quadprog")
 SLACK_WEIGHT = 1e6
 #: smallest w_j of the regularisation's β split (β = 0 or 1 freezes a joint, not divides by 0)
 MIN_SPLIT = 1e-6
+
+#: The qp family's lane parameters (`family_dtype`), written by name by `QPPlanner.pack` and
+#: its parts' `pack`: k_e [1/s] (`TipPoseTask`); w_o, the position weight of level 1, w_s and
+#: μ; the β split w_j (9, `BetaSplit`); the posture task's joint (−1: none), k_a [1/s] and q̃
+#: (`JointPostureTask`); the yaw term on/off and its yaw_hold (`PlatformYawTask`); the leg
+#: dampers' gain and margin [m] (`LegStrokeLimit`), the Table 6 dampers' [m | rad]
+#: (`JointLimit`); the rate box (9) [m/s, rad/s] (`RateLimit`); the solver (index into
+#: `SOLVERS`: 0, the compiled one the engine runs).
+QP_PARAMETERS = family_dtype(
+    (
+        ("gain", 1), ("orientation", 1), ("position", 1), ("secondary", 1), ("damping", 1),
+        ("split", 9), ("posture_index", 1), ("posture_gain", 1), ("posture_set", 1),
+        ("yaw", 1), ("yaw_hold", 1), ("leg_gain", 1), ("leg_margin", 1), ("joint_gain", 1),
+        ("joint_margin", 1), ("rate", 9), ("solver", 1),
+    )
+)  # fmt: skip
+
+
+def refuse(what: str) -> TwinError:
+    """The error of a `pack()` whose part or value the qp lane cannot assemble."""
+    return TwinError(f"planner: the qp kernel cannot run {what}")
+
+
+def pack_damper(limit: LegStrokeLimit | JointLimit, record: np.record, name: str) -> None:
+    """Write a velocity-damper limit's gain and margin into the `QP_PARAMETERS` record's
+    `<name>_gain`, `<name>_margin`.
+
+    Raises:
+        TwinError: the record has this limit already, a gain outside (0, 1], a margin that is
+            negative or not finite, or a rate box other than the record's (`RateLimit.pack`
+            writes it first).
+    """
+    if record[f"{name}_gain"] > 0.0:
+        raise refuse(f"a second {type(limit).__name__} ({limit!r:.80})")
+    if not (0 < limit.gain <= 1 and np.isfinite(limit.margin) and limit.margin >= 0):
+        raise refuse(f"the limit {limit!r:.80} (gain in (0, 1], margin ≥ 0)")
+    if not np.array_equal(np.broadcast_to(limit.rate, (9,)), record["rate"]):
+        raise refuse(f"the limit {limit!r:.80} on another rate box than the QP's")
+    record[f"{name}_gain"], record[f"{name}_margin"] = limit.gain, limit.margin
 
 
 class Rows(NamedTuple):
@@ -148,6 +194,11 @@ class LegStrokeLimit:
         )
         return self.margin + shift, self.margin + shift + stretch
 
+    def pack(self, record: np.record) -> None:
+        """Write the gain and margin into a `QP_PARAMETERS` record's `leg_*` (`pack_damper`;
+        the lane reads the stroke and hinges from the hybrid constants)."""
+        pack_damper(self, record, "leg")
+
     def rows(self, xi: np.ndarray, dt: float) -> Rows:
         """(C (6, 9), lower (6,), upper (6,)) [m/s] at the state xi (9,)."""
         stewart = self.mechanism.stewart
@@ -192,6 +243,11 @@ class JointLimit:
         return self.margin + np.r_[np.full(3, b.e_trans * b.s), np.full(3, b.theta**2),
                                    np.zeros(3)]  # fmt: skip
 
+    def pack(self, record: np.record) -> None:
+        """Write the gain and margin into a `QP_PARAMETERS` record's `joint_*` (`pack_damper`;
+        the lane reads the limits from the hybrid constants)."""
+        pack_damper(self, record, "joint")
+
     def rows(self, xi: np.ndarray, dt: float) -> Rows:
         """(C (9, 9), lower (9,), upper (9,)) [m/s, rad/s] at the state xi (9,)."""
         R = rpy_to_matrix(xi[3:6])
@@ -213,6 +269,18 @@ class RateLimit:
     """
 
     maximum: np.ndarray
+
+    def pack(self, record: np.record) -> None:
+        """Write the box into a `QP_PARAMETERS` record's `rate`.
+
+        Raises:
+            TwinError: a maximum that is not finite and > 0 (the lane divides by none, but a
+                box of zero width leaves no rates).
+        """
+        rate = np.broadcast_to(np.asarray(self.maximum, dtype=float), (9,))
+        if not np.all(rate > 0) or not np.all(np.isfinite(rate)):
+            raise refuse(f"the rate limits {rate.tolist()!r:.120} (finite and > 0)")
+        record["rate"] = rate
 
 
 class QPProblem(NamedTuple):
@@ -297,6 +365,76 @@ class QPPlanner:
         lower = np.concatenate([-rate, b[:3], *(r.lower for r in rows)])
         upper = np.concatenate([rate, b[:3], *(r.upper for r in rows)])
         return QPProblem(H, f, A, lower, upper, self.position_weight)
+
+    def pack(self, hold: bool) -> np.ndarray:
+        """The planner as its lane's parameter row (`QP_PARAMETERS`): each part writes its own
+        fields (`pack`: the tip task, the split, the posture task, the rate box, the limits),
+        this its weights and the yaw term.
+
+        Args:
+            hold: the lane holds its joint limits (`Scenario.joint_limits == "hold"`).
+
+        Raises:
+            TwinError: a planner the lane would assemble wrongly: a part without `pack` or one
+                it refuses; limits other than one `LegStrokeLimit` on the tip's system then one
+                `JointLimit` on its Table 6 limits; secondary tasks other than at most one
+                `JointPostureTask` then at most one `PlatformYawTask`; weights that are
+                negative or not finite; a solver other than the compiled one; μ ≤ 0.
+        """
+        row = parameter_row(KIND_QP, hold)
+        record = parameter_record(row, QP_PARAMETERS)
+        record["split"], record["posture_index"] = 1.0, -1.0
+        pack_part(self.tip, record, "primary task")
+        record["orientation"], record["position"] = self.orientation_weight, self.position_weight
+        record["secondary"], record["damping"] = self.secondary_weight, self.damping
+        if self.split is not None:
+            pack_part(self.split, record, "split")
+        weights = np.r_[record["orientation"], record["position"], record["secondary"],
+                        record["damping"], record["split"]]  # fmt: skip
+        if not np.all(np.isfinite(weights) & (weights >= 0)):
+            raise refuse(f"weights {weights.tolist()!r:.120} (finite and ≥ 0 only)")
+        for task in self.secondary:
+            if record["yaw"] > 0.0:  # the lane adds the posture term first, then the yaw's
+                raise refuse(f"the secondary tasks {self.secondary!r:.120}")
+            if isinstance(task, PlatformYawTask):  # a term of this planner only: no pack
+                if task.n != 9 or not np.isfinite(task.yaw_hold):
+                    raise refuse(f"the secondary task {task!r:.80}")
+                record["yaw"], record["yaw_hold"] = 1.0, task.yaw_hold
+            else:
+                pack_part(task, record, "secondary task")
+        self._pack_limits(record)
+        if self.solver != SOLVERS[0]:  # a library is called from Python, not in a lane
+            raise refuse(
+                f"the solver {self.solver!r}: the engine solves with the compiled "
+                f"{SOLVERS[0]!r} (`twin.planners.active_set`); the others only through "
+                "QPPlanner.step"
+            )
+        if not self.damping > 0:
+            raise refuse(f"the damping {self.damping!r} (> 0: the QP must be strictly convex)")
+        record["solver"] = SOLVERS.index(self.solver)
+        return row
+
+    def _pack_limits(self, record: np.record) -> None:
+        """The rate box and the two limits into `record` (`QPPlanner.pack`): the lane reads
+        the legs and Table 6 from the hybrid constants of the tip's system, so the limits must
+        be on those."""
+        mechanism = self.tip.mechanism
+        limits = self.limits
+        if (
+            len(limits) != 2
+            or not isinstance(limits[0], LegStrokeLimit)
+            or not isinstance(limits[1], JointLimit)
+            or not np.array_equal(limits[0].mechanism.pack(np.ones(9)), mechanism.pack(np.ones(9)))
+            or not np.array_equal(limits[1].lower, mechanism.lower)
+            or not np.array_equal(limits[1].upper, mechanism.upper)
+        ):
+            raise refuse(
+                f"the limits {limits!r:.120}: one LegStrokeLimit and one JointLimit on the "
+                "mechanism's own limits"
+            )
+        pack_part(self.rate_limit, record, "rate limit")
+        for limit in limits:
+            pack_part(limit, record, "limit")
 
     def step(self, xi: np.ndarray, target: TipTarget, dt: float) -> PlannerOutput:
         """Joint rates (9,) for the state xi (9,): the QP's solution (`solve_levels`)."""

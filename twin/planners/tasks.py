@@ -10,11 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twin.batch import LaneBatch
 from twin.compiled import register_inline
 from twin.mechanisms.hybrid import HybridBoardingSystem, tip_transform
 from twin.planners.parameters import refuse
 from twin.planners.target import TipTarget
-from twin.spatial import pose_error, so3_log_lane
+from twin.spatial import rpy_to_matrix_lane, so3_log_lane
+from twin.validation import as_array
 
 
 @dataclass(frozen=True)
@@ -32,17 +34,46 @@ class TipPoseTask:
     gain: float = 25.0
 
     def error(self, xi: np.ndarray, target: TipTarget) -> np.ndarray:
-        """e (..., 6) [m, rad]."""
-        return pose_error(target.transform, self.mechanism.end_effector(xi))
+        """e (..., 6) [m, rad], by `tip_error_lane` lane by lane (within `tip_task_lane`: one
+        compiled loop serves the error, the demand and the Jacobian).
+
+        Raises:
+            TwinError: NaN or inf gangway joints (as `HybridBoardingSystem.end_effector`).
+        """
+        return self.demand(xi, target)[1]
 
     def jacobian(self, xi: np.ndarray) -> np.ndarray:
-        """J_task (..., 6, 9)."""
-        return self.mechanism.task_jacobian(xi)
+        """J_task (..., 6, 9) = diag(ᴮR_P, ᴮR_P) K, K by `tip_task_lane` lane by lane.
+
+        Raises:
+            TwinError: xi not (..., 9) or not finite (as `HybridBoardingSystem.task_jacobian`).
+        """
+        xi = as_array(xi, "xi", (9,))
+        return TIP_TASK([xi, HELD_ROW], [0.0, *self._gangway()], [(6,), (6,), (6, 9)])[2]
 
     def demand(self, xi: np.ndarray, target: TipTarget) -> tuple[np.ndarray, np.ndarray]:
-        """(ẋ_d + k_e e, e), each (..., 6)."""
-        e = self.error(xi, target)
-        return target.twist + self.gain * e, e
+        """(ẋ_d + k_e e, e), each (..., 6), by `tip_task_lane` lane by lane.
+
+        Raises:
+            TwinError: NaN or inf gangway joints (as `error`).
+        """
+        xi = self._checked(xi, "q")
+        rows = target_rows(target)
+        demand, e, _ = TIP_TASK([xi, rows], [float(self.gain), *self._gangway()],
+                                [(6,), (6,), (6, 9)])  # fmt: skip
+        return demand, e
+
+    def _gangway(self) -> list[float]:
+        """[d1, a1] [m], the gangway's, as the lanes take them."""
+        gangway = self.mechanism.gangway
+        return [float(gangway.d1), float(gangway.a1)]
+
+    @staticmethod
+    def _checked(xi: np.ndarray, name: str) -> np.ndarray:
+        """xi as floats, its gangway joints checked finite (`Gangway.forward` checked them)."""
+        xi = np.asarray(xi, dtype=float)
+        as_array(xi[..., 6:], name, (3,))
+        return xi
 
     def pack(self, record: np.void) -> None:
         """Write k_e into a differential parameter record's `gain`
@@ -220,3 +251,48 @@ def tip_task_lane(
     K[1, 6], K[1, 7], K[1, 8] = a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2
     K[2, 7], K[2, 8] = d3 * s2, -c2
     K[3, 7], K[4, 7], K[5, 6] = s1, -c1, 1.0
+
+
+def target_rows(target: TipTarget) -> np.ndarray:
+    """The target as lane rows (..., 18) (`TARGET_ROW`): ᴮR_d row-major, ᴮp_d [m], the twist."""
+    transform = np.asarray(target.transform, dtype=float)
+    twist = np.asarray(target.twist, dtype=float)
+    shape = np.broadcast_shapes(transform.shape[:-2], twist.shape[:-1])
+    rows = np.empty((*shape, 18))
+    rows[..., :9] = transform[..., :3, :3].reshape(*transform.shape[:-2], 9)
+    rows[..., 9:12] = transform[..., :3, 3]
+    rows[..., 12:] = twist
+    return rows
+
+
+#: a target row for what does not read the target (the Jacobian): ᴮR_d = I, the rest 0
+HELD_ROW = np.r_[np.eye(3).ravel(), np.zeros(9)]
+
+
+def _tip_task_batch(
+    x: np.ndarray,
+    target: np.ndarray,
+    gain: float,
+    d1: float,
+    a1: float,
+    demand: np.ndarray,
+    error: np.ndarray,
+    J: np.ndarray,
+) -> None:
+    """`tip_task_lane` over states x (N, 9) and target rows (N, 18) into demand (N, 6), error
+    (N, 6) and J_task = diag(ᴮR_P, ᴮR_P) K (N, 6, 9) in B (seed 000 eq (24): the lane leaves D
+    factored out)."""
+    R, M, frames, K = np.empty((3, 3)), np.empty((3, 3)), np.empty((2, 4, 4)), np.empty((6, 9))
+    for k in range(x.shape[0]):
+        rpy_to_matrix_lane(x[k, 3], x[k, 4], x[k, 5], R)
+        tip_task_lane(x[k], R, target[k], gain, d1, a1, frames, M, K, demand[k], error[k])
+        for half in (0, 3):
+            for i in range(3):
+                for j in range(9):
+                    J[k, half + i, j] = (
+                        R[i, 0] * K[half, j] + R[i, 1] * K[half + 1, j] + R[i, 2] * K[half + 2, j]
+                    )
+
+
+#: the lane over a batch: what `TipPoseTask` calls
+TIP_TASK = LaneBatch(_tip_task_batch, cores=(1, 1))

@@ -53,7 +53,7 @@ from twin.sim.faults import (
 from twin.sim.history import History
 from twin.sim.kernels import layout
 from twin.sim.lanes import HybridLanes, PlatformLanes, runner, use_numba
-from twin.sim.metrics import HybridReduction
+from twin.sim.metrics import HybridReduction, PlatformReduction, Reduction
 from twin.sim.protocols import Lanes, LanesFactory
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import DEFAULT_PLANNER, Scenario
@@ -121,11 +121,11 @@ class Simulation:
             interpreted: slow, for machines without numba; the same numbers).
         keep: "series" (the history, results with series and metrics) or "metrics" (results
             with metrics alone and series {}: a sweep's or a workability run's lanes, issue 28
-            item 6). The hybrid system's metrics are then reduced as each chunk is stepped
-            (`HybridReduction`, the same numbers to the bit) and the history holds the newest
-            sample alone, so memory does not grow with the run's length; the records are still
-            computed, as the metrics are reduced from them. The small platforms' metrics are
-            numpy over whole series: their lanes keep the history and drop it from the results.
+            item 6). The metrics are then reduced as each chunk is stepped (`HybridReduction`,
+            `PlatformReduction`: the same numbers as the whole series', to the bit or to
+            rounding) and the history holds the newest sample alone, so memory does not grow
+            with the run's length; the records are still computed, as the metrics are reduced
+            from them.
 
     Raises:
         ValueError: a bad scenario (naming the field), none, or lanes that differ in mechanism
@@ -184,11 +184,14 @@ class Simulation:
         self._run = runner(self.lanes.kind, self.compiled, self.n_lanes)
         self.faults = [FaultLog() for _ in self.scenarios]
         self.keep = keep
-        self._reduction: HybridReduction | None = None
-        if keep == "metrics" and self.lanes.kind == "hybrid":
+        self._reduction: Reduction | None = None
+        if keep == "metrics":
             ends = np.array([round(s.duration / s.dt) + 1 for s in self.scenarios])
             modes = [s.joint_limits for s in self.scenarios]
-            self._reduction = HybridReduction(self.mechanism, ends, modes, self.compiled)
+            if isinstance(self.lanes, PlatformLanes):
+                self._reduction = PlatformReduction(self.lanes.models, ends, modes, self.compiled)
+            else:
+                self._reduction = HybridReduction(self.mechanism, ends, modes, self.compiled)
             # the series' fault counts (`series_faults`), summed chunk by chunk
             self._limited = [dict.fromkeys(("joint_limit", "singular"), 0) for _ in ends]
         # a batch run keeps every sample, unless its metrics are reduced as it goes
@@ -301,17 +304,17 @@ class Simulation:
         ends = np.array([len(x["t"]) for x in series])
         modes = [s.joint_limits for s in self.scenarios]
         reduced = self.lanes.metrics_lanes(self.history.data, ends, modes)
-        kept = self.keep == "series"  # the small platforms' lanes drop their series here
         return [
-            SimulationResult(s, x if kept else {},
+            SimulationResult(s, x,
                              with_faults(m, x, self.faults[i].counts, self.faults[i].holds))
             for i, (s, x, m) in enumerate(zip(self.scenarios, series, reduced, strict=True))
         ]  # fmt: skip
 
     def _reduce(self, records: dict[str, np.ndarray], start: int) -> None:
         """keep="metrics": add samples start … start + S − 1 of records (N, S, ...) to every
-        lane's metrics (`HybridReduction`) and to its series' fault counts (`series_faults`
-        of the lane's samples before its end, as its whole series would count them)."""
+        lane's metrics (`HybridReduction`, `PlatformReduction`) and to its series' fault
+        counts (`series_faults` of the lane's samples before its end, as its whole series
+        would count them)."""
         assert self._reduction is not None
         self._reduction.add(records, start)
         size = records["t"].shape[1]
@@ -637,15 +640,23 @@ def lane_parts(members: list[int], threads: int = 1) -> list[list[int]]:
     return parts
 
 
-#: the lanes of the Simulations `warm` steps (0.1 s each), in shares that compile different
-#: runners: the hybrid system's differential and allocation kernel (the costliest to compile),
-#: then the qp kernel and the platforms' (sea, targets, records and metrics come with both)
+#: the lanes of the Simulations `warm` steps (0.1 s each), in two shares that compile
+#: different runners in about equal time (`warm_in_processes`; docs/performance.md): the
+#: hybrid system's differential and allocation runner, with the sea, targets, records and
+#: metrics, then the platforms' runner in parallel form; and the platforms' runner, then the
+#: hybrid system's qp runner. Each share's later lane sets load from numba's cache what the
+#: other has compiled meanwhile (the records and metrics for qp, the platforms' serial runner
+#: for its parallel form). A lane set of two compiles a runner's parallel form.
 WARM_SHARES: tuple[tuple[tuple[dict[str, str], ...], ...], ...] = (
-    (({"planner": "mtmp"},), ({"planner": "mtmp"}, {"planner": "dwa"})),
     (
-        ({"planner": "qp"},),
-        ({"mechanism": "upr4"},),
+        ({"planner": "mtmp"},),
+        ({"planner": "mtmp"}, {"planner": "dwa"}),
         ({"mechanism": "upr4"}, {"mechanism": "upr4", "planner": "ik"}),
+    ),
+    (
+        ({"mechanism": "upr4"},),
+        ({"planner": "qp"},),
+        ({"planner": "qp"}, {"planner": "qp"}),
     ),
 )
 

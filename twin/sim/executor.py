@@ -51,6 +51,15 @@ PROGRESS_STEPS = 1000
 #: Dask priorities: a REST run goes before the queued chunks of a sweep
 RUN_PRIORITY = 10
 SWEEP_PRIORITY = 0
+#: niceness `twin serve` asks for its LocalCluster's worker processes (`Executor.start(nice=)`,
+#: `os.nice`, 0 … 19; 0: as the server): batch work (runs, sweep chunks, heatmaps) yields the
+#: CPU to the process that answers requests, so a busy cluster on a busy machine cannot starve
+#: /api/health (issue 30's soak: health p99 1.3 s at load 12, the server's event loop idle
+#: 86 % of the time: waiting for a core, not working). Workers still take every idle cycle;
+#: only contention is decided for the front end. Scripts and `twin sweep` keep their workers
+#: at their own priority (nothing to yield to), and another cluster's workers (`--scheduler`)
+#: are left as their owner runs them.
+WORKER_NICE = 10
 #: [s] how long `Executor.start` waits for a scheduler and its first worker
 CONNECT_TIMEOUT = 30.0
 #: [s] how long `Executor.close` gives the cluster to stop before its processes are killed
@@ -245,11 +254,21 @@ def run_scenario(
     )
 
 
-def _warm_plugin(freeze: bool) -> Any:
+def lower_priority(nice: int) -> int:
+    """Make this process at least `nice` nice (never less nice than it is: a second call, or a
+    process started nicer, stays as it is). Returns its niceness after."""
+    current = os.nice(0)
+    if nice > current:
+        current = os.nice(nice - current)
+    return current
+
+
+def _warm_plugin(freeze: bool, nice: int = 0) -> Any:
     """A Dask worker plugin that loads the compiled kernels when a worker starts and, with
-    `freeze`, ignores SIGINT and then freezes its start-up objects
-    (`twin.sim.heap.freeze_startup`): for the worker processes of our own LocalCluster, not
-    for a worker in the caller's process nor for another cluster's workers."""
+    `freeze`, ignores SIGINT, lowers the worker's priority to `nice` (`lower_priority`) and
+    then freezes its start-up objects (`twin.sim.heap.freeze_startup`): for the worker
+    processes of our own LocalCluster, not for a worker in the caller's process nor for another
+    cluster's workers."""
     from distributed.diagnostics.plugin import WorkerPlugin
 
     class WarmKernels(WorkerPlugin):
@@ -270,6 +289,8 @@ def _warm_plugin(freeze: bool) -> Any:
                 if threading.current_thread() is threading.main_thread():
                     signal.signal(signal.SIGINT, signal.SIG_IGN)
             warm()
+            if freeze and nice:  # our own process, its kernels loaded (the start-up is not
+                lower_priority(nice)  # batch work): from now on it yields to the front end
             if freeze:  # no full collection walks the kernels between two runs
                 freeze_startup()
 
@@ -312,6 +333,7 @@ class Executor:
         warm: bool = True,
         timeout: float = CONNECT_TIMEOUT,
         dashboard: bool = False,
+        nice: int = 0,
     ) -> Executor:
         """Start a LocalCluster (or join a scheduler) and load the kernels on every worker.
 
@@ -326,6 +348,9 @@ class Executor:
             dashboard: a LocalCluster's scheduler serves its Dask dashboard, on 127.0.0.1 at a
                 free port (`dashboard_link`); default off: a dashboard answers any Host, so
                 a page elsewhere could read it through DNS rebinding (issue 30).
+            nice: a LocalCluster's worker processes lower their priority to this niceness
+                once their kernels are loaded (`twin serve`: `WORKER_NICE`); not the workers
+                of a scheduler joined, nor an in-process worker (the caller's process).
 
         Raises:
             ValueError: an address that is not a Dask scheduler's, or a bad `n_workers`.
@@ -336,6 +361,8 @@ class Executor:
 
         if n_workers is not None and not 1 <= n_workers <= 256:
             raise TwinError(f"n_workers: got {n_workers}; allowed 1 … 256")
+        if not 0 <= nice <= 19:
+            raise TwinError(f"nice: got {nice}; allowed 0 … 19")
         if scheduler is None or scheduler == IN_PROCESS:
             in_process = scheduler == IN_PROCESS
             quiet = dict(QUIET_DASK)
@@ -379,7 +406,8 @@ class Executor:
             if not client.scheduler_info(n_workers=-1)["workers"]:
                 client.wait_for_workers(1, timeout=timeout)
             if warm:
-                client.register_plugin(_warm_plugin(freeze=scheduler is None))  # our own processes
+                own = scheduler is None  # our own worker processes
+                client.register_plugin(_warm_plugin(freeze=own, nice=nice))
         except BaseException:
             executor.close()
             raise

@@ -30,7 +30,12 @@ from twin.planners import (
     get_planner,
 )
 from twin.sim.kernels import layout
-from twin.sim.metrics import hybrid_metrics, hybrid_metrics_lanes, platform_metrics
+from twin.sim.metrics import (
+    hybrid_metrics,
+    hybrid_metrics_lanes,
+    platform_metrics,
+    platform_metrics_lanes,
+)
 from twin.sim.records import (
     hybrid_records,
     landing_frame,
@@ -72,9 +77,12 @@ def runner(kind: str, compiled: bool, lanes: int) -> Any:
     """The chunk runner of `kind` ("hybrid" or "platform") for `lanes` lanes (`pick_runner`)."""
     from twin.sim.kernels import hybrid_runner, platform
 
-    if kind == "hybrid":
-        return pick_runner(
-            hybrid_runner.compiled_hybrid, hybrid_runner.run_hybrid, compiled, lanes
+    if kind == "hybrid":  # the qp family has a runner of its own (`HybridRunners`)
+        return hybrid_runner.HybridRunners(
+            pick_runner(hybrid_runner.compiled_hybrid, hybrid_runner.run_hybrid, compiled, lanes),
+            pick_runner(
+                hybrid_runner.compiled_hybrid_qp, hybrid_runner.run_hybrid_qp, compiled, lanes
+            ),
         )
     return pick_runner(platform.compiled_platform, platform.run_platform, compiled, lanes)
 
@@ -133,10 +141,10 @@ class HybridLanes:
         A differential planner keeps no state (its reset does nothing), so its row depends
         only on its name, knobs, hold mode and the lane's start x0: lanes alike (a batch of
         seeds) share one build, kept by this object (`_rows`)."""
+        from twin.planners.allocation_step import pack_allocation
+        from twin.planners.differential_step import pack_differential
         from twin.planners.qp import QPPlanner
-        from twin.sim.kernels.allocation import pack_allocation
-        from twin.sim.kernels.hybrid import pack_differential
-        from twin.sim.kernels.qp import pack_qp
+        from twin.planners.qp_step import pack_qp
 
         hold = scenario.joint_limits == "hold"
         knobs = scenario.parameters()
@@ -170,7 +178,7 @@ class HybridLanes:
         """Run the kernel `run` over a chunk (arrays as `twin.sim.kernels.layout` says; targets
         (N, B + 1, 18), the last row the chunk's end, `held_targets` with `end=True`): every
         lane, of every family (qp included: its QP is solved in the lane,
-        `twin.sim.kernels.qp`), through `run` for the whole chunk, a differential lane handing
+        `twin.planners.qp_step`), through `run` for the whole chunk, a differential lane handing
         over the tips and errors of samples first … B − 1
         (`twin.sim.kernels.hybrid_runner`). `records`, called next, records every lane's
         samples first … B."""
@@ -278,7 +286,7 @@ class PlatformLanes:
     def __init__(self, mechanism: Any, x0: np.ndarray, T_IB0: np.ndarray, compiled: bool = True):
         from twin.sim.kernels.platform import N_PLATFORM_DIAGNOSTICS, platform_constants
 
-        del compiled  # Unused: the platforms' records are numpy (one model per lane).
+        self.compiled = compiled  # the metrics' runners (the records are numpy, lane by lane)
         self.mechanism = mechanism
         self.x0 = np.array(x0, dtype=float)
         self.models = [PlatformModel(mechanism, z_hold=float(z)) for z in self.x0[:, 0]]
@@ -378,14 +386,12 @@ class PlatformLanes:
     def metrics(
         self, series: dict[str, np.ndarray], lane: int, joint_limits: str = "record"
     ) -> dict:
-        return platform_metrics(series, self.models[lane], joint_limits)
+        return platform_metrics(series, self.models[lane], joint_limits, self.compiled)
 
     def metrics_lanes(
         self, data: dict[str, np.ndarray], ends: np.ndarray, joint_limits: Sequence[str]
     ) -> list[dict]:
-        """Every lane's `metrics` from its series as (N, C, ...) arrays, lane n over its first
-        ends[n] samples: lane by lane (numpy; each lane has its own model)."""
-        return [
-            self.metrics({key: values[n, :end] for key, values in data.items()}, n, mode)
-            for n, (end, mode) in enumerate(zip(ends, joint_limits, strict=True))
-        ]
+        """Every lane's `metrics` from its series as (N, C, ...) arrays (the history's, in
+        place), lane n over its first ends[n] samples: one compiled pass over all lanes
+        (`platform_metrics_lanes`)."""
+        return platform_metrics_lanes(data, ends, self.models, joint_limits, self.compiled)

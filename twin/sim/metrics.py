@@ -5,7 +5,8 @@ out of min/max and error statistics, as seed 000 §5.3 drops its first 10 points
 
 The hybrid system's numbers are reduced by a compiled pass over every lane at once
 (`twin.sim.kernels.metrics`); this module names them, converts them to the reported units and
-keeps them finite. The small platforms' are numpy, lane by lane.
+keeps them finite. The small platforms' are reduced the same way (`PlatformReduction`): each
+sample's limit flags in numpy, the running sums compiled.
 """
 
 from __future__ import annotations
@@ -17,9 +18,10 @@ import numpy as np
 
 from twin.compiled import pick_runner
 from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
+from twin.mechanisms.upu3up import Upu3Up
 from twin.planners.platform import PlatformModel
 from twin.sim.kernels import metrics as kernel
-from twin.sim.kernels.metrics import SETTLE
+from twin.sim.kernels.metrics import SETTLE as SETTLE  # re-exported: claims, scripts
 
 _ANGLES = {"roll", "pitch", "yaw", "q1", "q2"}
 _DEGREES = math.degrees(1.0)
@@ -174,7 +176,10 @@ class HybridReduction:
         if np.any(self.seen != wanted):
             raise ValueError(f"reduction: samples from {start} on, after {self.seen.tolist()}")
         stewart = self.mechanism.stewart
-        self._run(*(np.ascontiguousarray(records[key], dtype=float) for key in kernel.REDUCED),
+        # read in place: a chunk's records are strided views (its states and the record runner's
+        # arrays from sample 1 on, the scalars' columns, t broadcast over the lanes), which a
+        # contiguous copy would duplicate, 27 floats a sample
+        self._run(*(np.asarray(records[key], dtype=float) for key in kernel.REDUCED),
                   counts, self.hold, self.mechanism.lower, self.mechanism.upper,
                   float(stewart.leg_min), float(stewart.leg_max), self.acc)  # fmt: skip
 
@@ -237,7 +242,10 @@ def hybrid_metrics_from(row: Sequence[float], mechanism: HybridBoardingSystem) -
 
 
 def platform_metrics(
-    series: dict[str, np.ndarray], model: PlatformModel, joint_limits: str = "record"
+    series: dict[str, np.ndarray],
+    model: PlatformModel,
+    joint_limits: str = "record",
+    compiled: bool = True,
 ) -> dict:
     """Metrics of a small-platform run from its series (`twin.sim.records.platform_records`).
 
@@ -251,52 +259,190 @@ def platform_metrics(
     (`PlatformModel.reached`), and so does every sample whose demand was clamped
     (`limit_violations["clamped"]`); in `hold` mode only samples beyond a limit count, the
     clamped ones being held steps (`fault_counts["joint_limit"]`).
+
+    The reduction is `PlatformReduction`'s, the series as one chunk: compiled (where numba
+    imports) or with compiled=False interpreted; the same numbers.
     """
-    t, state, legs = series["t"], series["state"], series["legs"]
-    s = slice(min(SETTLE, len(t) - 1), None)
-    if joint_limits == "record":
-        violated = model.reached(state, legs)
-        violated["clamped"] = series["clipped"] > 0
-    else:
-        violated = model.violations(state, legs)  # the actuators', held at their stops
-    bad = np.any(np.stack(list(violated.values())), axis=0)
+    reduction = PlatformReduction([model], np.array([len(series["t"])]), [joint_limits],
+                                  compiled)  # fmt: skip
+    reduction.add({key: np.asarray(values)[None] for key, values in series.items()}, 0)
+    return reduction.results()[0]
+
+
+def platform_metrics_lanes(
+    data: dict[str, np.ndarray],
+    ends: np.ndarray,
+    models: Sequence[PlatformModel],
+    joint_limits: Sequence[str],
+    compiled: bool,
+) -> list[dict]:
+    """`platform_metrics` of N lanes at once from their series as (N, C, ...) arrays (a batch
+    run's history, read in place), lane n over its first ends[n] samples: one chunk of
+    `PlatformReduction`, one compiled pass over the lanes."""
+    ends = np.asarray(ends, dtype=np.int64)
+    reduction = PlatformReduction(models, ends, joint_limits, compiled)
+    reduction.add({key: values[:, : int(ends.max())] for key, values in data.items()}, 0)
+    return reduction.results()
+
+
+class PlatformReduction:
+    """The 3UPU_UP's or 4-UPR's metrics of N lanes reduced chunk by chunk, as the chunks are
+    stepped (`platform_metrics` is one chunk of it): each lane's accumulator row
+    (`twin.sim.kernels.metrics.platform_add_lane`, N_PLATFORM_ACC + one float per limit kind)
+    is all it keeps, so its memory does not depend on the run's length.
+
+    Each sample's limit flags are `PlatformModel.reached` (record mode, with the clamped
+    demand) or `PlatformModel.violations` (hold mode) of the chunk's states and actuator
+    lengths, in numpy; they read the mechanism's limits only, so one model serves every lane.
+
+    Args:
+        models: (N,) each lane's `PlatformModel` (one mechanism).
+        ends: (N,) each lane's samples (≥ 1), from t = 0: its samples past its end are not added.
+        joint_limits: (N,) each lane's `Scenario.joint_limits`.
+        compiled: numba's runner (parallel over several lanes), or the interpreted one.
+    """
+
+    def __init__(
+        self,
+        models: Sequence[PlatformModel],
+        ends: np.ndarray,
+        joint_limits: Sequence[str],
+        compiled: bool,
+    ) -> None:
+        self.models = list(models)
+        self.model = self.models[0]
+        self.ends = np.asarray(ends, dtype=np.int64)
+        self.hold = np.array([mode == "hold" for mode in joint_limits], dtype=bool)
+        # the limit kinds, in `violations`' order, then the clamped demand (record mode's)
+        probe = self.model.violations(np.zeros(3), self.model.stroke[0])
+        self.kinds = [*probe, "clamped"]
+        self.acc = np.empty((len(self.ends), kernel.N_PLATFORM_ACC + len(self.kinds)))
+        for row, end in zip(self.acc, self.ends.tolist(), strict=True):
+            kernel.platform_begin_lane(row, end)
+        self._run = pick_runner(
+            kernel.compiled_platform_add, kernel.run_platform_add, compiled, len(self.ends)
+        )
+        self._finish = kernel.compiled_platform_finish() if compiled else kernel.run_platform_finish
+
+    @property
+    def seen(self) -> np.ndarray:
+        """(N,) samples added so far per lane."""
+        return self.acc[:, kernel.PA_SEEN].astype(np.int64)
+
+    def flags(self, records: dict[str, np.ndarray]) -> np.ndarray:
+        """(N, S, kinds) bool: each limit kind violated at each sample of a chunk (class doc)."""
+        state, legs = records["state"], records["legs"]
+        flags = np.zeros((*state.shape[:2], len(self.kinds)), dtype=bool)
+        for hold in (False, True):
+            lanes = np.flatnonzero(self.hold == hold)
+            if not len(lanes):
+                continue
+            if hold:  # the actuators', held at their stops
+                violated = self.model.violations(state[lanes], legs[lanes])
+            else:
+                violated = self.model.reached(state[lanes], legs[lanes])
+                violated["clamped"] = records["clipped"][lanes] > 0
+            for j, name in enumerate(self.kinds):
+                if name in violated:
+                    flags[lanes, :, j] = violated[name]
+        return flags
+
+    def add(self, records: dict[str, np.ndarray], start: int) -> None:
+        """Add samples start … start + S − 1 of every lane (each up to its end), the next ones.
+
+        Args:
+            records: at least the keys of `twin.sim.kernels.metrics.PLATFORM_REDUCED` (and the
+                Upu3Up's coupled_displacement), (N, S, ...) each.
+            start: the index of the chunk's first sample (0: t = 0).
+
+        Raises:
+            ValueError: samples that do not follow those already added.
+        """
+        S = records["t"].shape[1]
+        counts = np.clip(self.ends - start, 0, S)
+        if np.any(self.seen != np.minimum(self.ends, start)):
+            raise ValueError(f"reduction: samples from {start} on, after {self.seen.tolist()}")
+        coupled = records.get("coupled_displacement")
+        if coupled is None:
+            coupled = np.empty((len(self.ends), S, 0))
+        self._run(*(np.ascontiguousarray(records[key], dtype=float)
+                    for key in kernel.PLATFORM_REDUCED),
+                  np.ascontiguousarray(coupled, dtype=float), self.flags(records), counts,
+                  self.acc)  # fmt: skip
+
+    def results(self) -> list[dict]:
+        """Every lane's metrics dict, as `platform_metrics` of the samples added (every lane's,
+        up to its end).
+
+        Raises:
+            ValueError: a lane that has not had all its samples.
+        """
+        if np.any(self.seen != self.ends):
+            raise ValueError(f"reduction: lanes have {self.seen.tolist()} of "
+                             f"{self.ends.tolist()} samples")  # fmt: skip
+        rows = np.empty((len(self.ends), kernel.N_PLATFORM_ROW))
+        self._finish(self.acc, self.model.n_legs, rows)
+        return [
+            platform_metrics_from(acc, row, model, self.kinds, bool(hold))
+            for acc, row, model, hold in zip(self.acc.tolist(), rows.tolist(), self.models,
+                                             self.hold.tolist(), strict=True)
+        ]  # fmt: skip
+
+
+def platform_metrics_from(
+    acc: Sequence[float],
+    row: Sequence[float],
+    model: PlatformModel,
+    kinds: Sequence[str],
+    hold: bool,
+) -> dict:
+    """A small platform lane's metrics dict (`platform_metrics`) from its accumulator row acc
+    and its finished row (`twin.sim.kernels.metrics`, `PA_*`, `PR_*`): counts as ints; state
+    z and legs in the mechanism's unit, angles in degrees, `leg_rate_max` in m/s, tip position
+    errors in m, orientation errors in degrees, η in %."""
     low, high = model.mechanism.state_limits
     states: dict[str, dict[str, float]] = {}
     for j, name in enumerate(model.mechanism.state_names):
-        scale = 1.0 if j == 0 else np.degrees(1.0)
-        x = state[:, j]
+        scale = 1.0 if j == 0 else _DEGREES
+        x_min, x_max = acc[kernel.PA_STATE_MIN + j], acc[kernel.PA_STATE_MAX + j]
         states[name] = {
-            "min": finite(x[s].min() * scale),
-            "max": finite(x[s].max() * scale),
-            "margin": finite(min(x[s].min() - low[j], high[j] - x[s].max()) * scale),
-            "drift": finite(drift(t, x[:, None])[0] * scale),
+            "min": finite(x_min * scale),
+            "max": finite(x_max * scale),
+            "margin": finite(min(x_min - low[j], high[j] - x_max) * scale),
+            "drift": finite(row[kernel.PR_STATE_DRIFT + j] * scale),
         }
     stroke_low, stroke_high = model.stroke
-    err = series["tip_error"][s]
-    pos_err = np.linalg.norm(err[:, :3], axis=1)
-    rot_err = np.degrees(np.linalg.norm(err[:, 3:], axis=1))
+    legs_low, legs_high = acc[kernel.PA_LEGS_MIN], acc[kernel.PA_LEGS_MAX]
+    counted = kinds[:-1] if hold else kinds  # the clamped demand counts in record mode alone
+    n_legs = model.n_legs
     metrics = {
-        "violations": int(np.sum(bad)),
-        "limit_violations": {name: int(np.sum(v)) for name, v in violated.items()},
+        "violations": int(acc[kernel.PA_VIOLATIONS]),
+        "limit_violations": {name: int(acc[kernel.PA_KINDS + j])
+                             for j, name in enumerate(counted)},
         "states": states,
-        "legs_min": finite(legs[s].min()),
-        "legs_max": finite(legs[s].max()),
-        "leg_margin": finite(min(legs[s].min() - stroke_low[0], stroke_high[0] - legs[s].max())),
-        "leg_drift": [finite(v) for v in drift(t, legs)],
-        "leg_rate_max": finite(np.abs(series["leg_rates"]).max() * model.unit),
-        "tip_position_error_rms": finite(np.sqrt(np.mean(pos_err**2))),
-        "tip_position_error_max": finite(pos_err.max()),
-        "tip_orientation_error_rms": finite(np.sqrt(np.mean(rot_err**2))),
-        "tip_orientation_error_max": finite(rot_err.max()),
-        "alpha_top_max": finite(np.degrees(series["alpha_top"][s].max())),
-        "alpha_bottom_max": finite(np.degrees(series["alpha_bottom"][s].max())),
-        "clipped": int(np.sum(series["clipped"] > 0)),
-        "saturated": int(np.sum(series["saturated"] > 0)),
-        **efficacy(series["alpha_top"], series["alpha_bottom"]),  # seed 002 eq (29)
-    }
-    if "coupled_displacement" in series:
-        peak = np.abs(series["coupled_displacement"][s]).max(axis=0)  # seed 001 eq (15), mm
+        "legs_min": finite(legs_low),
+        "legs_max": finite(legs_high),
+        "leg_margin": finite(min(legs_low - stroke_low[0], stroke_high[0] - legs_high)),
+        "leg_drift": [finite(v) for v in row[kernel.PR_LEG_DRIFT : kernel.PR_LEG_DRIFT + n_legs]],
+        "leg_rate_max": finite(acc[kernel.PA_RATE_MAX] * model.unit),
+        "tip_position_error_rms": finite(row[kernel.PR_POSITION_RMS]),
+        "tip_position_error_max": finite(acc[kernel.PA_POSITION_MAX]),
+        "tip_orientation_error_rms": finite(row[kernel.PR_ORIENTATION_RMS] * _DEGREES),
+        "tip_orientation_error_max": finite(acc[kernel.PA_ORIENTATION_MAX] * _DEGREES),
+        "alpha_top_max": finite(acc[kernel.PA_ALPHA_TOP_MAX] * _DEGREES),
+        "alpha_bottom_max": finite(acc[kernel.PA_ALPHA_BOTTOM_MAX] * _DEGREES),
+        "clipped": int(acc[kernel.PA_CLIPPED]),
+        "saturated": int(acc[kernel.PA_SATURATED]),
+        **efficacy_percent(row[kernel.PR_ETA_PRINTED], row[kernel.PR_ETA]),  # seed 002 eq (29)
+    }  # fmt: skip
+    if isinstance(model.mechanism, Upu3Up):  # seed 001 eq (15), mm
+        peak = acc[kernel.PA_COUPLED_MAX : kernel.PA_COUPLED_MAX + 3]
         metrics["coupled_displacement_max"] = {
             a: finite(v) for a, v in zip("xyz", peak, strict=True)
         }
     return metrics
+
+
+#: a chunk-by-chunk reduction of a mechanism's lanes (`twin.sim.engine.Simulation`'s
+#: keep="metrics")
+Reduction = HybridReduction | PlatformReduction

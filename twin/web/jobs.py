@@ -11,6 +11,15 @@ leaves their runs queued.
 Synchronous cap: a `POST /api/runs` of at most `SYNC_MAX_STEPS` steps (duration / dt) answers
 when the run is done; a longer one answers 202 at once and runs in the background.
 
+Short runs in process: a run of at most `INLINE_MAX_STEPS` steps (a few milliseconds of
+compute) runs on one thread of the server process (`run_scenario`, the same engine a worker
+calls; its compiled kernels release the GIL) when that thread is free, instead of a round trip
+through the Dask scheduler and a worker (issue 30: a 60 s run's POST waited 26 ms for the
+hand-off and 17 ms for the result, 16 ms for the run). One such run at a time: the next short
+run while one is in hand goes to the executor, so the front end never holds more than one
+run's Python work. Such a run reports no progress (it is over in milliseconds); its budget is
+`run_scenario`'s, as on a worker.
+
 Budget: a run has a wall-clock budget (`budget`) beside the step cap; past it the worker stops
 it (`BudgetExceeded`) and it is stored as failed with a message. A worker that does not answer
 `WATCHDOG_GRACE` s after the budget has its run failed and is restarted.
@@ -38,7 +47,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 from twin.sim import Scenario
-from twin.sim.executor import RUN_BUDGET, BudgetExceeded, Executor
+from twin.sim.executor import RUN_BUDGET, BudgetExceeded, Executor, RunOutput, run_scenario
 from twin.web.store import Run, RunNotFound, RunStore, StoreUnavailable
 
 log = logging.getLogger(__name__)
@@ -46,6 +55,9 @@ log = logging.getLogger(__name__)
 #: most steps a synchronous run may take: 600 s at the default dt = 0.05 s (well under a second
 #: of compute on the compiled engine)
 SYNC_MAX_STEPS = 12_000
+#: most steps a run may take to run on the server's own thread instead of the executor: 120 s at
+#: the default dt (about 20 ms of compute, mostly in the GIL-free kernels); 0: never
+INLINE_MAX_STEPS = 2_400
 #: [s] a synchronous request waits for its run at most this long beyond the budget (queued
 #: behind others, say), then answers 202 with the run as it is
 SYNC_GRACE = 30.0
@@ -62,6 +74,11 @@ def steps(scenario: Scenario) -> int:
     return round(scenario.duration / scenario.dt)
 
 
+def _is_dask(future: Any) -> bool:
+    """Whether a run's future is the executor's (a Dask future), not a short run's thread."""
+    return future is not None and not isinstance(future, Future)
+
+
 class JobRunner:
     """Stored runs as futures on an executor, their outcome written back to the store.
 
@@ -69,6 +86,8 @@ class JobRunner:
         store: where runs are read from and written to.
         sync_max_steps: runs up to this many steps are answered synchronously.
         budget: [s] wall-clock budget of one run on its worker.
+        inline_max_steps: runs up to this many steps run on the server's own thread when it
+            is free (`INLINE_MAX_STEPS`; 0: every run goes to the executor).
     """
 
     def __init__(
@@ -77,13 +96,17 @@ class JobRunner:
         *,
         sync_max_steps: int = SYNC_MAX_STEPS,
         budget: float = RUN_BUDGET,
+        inline_max_steps: int = INLINE_MAX_STEPS,
     ) -> None:
         self.store = store
         self.sync_max_steps = sync_max_steps
         self.budget = budget
+        self.inline_max_steps = inline_max_steps
+        self._inline: ThreadPoolExecutor | None = None
+        self._inline_free = threading.Semaphore(1)  # one short run in process at a time
         self.executor: Executor | None = None
         self._lock = threading.Lock()
-        self._futures: dict[str, tuple[Any, Future[Run]]] = {}  # run id → (Dask, outcome)
+        self._futures: dict[str, tuple[Any, Future[Run]]] = {}  # id → (Dask or thread, outcome)
         self._running: dict[str, tuple[float, str]] = {}  # run id → (start, worker address)
         self._writer: ThreadPoolExecutor | None = None
         self._stopping = threading.Event()
@@ -113,6 +136,8 @@ class JobRunner:
         self.executor = executor
         self._stopping.clear()
         self._writer = ThreadPoolExecutor(1, thread_name_prefix="twin-store")
+        self._inline = ThreadPoolExecutor(1, thread_name_prefix="twin-inline-run")
+        self._inline_free = threading.Semaphore(1)  # a run a stop cancelled keeps no slot
         executor.subscribe(self._on_report)
         self._watchdog = threading.Thread(target=self._watch, name="twin-watchdog", daemon=True)
         self._watchdog.start()
@@ -130,9 +155,11 @@ class JobRunner:
             self._futures.clear()
             self._running.clear()
         if self.executor is not None:
-            self.executor.cancel([dask for dask, _ in futures if dask is not None])
+            self.executor.cancel([dask for dask, _ in futures if _is_dask(dask)])
         for _, done in futures:
             done.cancel()
+        if self._inline is not None:  # a run in hand ends in milliseconds; `_settle` drops it
+            self._inline.shutdown(wait=False, cancel_futures=True)
         if self._writer is not None:
             self._writer.shutdown(wait=True, cancel_futures=True)
         try:
@@ -155,7 +182,7 @@ class JobRunner:
             self._running.pop(run_id, None)
         if entry is not None:
             dask, done = entry
-            if self.executor is not None and dask is not None:
+            if self.executor is not None and _is_dask(dask):
                 self.executor.cancel([dask])
             done.cancel()
         return cancelled
@@ -170,10 +197,23 @@ class JobRunner:
         """
         if self.executor is None or self._writer is None:
             raise RuntimeError("JobRunner.start(executor) first")
-        fields = self.store.scenario(run_id).model_dump(mode="json")
+        scenario = self.store.scenario(run_id)
+        fields = scenario.model_dump(mode="json")
         done: Future[Run] = Future()
         with self._lock:  # before the run exists: a fast one may settle at once
             self._futures[run_id] = (None, done)
+        if self._inline is not None and steps(scenario) <= self.inline_max_steps:
+            if self._inline_free.acquire(blocking=False):
+                try:
+                    inline = self._inline.submit(self._run_inline, run_id, fields, done)
+                except RuntimeError:  # shutting down: the run stays queued
+                    self._inline_free.release()
+                    done.cancel()
+                    return done
+                with self._lock:
+                    if run_id in self._futures:
+                        self._futures[run_id] = (inline, done)
+                return done
         dask = self.executor.run(fields, name=run_id, budget=self.budget)
         with self._lock:
             if run_id in self._futures:
@@ -181,6 +221,29 @@ class JobRunner:
         writer = self._writer
         dask.add_done_callback(lambda f: self._hand(writer, self._settle, run_id, f, done))
         return done
+
+    def _run_inline(self, run_id: str, fields: dict[str, Any], done: Future[Run]) -> None:
+        """A short run on the server's own thread: marked running, run (`run_scenario`, as a
+        worker runs it), its outcome stored (`_settle`, on this thread: no progress report
+        can come after it)."""
+        outcome: Future[RunOutput] = Future()
+        try:
+            with self._lock:
+                ours = run_id in self._futures
+            if ours and not self._stopping.is_set():
+                try:
+                    self.store.mark_running(run_id)
+                except (RunNotFound, StoreUnavailable):
+                    pass  # `_settle` finds out and says so
+                try:
+                    outcome.set_result(run_scenario(fields, name=run_id, budget=self.budget))
+                except Exception as exc:  # as the Dask future would carry it
+                    outcome.set_exception(exc)
+            else:
+                outcome.cancel()
+        finally:
+            self._inline_free.release()
+        self._settle(run_id, outcome, done)
 
     def _hand(self, writer: ThreadPoolExecutor, fn: Any, *args: Any) -> None:
         """Queue a store write (in order, off the Dask client's event loop)."""
@@ -256,7 +319,7 @@ class JobRunner:
                 if entry is None:
                     continue
                 dask, done = entry
-                if self.executor is not None and dask is not None:
+                if self.executor is not None and _is_dask(dask):
                     self.executor.cancel([dask])
                     if worker:
                         self.executor.restart_worker(worker)

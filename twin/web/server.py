@@ -5,7 +5,8 @@ Start-up, in order: the data directory's lock (`twin.web.lock`: a second server 
 2, naming the first's pid); the REST port, bound at once (`listen`: one in use exits 2 naming
 it, before seconds of start-up; and the executor's workers, which bind ports of their own,
 cannot take it meanwhile); the compiled kernels; the executor (a Dask LocalCluster of one
-worker per core, kernels warmed on each, or `--scheduler tcp://HOST:PORT`), started once; the
+worker per core, kernels warmed on each, then niced to `WORKER_NICE` so batch work yields the
+CPU to this process; or `--scheduler tcp://HOST:PORT`), started once; the
 run store, the live session, the viewer and the REST app. Stop (Ctrl-C, SIGTERM, `docker
 stop`): requests still waiting for a run answer 503 at once, the runs' futures are cancelled
 and their runs left queued for the next start, and the process exits within seconds
@@ -29,7 +30,7 @@ import uvicorn
 
 from twin.errors import TwinError
 from twin.sim.engine import warm_in_processes
-from twin.sim.executor import RUN_BUDGET, Executor
+from twin.sim.executor import RUN_BUDGET, WORKER_NICE, Executor
 from twin.sim.heap import freeze_startup
 from twin.sim.live import LiveSession
 from twin.web.access import Access, is_loopback
@@ -364,7 +365,8 @@ def serve(
         print(f"twin: runs stored in {store.path}", flush=True)
         startup = _StartUp(
             app.state.services, warmup, page,
-            executor=lambda: Executor.start(scheduler, n_workers=workers, dashboard=dashboard),
+            executor=lambda: Executor.start(scheduler, n_workers=workers, dashboard=dashboard,
+                                            nice=WORKER_NICE),
             viewer=None if page is None else lambda session: start_viewer(
                 session, host, viser_port, access=dataclasses.replace(
                     access, ports=frozenset({port})),  # and its own actual port's

@@ -19,6 +19,7 @@ from twin.mechanisms.gangway import gangway_inverse_lane
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
 from twin.planners import HYBRID_RATE_LIMITS
+from twin.planners import allocation_step as ak
 from twin.planners.allocation import (
     ALLOCATION_PARAMETERS,
     METHODS,
@@ -28,7 +29,6 @@ from twin.planners.allocation import (
 )
 from twin.planners.target import TipTarget
 from twin.sim.base_motion import BaseMotion, BaseSamples
-from twin.sim.kernels import allocation as ak
 from twin.sim.kernels import layout as lay
 from twin.sim.kernels.hybrid import hybrid_constants
 from twin.sim.scenario import Scenario

@@ -1,5 +1,6 @@
-"""The qp kernel (twin.sim.kernels.qp) assembles the planner object's QP to 1e-9, packs only
-what it assembles, and its lanes step in the hybrid runner as the planner object steps."""
+"""The qp lane step (twin.planners.qp_step) assembles the planner object's QP to 1e-9, packs only
+what it assembles, and its lanes step in the hybrid runner as an independent solver (DAQP)
+of the same QP says, integrated on SE(3) by scipy's `expm`."""
 
 from __future__ import annotations
 
@@ -9,17 +10,25 @@ import numpy as np
 import pytest
 
 from tests.conftest import random_hybrid_states
-from tests.sim.oracle import hybrid_advance, pack_target
+from tests.sim.oracle import integrate, pack_target
 from twin.errors import TwinError
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import HYBRID_RATE_LIMITS, PlannerParameters, TipTarget, get_planner
-from twin.planners.qp import JointLimit, LegStrokeLimit, QPPlanner, RateLimit, solve_levels
+from twin.planners import qp_step as kq
+from twin.planners.parameters import parameter_record
+from twin.planners.qp import (
+    QP_PARAMETERS,
+    JointLimit,
+    LegStrokeLimit,
+    QPPlanner,
+    RateLimit,
+    solve_levels,
+)
 from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask
 from twin.sim.faults import Fault
 from twin.sim.kernels import layout
-from twin.sim.kernels import qp as kq
 from twin.sim.kernels.hybrid import hybrid_constants
-from twin.sim.kernels.hybrid_runner import compiled_hybrid, run_hybrid
+from twin.sim.kernels.hybrid_runner import compiled_hybrid_qp, run_hybrid_qp
 from twin.sim.kernels.records import N_TIP
 from twin.spatial import so3_exp
 
@@ -74,66 +83,63 @@ def test_the_kernel_assembles_the_planners_qp(rng: np.random.Generator) -> None:
         for name, a, b in zip(("H", "f", "A", "lower", "upper"), got, want[:5], strict=True):
             scale = max(1.0, float(np.max(np.abs(b))))
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * scale, err_msg=name)
-        assert prm[kq.P_QP_POSITION] == want.position_weight
+        assert parameter_record(prm, QP_PARAMETERS).position == want.position_weight
 
 
 def run_lanes(
     xi0: np.ndarray, targets: np.ndarray, prm: np.ndarray, dt: float, compiled: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(xs, diag, faults) of the hybrid runner (compiled serial, or the plain `run_hybrid`)
+    """(xs, diag, faults) of the qp runner (compiled serial, or the plain `run_hybrid_qp`)
     over lanes prm (N, N_PARAMETERS) from xi0 through targets (N, B, N_TARGET)."""
     N, B = targets.shape[:2]
     xs = np.empty((N, B + 1, 9))
     xs[:, 0] = xi0
     diag = np.zeros((N, B + 1, layout.N_HYBRID_DIAGNOSTICS))  # row k + 1: step k's
     faults = np.zeros((N, B), dtype=np.int64)
-    run = compiled_hybrid(False) if compiled else run_hybrid
+    run = compiled_hybrid_qp(False) if compiled else run_hybrid_qp
     run(xs, targets, prm, np.zeros((N, layout.N_MEMORY)), CONST, dt, diag, faults, 1,
         np.zeros((N, B + 1, 6)), np.zeros((N, B + 1, N_TIP)))  # fmt: skip
     return xs, diag, faults
 
 
-def test_a_chunk_equals_the_planner_stepped(rng: np.random.Generator) -> None:
-    """The hybrid runner (compiled and plain) over 40 steps of a moving target, two qp lanes
-    (record and hold), equals `hybrid_advance` of the planner object step by step: states to
-    1e-9, the level, the active count, the limit scale, the fault bits; and the object with
-    DAQP as its solver (the engine's solver before issue 29) to 1e-7, at the same levels."""
+def test_a_chunk_steps_as_daqp_solves(rng: np.random.Generator) -> None:
+    """The hybrid runner (compiled and plain: the same numbers) over 40 steps of a moving
+    target, two qp lanes (record and hold): each step from the runner's state is the rate
+    the planner object with DAQP as its solver (a library, the engine's solver before issue
+    29) finds for that state, integrated for dt (scipy's `expm`), to 1e-7, at DAQP's level;
+    never shortened (its limits are its own), INFEASIBLE exactly on level 2."""
     xi0 = H.working_state + 0.6 * np.r_[0, 0, 0, 0, 0, 1, 1, 1, 0] * (H.upper - H.working_state)
     n, dt = 40, 0.05
     targets = np.empty((2, n, layout.N_TARGET))
+    tips = []
     T = H.end_effector(xi0)
     for k in range(n):
         moved = T.copy()
         moved[:3, 3] += [0.6 * np.sin(0.3 * k), 0.4 * np.cos(0.2 * k), 0.3 * np.sin(0.25 * k)]
         turn = np.array([0.1 * np.sin(0.2 * k), 0.08 * np.cos(0.3 * k), 0.0])
         moved[:3, :3] = so3_exp(turn) @ T[:3, :3]
-        targets[:, k] = pack_target(TipTarget(moved, np.r_[0.3, -0.2, 0.1, 0.05, 0.0, 0.02]))
+        tips.append(TipTarget(moved, np.r_[0.3, -0.2, 0.1, 0.05, 0.0, 0.02]))
+        targets[:, k] = pack_target(tips[-1])
     planner = build(PlannerParameters(), xi0)
     daqp = replace(planner, solver="daqp")
     prm = np.stack([kq.pack_qp(planner, False), kq.pack_qp(planner, True)])
-    for compiled in (True, False):
-        xs, diag, faults = run_lanes(xi0, targets, prm, dt, compiled)
-        assert not diag[:, 0].any()  # row 0, the chunk's start, is left alone
-        diag = diag[:, 1:]
-        for lane, hold in enumerate((False, True)):
-            x, x_daqp = xi0.copy(), xi0.copy()
-            for k in range(n):
-                target = TipTarget(np.eye(4), np.zeros(6))
-                target.transform[:3, :3] = targets[lane, k, :9].reshape(3, 3)
-                target.transform[:3, 3] = targets[lane, k, 9:12]
-                target.twist[:] = targets[lane, k, 12:]
-                out = hybrid_advance(planner, H, x, target, dt, hold)
-                x = out.x
-                np.testing.assert_allclose(xs[lane, k + 1], x, rtol=0, atol=1e-9)
-                by_daqp = hybrid_advance(daqp, H, x_daqp, target, dt, hold)
-                x_daqp = by_daqp.x
-                np.testing.assert_allclose(xs[lane, k + 1], x_daqp, rtol=0, atol=1e-7)
-                assert by_daqp.diagnostics["qp_level"] == out.diagnostics["qp_level"]
-                assert diag[lane, k, layout.D_QP_LEVEL] == out.diagnostics["qp_level"]
-                assert diag[lane, k, layout.D_QP_ACTIVE] == out.diagnostics["qp_active"]
-                assert diag[lane, k, layout.D_LIMIT_SCALE] == out.scale
-                assert faults[lane, k] == out.faults
-        assert diag[:, :, layout.D_QP_ACTIVE].max() > 0  # the limits did bind
+    xs, diag, faults = run_lanes(xi0, targets, prm, dt, True)
+    for got, want in zip(run_lanes(xi0, targets, prm, dt, False), (xs, diag, faults),
+                         strict=True):  # fmt: skip
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+    assert not diag[:, 0].any()  # row 0, the chunk's start, is left alone
+    diag = diag[:, 1:]
+    assert np.all(diag[..., layout.D_LIMIT_SCALE] == 1.0)
+    for lane in range(2):
+        for k in range(n):
+            x, out = xs[lane, k], daqp.step(xs[lane, k], tips[k], dt)
+            want = integrate(x, out.velocity, dt)
+            np.testing.assert_allclose(xs[lane, k + 1], want, rtol=0, atol=1e-7, err_msg=f"k={k}")
+            level = out.diagnostics["qp_level"]
+            assert diag[lane, k, layout.D_QP_LEVEL] == level
+            assert faults[lane, k] == (Fault.INFEASIBLE if level == 2 else 0)
+    assert diag[:, :, layout.D_QP_ACTIVE].max() > 0  # the limits did bind
+    np.testing.assert_array_equal(xs[0], xs[1])  # `hold` has nothing to hold
 
 
 def test_the_lanes_faults() -> None:
@@ -156,7 +162,7 @@ def test_the_lanes_faults() -> None:
 
 def test_the_fault_bit_and_rows() -> None:
     assert layout.FAULT_INFEASIBLE == Fault.INFEASIBLE
-    assert kq.P_QP_END <= layout.N_PARAMETERS
+    assert QP_PARAMETERS.itemsize == 8 * layout.N_PARAMETERS
     assert layout.D_QP_ACTIVE < layout.N_HYBRID_DIAGNOSTICS
     assert layout.KIND_QP not in (layout.KIND_DIFFERENTIAL, layout.KIND_ALLOCATION,
                                   layout.KIND_PLATFORM)  # fmt: skip
@@ -204,7 +210,7 @@ def test_solve_levels_reads_the_kernels_arrays() -> None:
     arrays = kernel_problem(H.working_state, pack_target(target), prm, 0.05)
     from twin.planners.qp import QPProblem
 
-    got = solve_levels(QPProblem(*arrays, prm[kq.P_QP_POSITION]))
+    got = solve_levels(QPProblem(*arrays, parameter_record(prm, QP_PARAMETERS).position))
     want = solve_levels(planner.problem(H.working_state, target, 0.05))
     assert got.level == want.level
     np.testing.assert_allclose(got.velocity, want.velocity, rtol=0, atol=1e-8)

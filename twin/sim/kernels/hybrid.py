@@ -1,107 +1,33 @@
-r"""The hybrid boarding system's compiled kernel: one lane (one scenario) at a time.
+r"""The hybrid boarding system's step guard, one lane at a time: the engine's part of a step.
+
+Every planner family's step gives a velocity (`twin.planners.differential_step`,
+`.allocation_step`, `.qp_step`); the guard here (`guarded_step`, of the former
+`HybridRig.advance`) holds the mechanism on a velocity that is not finite, shortens the step to
+what keeps every joint and leg from going further past its limit in `hold` mode
+(`limit_scale_lane`, restated in numpy as the oracle of tests/sim/kernels/test_hybrid_kernel.py)
+and integrates it (`twin.mechanisms.hybrid.integrate_hybrid`). The runners that step N lanes ×
+B steps with the planners' steps and this guard are `twin.sim.kernels.hybrid_runner`'s.
 
 Every function here handles ONE lane: floats and small numpy arrays, written in a style numba
-compiles (`register_jitable`) and plain Python runs unchanged (the fallback when numba is
-missing; the same arithmetic, so the same numbers to the last ulp or so of `math`). Per step
-nothing is allocated: the runner allocates each lane's scratch once (`*_work`) and computes
-ᴮR_P once for the planner, the guard and the step; functions that allocate nothing are
-`register_borrowing` (no reference counting of their array arguments), and those on the
-differential step's path `register_inline` too (inlined into their callers: a call between
-compiled functions cost more than some of them compute; docs/simulation.md).
-
-It composes the lane functions of the layers they belong to (each written once, and called by
-the objects too): `twin.spatial` (rotations), `twin.mechanisms.legs` (leg vectors and
-lengths), `.gangway` (the tip and its inverse), `.hybrid` (`tip_transform`, `integrate_hybrid`),
-`twin.planners.tasks` (the tip task's error and Jacobian), `.weights` (joint-limit weights),
-`.limits` (Algorithm 1, the rate limit), `.linalg` (the damped weighted pseudo-inverse).
-What is its own:
-
-- the guard of the hold mode: limit excess and `limit_scale_lane` (the former `HybridRig`'s
-  `limit_scale`, restated in numpy as the oracle of tests/sim/kernels/test_hybrid_kernel.py);
-- the differential planners' step PI, WPI and MTMP (`DifferentialPlanner.step`, seed 000 eqs
-  (26)-(40), Algorithm 1, the rate limit) on the lane's `DIFFERENTIAL_PARAMETERS` record
-  (written by `DifferentialPlanner.pack`): `differential_velocity` is one step, up to the
-  damping test where that fails: `damped_differential_velocity`, the SVD branch below, then
-  finishes it (the SVD allocates, so that branch and its `svd_pinv_apply` are not borrowing;
-  the common step is).
-
-The runner that steps N lanes × B steps with these and the allocation planners, handing the
-records pass what a differential step computed for its start, is
-`twin.sim.kernels.hybrid_runner.run_hybrid`.
-
-The solve runs in the platform frame P instead of the base frame B: with D = diag(ᴮR_P, ᴮR_P),
-the task Jacobian of seed 000 eq (24) is J = D K where
-
-    K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]]      (ᴾp_E the tip in P, J_s the gangway's eq (11)),
-
-and D is orthogonal, so J_W⁺ ẋ = W Kᵀ (K W Kᵀ + λ²I)⁻¹ Dᵀ ẋ and σ(J W^½) = σ(K W^½): the same
-planner as `twin.planners.differential` to rounding. The damping test of `weighted_pinv`
-(σ_min of J W^½ against ε) runs as a Cholesky factorisation of K W Kᵀ − ε²(1 + 10⁻⁶) I: when
-it succeeds σ_min > ε, λ = 0 and the undamped solve is that of the Cholesky factor L of
-K W Kᵀ. That factor comes first, and most steps skip the shifted one: λ_min(K W Kᵀ) =
-1 / ‖L⁻¹‖₂² ≥ 1 / ‖L⁻¹‖_F², so where that bound clears the shift twice over the test passes
-without it (`smallest_eigenvalue_bound`; the shifted factorisation decides the rest). Only where it
-fails (near a singularity, or a rank-deficient J_W when β = 0) is the SVD of K W^½ taken, and
-the solve is then `weighted_pinv`'s own SVD form (damped gains s / (s² + λ²), singular values
-below s_max·9·eps dropped), so damping = 0 on a rank-deficient J_W gives its numbers too.
+compiles and plain Python runs unchanged (the fallback when numba is missing; the same
+arithmetic, so the same numbers). Nothing is allocated per step (`limit_work` once per lane);
+the functions are `register_borrowing` (no reference counting of their array arguments) and
+`guarded_step` `register_inline` too (`twin.compiled`). The hybrid constants `const` are the
+float row of `HybridBoardingSystem.pack`, read by name (`HYBRID_CONSTANTS`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from twin.compiled import (
-    register_borrowing,
-    register_inline,
-    register_jitable,
-)
-from twin.mechanisms.hybrid import integrate_hybrid
+from twin.compiled import register_borrowing, register_inline, register_jitable
+from twin.mechanisms.hybrid import HYBRID_CONSTANTS, HybridBoardingSystem, integrate_hybrid
 from twin.mechanisms.legs import leg_lengths_lane
-from twin.planners.limits import held_yaw_rate_lane, slew_priority_lane, velocity_limit_lane
-from twin.planners.linalg import (
-    cholesky_lane,
-    cholesky_pinv_apply,
-    damped_gains_lane,
-    smallest_eigenvalue_bound,
-    svd_pinv_apply,
-    weighted_gram_lane,
-)
-from twin.planners.parameters import refuse
-from twin.planners.tasks import tip_task_lane as tip_task
-from twin.planners.weights import joint_limit_weight_lane
-from twin.sim.kernels.layout import (
-    C_A1,
-    C_BASE_HINGES,
-    C_D1,
-    C_LEG_MAX,
-    C_LEG_MIN,
-    C_LOWER,
-    C_PLATFORM_HINGES,
-    C_RATE,
-    C_UPPER,
-    D_DAMPING,
-    D_SCALE,
-    D_SHARE,
-    D_WEIGHTS,
-    FAULT_SINGULAR,
-    KIND_DIFFERENTIAL,
-    N_HYBRID_CONSTANTS,
-    P_KIND,
-)
+from twin.sim.kernels.layout import D_LIMIT_SCALE, FAULT_JOINT_LIMIT, FAULT_PLANNER
 from twin.spatial import rpy_to_matrix_lane
 
-if TYPE_CHECKING:
-    from twin.mechanisms.hybrid import HybridBoardingSystem
-    from twin.planners.differential import DifferentialPlanner
-    from twin.planners.tasks import TipPoseTask
-
-
-
-HALF_PI = math.pi / 2
 #: bisection steps of `limit_scale_lane`: the step is shortened to within 2⁻¹² of the limit
 LIMIT_BISECTIONS = 12
 #: slack [m, rad] on the limit excess a step may keep
@@ -109,52 +35,10 @@ LIMIT_SLACK = 1e-12
 
 
 def hybrid_constants(mechanism: HybridBoardingSystem, rate_limit: np.ndarray) -> np.ndarray:
-    """The hybrid runner's `const` (N_HYBRID_CONSTANTS,), rows as in `twin.sim.kernels.layout`.
-
-    Args:
-        mechanism: the `HybridBoardingSystem`.
-        rate_limit: (9,) [m/s, rad/s] virtual-joint rate limits (`HYBRID_RATE_LIMITS`).
-
-    Returns:
-        Table 6 joint limits (absolute, SPEC erratum 3), the rate limits, gangway d1 and a1
-        (Table 1), base hinges ᴮB_i and platform hinges ᴾP_i (6 × 3 row-major, seed 000
-        eqs (1)-(2)) [m], the leg stroke [m] (Table 1).
-    """
-    const = np.zeros(N_HYBRID_CONSTANTS)
-    const[C_LOWER : C_LOWER + 9] = mechanism.lower
-    const[C_UPPER : C_UPPER + 9] = mechanism.upper
-    const[C_RATE : C_RATE + 9] = np.asarray(rate_limit, dtype=float)
-    const[C_D1], const[C_A1] = mechanism.gangway.d1, mechanism.gangway.a1
-    layout = mechanism.layout
-    const[C_BASE_HINGES : C_BASE_HINGES + 18] = np.asarray(layout.base_hinges).reshape(18)
-    platform = np.asarray(layout.platform_hinges)
-    const[C_PLATFORM_HINGES : C_PLATFORM_HINGES + 18] = platform.reshape(18)
-    const[C_LEG_MIN], const[C_LEG_MAX] = mechanism.stewart.leg_min, mechanism.stewart.leg_max
-    return const
-
-
-# ---------------------------------------------------------------------------------------------
-# Shared primitives (imported by twin.sim.kernels.allocation: keep names and signatures).
-# ---------------------------------------------------------------------------------------------
-
-
-
-@register_inline
-def tip_task_lane(
-    x: np.ndarray,
-    R: np.ndarray,
-    target: np.ndarray,
-    gain: float,
-    const: np.ndarray,
-    frames: np.ndarray,
-    M: np.ndarray,
-    K: np.ndarray,
-    demand: np.ndarray,
-    error: np.ndarray,
-) -> None:
-    """`twin.planners.tasks.tip_task_lane` with the gangway's d1, a1 read from the hybrid
-    constants `const` (the other arguments as there)."""
-    tip_task(x, R, target, gain, const[C_D1], const[C_A1], frames, M, K, demand, error)
+    """The hybrid runners' `const` (N_HYBRID_CONSTANTS,): `mechanism.pack(rate_limit)`, the
+    `HYBRID_CONSTANTS` record written by name (Table 6 joint limits, the rate limits
+    `HYBRID_RATE_LIMITS` [m/s, rad/s], gangway d1 and a1, the Stewart hinges, the leg stroke)."""
+    return mechanism.pack(rate_limit)
 
 
 @register_inline
@@ -167,13 +51,15 @@ def positive_part(d: float) -> float:
 def limit_excess_lane(x: np.ndarray, R: np.ndarray, const: np.ndarray, out: np.ndarray) -> None:
     """How far each virtual joint (Table 6) and each leg (Table 1) is past its limit, 0 inside
     (`HybridBoardingSystem.limit_excess`), of xi x (9,) with R (3, 3) its ᴮR_P
-    (`rpy_to_matrix_lane`): out (15,) [m, rad], the 9 joints then the 6 legs."""
+    (`rpy_to_matrix_lane`): out (15,) [m, rad], the 9 joints then the 6 legs; const the hybrid
+    constants."""
+    c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
+    lower, upper = c.lower, c.upper
     for i in range(9):
-        out[i] = positive_part(const[C_LOWER + i] - x[i]) + positive_part(x[i] - const[C_UPPER + i])
+        out[i] = positive_part(lower[i] - x[i]) + positive_part(x[i] - upper[i])
     legs = out[9:]  # the lengths first, turned into their excess in place
-    leg_lengths_lane(R, x, const[C_BASE_HINGES : C_BASE_HINGES + 18],
-                     const[C_PLATFORM_HINGES : C_PLATFORM_HINGES + 18], legs)  # fmt: skip
-    low, high = const[C_LEG_MIN], const[C_LEG_MAX]
+    leg_lengths_lane(R, x, c.base_hinges, c.platform_hinges, legs)
+    low, high = c.leg_min, c.leg_max
     for i in range(6):
         legs[i] = positive_part(low - legs[i]) + positive_part(legs[i] - high)
 
@@ -247,252 +133,31 @@ def limit_scale_lane(
     return low
 
 
-# ---------------------------------------------------------------------------------------------
-# The differential planners PI, WPI, MTMP (seed 000 eqs (26)-(40), Algorithm 1).
-# ---------------------------------------------------------------------------------------------
-
-def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
-    """A differential planner as its lane's row (N_PARAMETERS,): its `pack(hold)`, which
-    writes `twin.planners.differential.DIFFERENTIAL_PARAMETERS` by name.
-
-    Raises:
-        TwinError: the planner has no `pack`, or a part it refuses (`DifferentialPlanner.pack`).
-    """
-    pack = getattr(planner, "pack", None)
-    row = None if pack is None else pack(hold)
-    if not isinstance(row, np.ndarray) or row[P_KIND] != KIND_DIFFERENTIAL:
-        raise refuse(f"a {type(planner).__name__} as a differential planner")
-    return row
-
-
-def hybrid_tip_task(planner: Any, refuse: Callable[[str], Exception]) -> TipPoseTask:
-    """The planner's primary task, if the hybrid kernels can run it: a `TipPoseTask` on the
-    hybrid system; else the error `refuse(what)` (which names the kernel) is raised."""
-    from twin.mechanisms.hybrid import HybridBoardingSystem
-    from twin.planners.tasks import TipPoseTask
-
-    tip = planner.tip
-    if not isinstance(tip, TipPoseTask) or not isinstance(tip.mechanism, HybridBoardingSystem):
-        raise refuse(f"the primary task {tip!r:.80}: only TipPoseTask on the hybrid system")
-    return tip
-
-
-#: rows of `differential_work`'s vectors (9 wide; the 6-vectors use the first 6): diag(W⁻¹),
-#: the demand (turned into P), the posture column, its back-projection, the solve's scratch,
-#: the tip's pose error e in B (`tip_error_lane`; the runner hands it to the record)
-W_WEIGHTS, W_DEMAND, W_COLUMN, W_BACK, W_SOLVE, W_ERROR = 0, 1, 2, 3, 4, 5
-
-
-@register_jitable
-def differential_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                                 np.ndarray]:  # fmt: skip
-    """Scratch of `differential_velocity`, allocated once per lane (numba puts every array on
-    the heap: a malloc per step would cost more than the arithmetic; and leading-axis views
-    are free where a reshape is not): K (6, 9), A = K W Kᵀ and its factor L (6, 6), ᴾT_E and
-    ᴮT_E (2, 4, 4), R_d R_Eᵀ (3, 3), the vectors (6, 9) (rows `W_*`)."""
-    return (np.empty((6, 9)), np.empty((6, 6)), np.empty((6, 6)), np.empty((2, 4, 4)),
-            np.empty((3, 3)), np.empty((6, 9)))  # fmt: skip
-
-
 @register_inline
-def posture_rate(x: np.ndarray, p: np.record, posture: int) -> float:
-    """ζ̇_a = k_a (q̃ − q_i) [rad/s or m/s], the posture task's joint rate (eqs (39)-(40)), of
-    joint `posture` (p.posture_index ≥ 0) of xi x (9,)."""
-    return p.posture_gain * (p.posture_set - x[posture])
-
-
-@register_inline
-def differential_weights(x: np.ndarray, p: np.record, w_out: np.ndarray) -> None:
-    """diag(W⁻¹) (9,) into w_out: the β split (eqs (27)-(30)) times, with the lane's
-    joint-limit weights on, `joint_limit_weight_lane` (eqs (35)-(37), SPEC erratum 4) of xi x
-    (9,); p the lane's `DIFFERENTIAL_PARAMETERS` record."""
-    joint_limits = p.joint_limits > 0.0
-    for i in range(9):
-        if joint_limits:
-            w_out[i] = p.split[i] * joint_limit_weight_lane(
-                x[i], p.lower[i], p.upper[i], p.scale[i]
-            )
-        else:
-            w_out[i] = p.split[i]
-
-
-#: `differential_velocity`'s return where the damping test fails (module doc): the step goes on
-#: in `damped_differential_velocity`, which allocates the SVD's arrays and so cannot borrow
-NEEDS_SVD = -1
-
-
-# Called, not inlined, from its lane (`hybrid_lane`): inlining it there too made numba type
-# the whole step twice, 40 s more of a first compile, for 5 % of the kernel's time per step
-# (one call with its arguments' structs; docs/simulation.md)
-@register_borrowing
-def differential_velocity(
-    x: np.ndarray,
-    R: np.ndarray,
-    target: np.ndarray,
-    p: np.record,
-    const: np.ndarray,
-    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    v_out: np.ndarray,
-    diag_out: np.ndarray,
-) -> int:
-    """One lane of `DifferentialPlanner.step`: the velocity of seed 000 eq (34),
-
-        ξ̇ = J_W⁺ (ẋ_d + k_e e) + λ (I − J_W⁺ J) J_aᵀ k_a (q̃ − q_i),
-
-    then Algorithm 1 (`SlewPriority`) and the common rate scale (`VelocityLimit`), all in
-    `differential_finish`; where the damping test fails, only up to the test (NEEDS_SVD).
-
-    Args:
-        x: (9,) xi [m, rad] at sample k; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
-        target: (18,) the held target in B (layout `TARGET_*`): ᴮR_d row-major, ᴮp_d [m],
-            twist ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s].
-        p: the lane's `DIFFERENTIAL_PARAMETERS` record (its row, `DifferentialPlanner.pack`).
-        const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
-        work: `differential_work()`, overwritten: K, K W Kᵀ, diag(W⁻¹), the demand and the
-            posture column in P, which `damped_differential_velocity` goes on from; the tip
-            ᴮT_E (frames[1]) and its error (row W_ERROR), which the runner hands to the record.
-        v_out: (9,) written: the velocity [ᴾṖ [m/s]; ω_P [rad/s] in P; q̇1, q̇2 [rad/s];
-            ḋ3 [m/s]], exactly `DifferentialPlanner.step(...).velocity` (to rounding).
-        diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written (weights, null-space
-            share, damping λ, rate scale); the other families' rows are left alone.
-
-    Returns:
-        Fault bits (0: λ = 0 on this path), or NEEDS_SVD where the damping test fails (near a
-        singularity): v_out and diag_out are then not written, and the caller finishes the
-        step with `damped_differential_velocity(x, p, work, v_out, diag_out)`.
-    """
-    K, A, L, frames, M, vectors = work
-    w, b, column = vectors[W_WEIGHTS], vectors[W_DEMAND, :6], vectors[W_COLUMN, :6]
-    back, y = vectors[W_BACK], vectors[W_SOLVE, :6]
-    # the tip task: K and the demand ẋ_d + k_e e in B (eqs (14), (24), (34))
-    tip_task(x, R, target, p.gain, const[C_D1], const[C_A1], frames, M, K, b,
-             vectors[W_ERROR, :6])  # fmt: skip
-    # turned into P in place: b = Dᵀ (ẋ_d + k_e e)
-    for half in (0, 3):
-        d0, d1, d2 = b[half], b[half + 1], b[half + 2]
-        for i in range(3):
-            b[half + i] = R[0, i] * d0 + R[1, i] * d1 + R[2, i] * d2
-
-    differential_weights(x, p, w)
-    # A = K W Kᵀ (`back` free until the solve); the damping test of weighted_pinv as a
-    # Cholesky factorisation (module doc)
-    weighted_gram_lane(K, w, back, A)
-    posture = int(p.posture_index)
-    if posture >= 0:  # J J_aᵀ ζ̇_a in P: K's posture column times k_a (q̃ − q_i) (eqs (39)-(40))
-        wanted = posture_rate(x, p, posture)
-        for a in range(6):
-            column[a] = K[a, posture] * wanted
-    shift = p.epsilon ** 2 * (1.0 + 1e-6)
-    if not cholesky_lane(A, 0.0, L):
-        return NEEDS_SVD
-    # the shifted factor only where the bound does not decide; A's own lower triangle takes
-    # it (each entry is read once, before its place is written), L stays A's factor
-    if not (smallest_eigenvalue_bound(L) > 2.0 * shift or cholesky_lane(A, shift, A)):
-        return NEEDS_SVD
-    # σ_min(J W^½) > ε: λ = 0, J_W⁺ = W Kᵀ (K W Kᵀ)⁻¹ Dᵀ (eq (31))
-    cholesky_pinv_apply(K, w, L, b, y, v_out)  # J_W⁺ ẋ; the null-space term in the finish
-    if posture >= 0:
-        cholesky_pinv_apply(K, w, L, column, y, back)
-    return differential_finish(x, p, work, 0.0, v_out, diag_out)
-
-
-@register_jitable  # not borrowing: the SVD allocates
-def damped_differential_velocity(
-    x: np.ndarray,
-    p: np.record,
-    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    v_out: np.ndarray,
-    diag_out: np.ndarray,
-) -> int:
-    """The rest of a `differential_velocity` that returned NEEDS_SVD (rare: near a singularity,
-    or a rank-deficient J_W when β = 0): `weighted_pinv`'s SVD form of the solve, with
-    λ² = (1 − (σ_min/ε)²) λ_max² and gains s / (s² + λ²), then `differential_finish`.
-
-    Args:
-        x: (9,) xi [m, rad]; p: the lane's parameter record, as given to
-            `differential_velocity`.
-        work: the `differential_work()` that `differential_velocity` filled.
-        v_out, diag_out: as in `differential_velocity`, written.
-
-    Returns:
-        Fault bits: FAULT_SINGULAR when the damping λ > 0.
-    """
-    K, vectors = work[0], work[5]
-    w, b, column = vectors[W_WEIGHTS], vectors[W_DEMAND, :6], vectors[W_COLUMN, :6]
-    back = vectors[W_BACK]
-    sqrt_w = np.empty(9)
-    KW = np.empty((6, 9))
+def guarded_step(
+    x: np.ndarray, R: np.ndarray, v: np.ndarray, bits: int, hold: bool, const: np.ndarray,
+    dt: float, limit: tuple, d: np.ndarray, x_next: np.ndarray,
+) -> int:  # fmt: skip
+    """The guard of the former `HybridRig.advance` and the step (module doc): a non-finite
+    velocity v (9,) holds xi x (9,) (FAULT_PLANNER, d[D_LIMIT_SCALE] = 0); else, holding the
+    joint limits, v is shortened to s·v (`limit_scale_lane`, FAULT_JOINT_LIMIT when s < 1),
+    d[D_LIMIT_SCALE] = s, and x_next (9,) = x after s·v for dt (`integrate_hybrid`). R is x's
+    ᴮR_P, limit the guard's work; the planner's fault bits come in, the step's go out."""
+    finite = True
     for j in range(9):
-        sqrt_w[j] = math.sqrt(w[j])
-    for a in range(6):
+        finite = finite and math.isfinite(v[j])
+    if not finite:  # a planner fault holds the mechanism still
+        d[D_LIMIT_SCALE] = 0.0
         for j in range(9):
-            KW[a, j] = K[a, j] * sqrt_w[j]
-    U, sv, Vt = np.linalg.svd(KW, full_matrices=False)
-    gain = np.empty(6)
-    lam2 = damped_gains_lane(sv, 9, p.epsilon, p.damping, gain)
-    svd_pinv_apply(U, gain, Vt, sqrt_w, b, v_out)
-    if int(p.posture_index) >= 0:
-        svd_pinv_apply(U, gain, Vt, sqrt_w, column, back)
-    return differential_finish(x, p, work, lam2, v_out, diag_out)
-
-
-@register_inline
-def differential_finish(
-    x: np.ndarray,
-    p: np.record,
-    work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    lam2: float,
-    v_out: np.ndarray,
-    diag_out: np.ndarray,
-) -> int:
-    """The end of a differential step once J_W⁺ is applied (either solve): the null-space term
-    of eq (34), Algorithm 1, the rate scale and the diagnostics.
-
-    Args:
-        x: (9,) xi [m, rad]; p: the lane's `DIFFERENTIAL_PARAMETERS` record.
-        work: `differential_work()` holding diag(W⁻¹) and J_W⁺ J J_aᵀ ζ̇_a (rows W_WEIGHTS,
-            W_BACK; the latter read only with a posture task).
-        lam2: λ² of the solve [-].
-        v_out: (9,) J_W⁺ ẋ on entry; the velocity on return (`differential_velocity`).
-        diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written.
-
-    Returns:
-        Fault bits: FAULT_SINGULAR when the damping λ > 0.
-    """
-    vectors = work[5]
-    w, back = vectors[W_WEIGHTS], vectors[W_BACK]
-    # v = J_W⁺ ẋ + λ (I − J_W⁺ J) J_aᵀ ζ̇_a (eq (34); J_a⁺ = J_aᵀ for a selector row)
-    posture = int(p.posture_index)
-    wanted = posture_rate(x, p, posture) if posture >= 0 else 0.0
-    weight = p.secondary
-    null2 = 0.0
+            x_next[j] = x[j]
+        return bits | FAULT_PLANNER
+    s = 1.0
+    if hold:
+        s = limit_scale_lane(x, R, v, dt, const, limit)
+        if s < 1.0:
+            bits |= FAULT_JOINT_LIMIT
+    d[D_LIMIT_SCALE] = s
     for j in range(9):
-        null = 0.0
-        if posture >= 0:
-            null = weight * ((wanted if j == posture else 0.0) - back[j])
-        null2 += null * null
-        v_out[j] += null
-
-    if p.slew > 0.0:  # Algorithm 1 (twin.planners.limits.SlewPriority)
-        q1, q1_min, q1_max = x[6], p.q1_min, p.q1_max
-        sigma, rate = p.sigma, p.slew_rate
-        total = v_out[5] + v_out[6]  # w_1sum
-        # the platform keeps ω_pz,hold = −yaw_hold·tan(φ)·ω_py (its Euler yaw held at 1)
-        hold = held_yaw_rate_lane(p.yaw_hold, x[3], v_out[4])
-        slew = slew_priority_lane(q1, total - hold, q1_min, q1_max, sigma, rate)
-        v_out[5] = total - slew
-        v_out[6] = slew
-
-    scale = 1.0
-    if p.rate_limited > 0.0:  # VelocityLimit: one scale, the direction kept
-        scale = velocity_limit_lane(v_out, p.rate)
-    norm2 = 0.0
-    for j in range(9):
-        norm2 += v_out[j] * v_out[j]
-        diag_out[D_WEIGHTS + j] = w[j]
-    norm = math.sqrt(norm2)
-    diag_out[D_SHARE] = math.sqrt(null2) / (1e-12 if norm < 1e-12 else norm)
-    damping = math.sqrt(lam2)
-    diag_out[D_DAMPING] = damping
-    diag_out[D_SCALE] = scale
-    return FAULT_SINGULAR if damping > 0.0 else 0
+        v[j] = s * v[j]
+    integrate_hybrid(x, R, v, dt, x_next)
+    return bits

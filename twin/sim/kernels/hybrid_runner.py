@@ -1,14 +1,23 @@
-"""The hybrid system's chunk runner: N lanes × B steps of plan, guard and integrate.
+"""The hybrid system's chunk runners: N lanes × B steps of plan, guard and integrate.
 
 Per lane and step, with ᴮR_P computed once for all of them:
 
-1. the planner of prm[n, P_KIND] gives the velocity v (differential: `differential_velocity`,
-   finished by `damped_differential_velocity` where it returns NEEDS_SVD; allocation:
-   `allocation_velocity`; qp: `twin.sim.kernels.qp.qp_velocity`, its QP solved in the lane);
-2. the guard of the former `HybridRig.advance`: a non-finite v holds the mechanism
-   (FAULT_PLANNER, D_LIMIT_SCALE = 0); otherwise a lane with prm[n, P_HOLD] > 0 shortens the
-   step to s = `limit_scale_lane` (FAULT_JOINT_LIMIT when s < 1), D_LIMIT_SCALE = s, and xi
-   integrates s·v for dt (`integrate_hybrid`).
+1. the planner of prm[n, P_KIND] gives the velocity v, its step in the planners' layer
+   (differential: `twin.planners.differential_step.differential_velocity`, finished by
+   `damped_differential_velocity` where it returns NEEDS_SVD; allocation:
+   `twin.planners.allocation_step.allocation_velocity`; qp:
+   `twin.planners.qp_step.qp_velocity`, its QP solved in the lane);
+2. the guard of the former `HybridRig.advance` (`twin.sim.kernels.hybrid.guarded_step`): a
+   non-finite v holds the mechanism (FAULT_PLANNER, D_LIMIT_SCALE = 0); otherwise a lane with
+   prm[n, P_HOLD] > 0 shortens the step to s = `limit_scale_lane` (FAULT_JOINT_LIMIT when
+   s < 1), D_LIMIT_SCALE = s, and xi integrates s·v for dt (`integrate_hybrid`).
+
+Two runners share that guard: `run_hybrid` steps the differential and allocation lanes,
+`run_hybrid_qp` the qp lanes; each leaves the other's lanes alone, and `run_hybrid_families`
+calls the ones a chunk's lanes need. They are two because compile time grows faster than the
+code compiled: the qp solver inside the one runner made its first compile 104 s instead of
+54 s (one core each), where two runners compile side by side in `twin.sim.engine.warm`'s
+processes (docs/performance.md).
 
 What is recorded at the samples is computed after the chunk, in a pass of its own
 (`twin.sim.kernels.records`): recording inside this loop was measured slower than the two
@@ -16,7 +25,6 @@ passes (docs/simulation.md). A differential planner's step hands the record what
 computed for its start anyway — ᴮR_P, the tip's axes and its pose error (`hand_over`) — so
 the record does not compute them again.
 """
-
 from __future__ import annotations
 
 import math
@@ -25,23 +33,20 @@ from functools import cache
 
 import numpy as np
 
-from twin.compiled import compile_runner, prange, register_borrowing, register_inline
+from twin.compiled import compile_runner, prange, register_borrowing
 from twin.planners.allocation import ALLOCATION_PARAMETERS
+from twin.planners.allocation_step import allocation_velocity, allocation_work
 from twin.planners.differential import DIFFERENTIAL_PARAMETERS
-from twin.sim.kernels.allocation import allocation_velocity, allocation_work
-from twin.sim.kernels.hybrid import (
+from twin.planners.differential_step import (
     NEEDS_SVD,
     W_ERROR,
     damped_differential_velocity,
     differential_velocity,
     differential_work,
-    integrate_hybrid,
-    limit_scale_lane,
-    limit_work,
 )
+from twin.planners.qp_step import qp_lane_work, qp_velocity
+from twin.sim.kernels.hybrid import guarded_step, limit_work
 from twin.sim.kernels.layout import (
-    D_LIMIT_SCALE,
-    FAULT_JOINT_LIMIT,
     FAULT_PLANNER,
     KIND_ALLOCATION,
     KIND_DIFFERENTIAL,
@@ -49,7 +54,6 @@ from twin.sim.kernels.layout import (
     P_HOLD,
     P_KIND,
 )
-from twin.sim.kernels.qp import qp_lane_work, qp_velocity
 from twin.sim.kernels.records import hand_over
 from twin.spatial import rpy_to_matrix_lane
 
@@ -74,7 +78,6 @@ def hybrid_lane(
     differential: tuple,
     allocation: tuple,
     limit: tuple,
-    qp: tuple,
 ) -> int:
     """Steps start, start + 1, … of one lane (`run_hybrid`'s arrays without the lane axis):
     the step loop is here, not in the runner, because a borrowing function takes its per-step
@@ -86,7 +89,7 @@ def hybrid_lane(
         start: the first step to take; resumed: −1, or the fault bits of step start's
             planner, whose velocity the runner has put in v (and ᴮR_P in R) already.
         R: (3, 3), v: (9,): scratch (ᴮR_P and the velocity of the step last taken);
-            differential, allocation, limit, qp: the planners' and the guard's work.
+            differential, allocation, limit: the planners' and the guard's work.
 
     Returns:
         B when the chunk is done; else the step k whose differential solve needs the SVD
@@ -112,9 +115,7 @@ def hybrid_lane(
             elif kind == KIND_ALLOCATION:
                 bits = allocation_velocity(x, R, targets[k], allocation_row, memory, const, dt,
                                            allocation, v, d)  # fmt: skip
-            elif kind == KIND_QP:  # its QP solved in the lane (`twin.sim.kernels.qp`)
-                bits = qp_velocity(x, targets[k], row, const, dt, qp, v, d)
-            else:  # not a hybrid planner: held, as a planner fault
+            else:  # not a planner of this runner: held, as a planner fault
                 for j in range(9):
                     v[j] = math.nan
                 bits = FAULT_PLANNER
@@ -122,36 +123,6 @@ def hybrid_lane(
             hand_over(R, differential[3][1], differential[5][W_ERROR], tips[k], errors[k])
         faults[k] = guarded_step(x, R, v, bits, hold, const, dt, limit, d, x_next)
     return xs.shape[0] - 1
-
-
-@register_inline
-def guarded_step(
-    x: np.ndarray, R: np.ndarray, v: np.ndarray, bits: int, hold: bool, const: np.ndarray,
-    dt: float, limit: tuple, d: np.ndarray, x_next: np.ndarray,
-) -> int:  # fmt: skip
-    """The guard of the former `HybridRig.advance` and the step (module doc): a non-finite
-    velocity v (9,) holds xi x (9,) (FAULT_PLANNER, d[D_LIMIT_SCALE] = 0); else, holding the
-    joint limits, v is shortened to s·v (`limit_scale_lane`, FAULT_JOINT_LIMIT when s < 1),
-    d[D_LIMIT_SCALE] = s, and x_next (9,) = x after s·v for dt (`integrate_hybrid`). R is x's
-    ᴮR_P, limit the guard's work; the planner's fault bits come in, the step's go out."""
-    finite = True
-    for j in range(9):
-        finite = finite and math.isfinite(v[j])
-    if not finite:  # a planner fault holds the mechanism still
-        d[D_LIMIT_SCALE] = 0.0
-        for j in range(9):
-            x_next[j] = x[j]
-        return bits | FAULT_PLANNER
-    s = 1.0
-    if hold:
-        s = limit_scale_lane(x, R, v, dt, const, limit)
-        if s < 1.0:
-            bits |= FAULT_JOINT_LIMIT
-    d[D_LIMIT_SCALE] = s
-    for j in range(9):
-        v[j] = s * v[j]
-    integrate_hybrid(x, R, v, dt, x_next)
-    return bits
 
 
 def run_hybrid(
@@ -167,8 +138,8 @@ def run_hybrid(
     errors: np.ndarray,
     tips: np.ndarray,
 ) -> None:
-    """Step N lanes of the hybrid system through a chunk of B steps (module doc), lane by lane
-    (`hybrid_lane`).
+    """Step the differential and allocation lanes of N hybrid lanes through a chunk of B steps
+    (module doc), lane by lane (`hybrid_lane`); qp lanes are `run_hybrid_qp`'s, left alone.
 
     Args:
         xs: (N, B + 1, 9) xi [m, rad]; row 0 the chunk's start, rows 1 … B written.
@@ -176,7 +147,7 @@ def run_hybrid(
             B, the chunk's end (`held_targets` with `end=True`), is not read.
         prm: (N, N_PARAMETERS) each lane's planner row.
         memory: (N, N_MEMORY) each lane's planner state, read and written (allocation).
-        const: (N_HYBRID_CONSTANTS,) `hybrid_constants`.
+        const: (N_HYBRID_CONSTANTS,) the hybrid constants (`HybridBoardingSystem.pack`).
         dt: [s] control period.
         diag: (N, B + 1, N_HYBRID_DIAGNOSTICS): rows 1 … B written (step k's in row k + 1).
         faults: (N, B) int64 written: the step's fault bits (`twin.sim.faults.Fault`).
@@ -190,13 +161,14 @@ def run_hybrid(
     for n in prange(xs.shape[0]):
         # scratch allocated once per lane (numba puts every array on the heap)
         R, v = np.empty((3, 3)), np.empty(9)
+        if prm[n, P_KIND] == KIND_QP:
+            continue
         differential, allocation, limit = differential_work(), allocation_work(), limit_work()
-        qp = qp_lane_work()
         k, bits = 0, -1
         while k < n_steps:
             k = hybrid_lane(xs[n], targets[n], prm[n], memory[n], const, dt, diag[n],
                             faults[n], first, errors[n], tips[n], k, bits, R, v, differential,
-                            allocation, limit, qp)  # fmt: skip
+                            allocation, limit)  # fmt: skip
             if k < n_steps:  # step k needs the SVD (near a singularity), which allocates
                 row = prm[n].view(DIFFERENTIAL_PARAMETERS)[0]
                 bits = damped_differential_velocity(xs[n, k], row, differential, v,
@@ -239,3 +211,120 @@ def compiled_hybrid(parallel: bool) -> Callable:
     if not parallel or serial_hybrid is run_hybrid:
         return serial_hybrid
     return compile_runner(run_hybrid_lanes, parallel=True)
+
+
+@register_borrowing
+def qp_lane(
+    xs: np.ndarray,
+    targets: np.ndarray,
+    row: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    diag: np.ndarray,
+    faults: np.ndarray,
+    R: np.ndarray,
+    v: np.ndarray,
+    limit: tuple,
+    qp: tuple,
+) -> None:
+    """Every step of one qp lane (`run_hybrid_qp`'s arrays without the lane axis, `row` its
+    `prm` row): its QP solved in the lane (`qp_velocity`), then `guarded_step`. R (3, 3) and
+    v (9,) scratch; limit, qp: the guard's and the planner's work."""
+    hold = row[P_HOLD] > 0.0
+    for k in range(xs.shape[0] - 1):
+        x, x_next, d = xs[k], xs[k + 1], diag[k + 1]
+        rpy_to_matrix_lane(x[3], x[4], x[5], R)
+        bits = qp_velocity(x, targets[k], row, const, dt, qp, v, d)
+        faults[k] = guarded_step(x, R, v, bits, hold, const, dt, limit, d, x_next)
+
+
+def run_hybrid_qp(
+    xs: np.ndarray,
+    targets: np.ndarray,
+    prm: np.ndarray,
+    memory: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    diag: np.ndarray,
+    faults: np.ndarray,
+    first: int,
+    errors: np.ndarray,
+    tips: np.ndarray,
+) -> None:
+    """Step the qp lanes of N hybrid lanes through a chunk (`qp_lane`); the others are
+    `run_hybrid`'s, left alone. Arguments as `run_hybrid`'s (a qp lane keeps no memory and
+    hands nothing to the records: `memory`, `first`, `errors` and `tips` are not read)."""
+    for n in prange(xs.shape[0]):
+        if prm[n, P_KIND] != KIND_QP:
+            continue
+        R, v = np.empty((3, 3)), np.empty(9)  # scratch allocated once per lane
+        qp_lane(xs[n], targets[n], prm[n], const, dt, diag[n], faults[n], R, v, limit_work(),
+                qp_lane_work())  # fmt: skip
+
+
+def run_hybrid_qp_lanes(
+    xs: np.ndarray,
+    targets: np.ndarray,
+    prm: np.ndarray,
+    memory: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    diag: np.ndarray,
+    faults: np.ndarray,
+    first: int,
+    errors: np.ndarray,
+    tips: np.ndarray,
+) -> None:
+    """`run_hybrid_qp` with its lanes in parallel, each a one-lane call of `serial_hybrid_qp`
+    (as `run_hybrid_lanes`)."""
+    for n in prange(xs.shape[0]):
+        lane = slice(n, n + 1)
+        serial_hybrid_qp(xs[lane], targets[lane], prm[lane], memory[lane], const, dt,
+                         diag[lane], faults[lane], first, errors[lane], tips[lane])  # fmt: skip
+
+
+#: `run_hybrid_qp` compiled serial (lazily), or the plain function without numba
+serial_hybrid_qp = compile_runner(run_hybrid_qp, parallel=False)
+
+
+@cache
+def compiled_hybrid_qp(parallel: bool) -> Callable:
+    """`run_hybrid_qp` compiled, parallel over lanes or serial (as `compiled_hybrid`)."""
+    if not parallel or serial_hybrid_qp is run_hybrid_qp:
+        return serial_hybrid_qp
+    return compile_runner(run_hybrid_qp_lanes, parallel=True)
+
+
+class HybridRunners:
+    """The chunk runners a hybrid group needs, called as one runner (`run_hybrid`'s
+    arguments): `run_hybrid` where a lane is differential or allocation, `run_hybrid_qp` where
+    one is qp, each compiled on its first call.
+
+    Attributes:
+        main, qp: the two runners (compiled or plain).
+    """
+
+    def __init__(self, main: Callable, qp: Callable) -> None:
+        self.main, self.qp = main, qp
+
+    def __call__(
+        self,
+        xs: np.ndarray,
+        targets: np.ndarray,
+        prm: np.ndarray,
+        memory: np.ndarray,
+        const: np.ndarray,
+        dt: float,
+        diag: np.ndarray,
+        faults: np.ndarray,
+        first: int,
+        errors: np.ndarray,
+        tips: np.ndarray,
+    ) -> None:
+        is_qp = prm[:, P_KIND] == KIND_QP
+        arguments = (xs, targets, prm, memory, const, dt, diag, faults, first, errors, tips)
+        if not is_qp.all():
+            self.main(*arguments)
+        if is_qp.any():
+            self.qp(*arguments)
+

@@ -15,49 +15,65 @@ kernel runner with
 
 Row 0 of `prm` names the lane's planner family (`KIND_*`), row 1 whether the lane holds its
 joint limits (1.0) or only records passing them (0.0) (`twin.planners.parameters.COMMON_FIELDS`);
-the rest belongs to the family. The differential and allocation families read their rows by
-name, as records (`twin.planners.parameters.family_dtype`: `DIFFERENTIAL_PARAMETERS`,
-`ALLOCATION_PARAMETERS`); the qp and platform families read offsets from `P_FAMILY` on.
+the rest belongs to the family, read by name as a record (`twin.planners.parameters.family_dtype`:
+`DIFFERENTIAL_PARAMETERS`, `ALLOCATION_PARAMETERS`, `QP_PARAMETERS`, `PLATFORM_PARAMETERS`).
+The hybrid constants are the float row of `HybridBoardingSystem.pack`, read by name too
+(`HYBRID_CONSTANTS`). The target row, the hybrid diagnostics rows and the planners' fault bits
+are defined where the planners' steps that read and write them are
+(`twin.planners.lane_rows`); this module names them for the rest of the engine.
 """
 
 from __future__ import annotations
 
-# Planner families (prm[P_KIND]; KIND_QP: the `qp` planner, `twin.sim.kernels.qp`) and the
-# row size, defined once where the families' records are (`twin.planners.parameters`)
+# The hybrid constants' record, the target, diagnostics and fault rows of the planners' steps,
+# the planner families (prm[P_KIND]) and the row sizes: each defined once, where what reads and
+# writes them is (`twin.mechanisms.hybrid`, `twin.planners.lane_rows`, `.parameters`)
+from twin.mechanisms.hybrid import HYBRID_CONSTANTS
+from twin.mechanisms.hybrid import N_HYBRID_CONSTANTS as N_HYBRID_CONSTANTS
+from twin.planners.lane_rows import D_DAMPING as D_DAMPING
+from twin.planners.lane_rows import D_LIMIT_SCALE as D_LIMIT_SCALE
+from twin.planners.lane_rows import D_POSITION_SHARE as D_POSITION_SHARE
+from twin.planners.lane_rows import D_QP_ACTIVE as D_QP_ACTIVE
+from twin.planners.lane_rows import D_QP_LEVEL as D_QP_LEVEL
+from twin.planners.lane_rows import D_SCALE as D_SCALE
+from twin.planners.lane_rows import D_SHARE as D_SHARE
+from twin.planners.lane_rows import D_WEIGHTS as D_WEIGHTS
+from twin.planners.lane_rows import FAULT_INFEASIBLE as FAULT_INFEASIBLE
+from twin.planners.lane_rows import FAULT_PLANNER as FAULT_PLANNER
+from twin.planners.lane_rows import FAULT_SINGULAR as FAULT_SINGULAR
+from twin.planners.lane_rows import N_HYBRID_DIAGNOSTICS as N_HYBRID_DIAGNOSTICS
+from twin.planners.lane_rows import N_TARGET as N_TARGET
+from twin.planners.lane_rows import TARGET_P as TARGET_P
+from twin.planners.lane_rows import TARGET_R as TARGET_R
+from twin.planners.lane_rows import TARGET_V as TARGET_V
+from twin.planners.lane_rows import TARGET_W as TARGET_W
 from twin.planners.parameters import KIND_ALLOCATION as KIND_ALLOCATION
 from twin.planners.parameters import KIND_DIFFERENTIAL as KIND_DIFFERENTIAL
 from twin.planners.parameters import KIND_PLATFORM as KIND_PLATFORM
 from twin.planners.parameters import KIND_QP as KIND_QP
-from twin.planners.parameters import ROW_SIZE
+from twin.planners.parameters import MEMORY_SIZE, ROW_SIZE
 
-#: Target rows: ᴮR_d row-major (9), ᴮp_d [m] (3), twist ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s] (6).
-TARGET_R, TARGET_P, TARGET_V, TARGET_W = 0, 9, 12, 15
-N_TARGET = 18
-
-#: Common prm rows (the fields `COMMON_FIELDS` names); a flat family's own rows start at
-#: P_FAMILY.
+#: Common prm rows (the fields `COMMON_FIELDS` names); a family's own fields follow.
 P_KIND, P_HOLD, P_FAMILY = 0, 1, 2
 N_PARAMETERS = ROW_SIZE
-N_MEMORY = 48
+N_MEMORY = MEMORY_SIZE
 
-#: Fault bits, the values of `twin.sim.faults.Fault` (tested equal), as plain ints for numba.
-FAULT_BASE_MOTION, FAULT_PLANNER, FAULT_KINEMATICS = 1, 2, 4
-FAULT_JOINT_LIMIT, FAULT_SINGULAR = 8, 16
-FAULT_INFEASIBLE = 32
+#: Fault bits of the engine (the planners' are `twin.planners.lane_rows`'), the values of
+#: `twin.sim.faults.Fault` (tested equal), as plain ints for numba.
+FAULT_BASE_MOTION, FAULT_KINEMATICS, FAULT_JOINT_LIMIT = 1, 4, 8
 
-#: Hybrid-system constants (`const` of the hybrid runner): Table 6 joint limits, rate limits,
-#: gangway d1 and a1 (Table 1), the Stewart hinges (6 × 3 row-major, base hinges in B,
-#: platform hinges in P; seed 000 eqs (1)-(2)) and the leg stroke (Table 1).
-C_LOWER, C_UPPER, C_RATE, C_D1, C_A1 = 0, 9, 18, 27, 28
-C_BASE_HINGES, C_PLATFORM_HINGES, C_LEG_MIN, C_LEG_MAX = 29, 47, 65, 66
-N_HYBRID_CONSTANTS = 67
 
-#: Hybrid diagnostics rows (diag (N, B + 1, N_HYBRID_DIAGNOSTICS)): the weights diag(W⁻¹) (9),
-#: null-space share, damping λ, rate-limit scale (differential planners); the position
-#: shares (3, allocation planners); the fraction of the step taken (1: all; `hold` mode).
-#: The engine hands diag in zeroed; a kernel leaves another family's rows alone (no NaN).
-D_WEIGHTS, D_SHARE, D_DAMPING, D_SCALE, D_POSITION_SHARE, D_LIMIT_SCALE = 0, 9, 10, 11, 12, 15
-#: the qp planner's level (0: tip position exact, 1: weighted, 2: limits relaxed) and how many
-#: limit rows and rate bounds were active at its solution (`twin.planners.qp.solve_levels`).
-D_QP_LEVEL, D_QP_ACTIVE = 16, 17
-N_HYBRID_DIAGNOSTICS = 18
+def _constant_row(name: str) -> int:
+    """The first row of field `name` of `HYBRID_CONSTANTS` in the constants' float row."""
+    fields = HYBRID_CONSTANTS.fields
+    assert fields is not None  # a structured dtype
+    return int(fields[name][1]) // 8
+
+
+#: Rows of the hybrid constants' fields, from their record (`HYBRID_CONSTANTS`), for what still
+#: reads the float row by offset (twin.sim.kernels.records, tests); lane functions read the
+#: record by name.
+C_LOWER, C_UPPER, C_RATE = _constant_row("lower"), _constant_row("upper"), _constant_row("rate")
+C_D1, C_A1 = _constant_row("d1"), _constant_row("a1")
+C_BASE_HINGES, C_PLATFORM_HINGES = _constant_row("base_hinges"), _constant_row("platform_hinges")
+C_LEG_MIN, C_LEG_MAX = _constant_row("leg_min"), _constant_row("leg_max")

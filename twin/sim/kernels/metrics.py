@@ -31,6 +31,9 @@ run sample by sample, in order, whatever the chunks (no fast-math), so the compi
 interpreted runner give the same bits too, and numpy's pairwise sums agree to rounding. The
 records carry no NaN (the engine holds non-finite samples), so min, max and the extremes need
 not order NaN as numpy does.
+
+The small platforms' reductions (`platform_add_lane`, below) run the same way, from the same
+running sums (`trend_add`, `efficacy_add`).
 """
 
 from __future__ import annotations
@@ -446,3 +449,208 @@ def compiled_series_reductions() -> SeriesReductions:
     return SeriesReductions(
         compile_runner(run_drift, False, modules), compile_runner(run_efficacy, False, modules)
     )
+
+
+# ------------------------------------------------------------------ the small platforms' lanes
+# The 3UPU_UP's and 4-UPR's metrics (`twin.sim.metrics.platform_metrics`) run the same way: a
+# lane's accumulator row (`PA_*`) takes its samples in order, in as many chunks as come
+# (`platform_add_lane`), and `platform_finish_lane` gives what needs the last sample. Per lane,
+# over samples k = 0 … T−1, S = min(SETTLE, T − 1) the first one judged:
+#
+# - violations: samples where some limit kind is violated (each kind's flag per sample is
+#   `PlatformModel.reached` or `.violations`, computed by the caller in numpy: the limits are
+#   the mechanism's, stated once there), and each kind's count; all samples;
+# - per state column and over all actuators: min and max over k ≥ S; drifts as the hybrid's
+#   (`trend_add`), all samples;
+# - the actuators' largest |rate|, and the samples clipped and saturated (diagnostic > 0), all
+#   samples;
+# - tip error: RMS and max over k ≥ S of |e_p| [m] and |e_R| [rad]; the largest α_top, α_bottom
+#   and |coupled displacement| per axis (seed 001 eq (15), the Upu3Up's) over k ≥ S;
+# - the two efficacies (`efficacy_add`), all samples.
+
+#: most actuators of a small platform (the 4-UPR's four; the 3UPU_UP has three)
+MAX_ACTUATORS = 4
+#: a small platform lane's accumulator row (`platform_add_lane`): samples seen, the first
+#: judged one, violating samples, then min/max, maxima and sums (block comment above), the
+#: efficacy sums, the state's and the actuators' trends, and last one count per limit kind
+#: (N_PLATFORM_ACC + kinds floats in all)
+PA_SEEN, PA_FIRST, PA_VIOLATIONS = 0, 1, 2
+PA_STATE_MIN = 3
+PA_STATE_MAX = PA_STATE_MIN + 3
+PA_LEGS_MIN = PA_STATE_MAX + 3
+PA_LEGS_MAX = PA_LEGS_MIN + 1
+PA_RATE_MAX = PA_LEGS_MAX + 1
+PA_POSITION, PA_POSITION_MAX = PA_RATE_MAX + 1, PA_RATE_MAX + 2
+PA_ORIENTATION, PA_ORIENTATION_MAX = PA_RATE_MAX + 3, PA_RATE_MAX + 4
+PA_ALPHA_TOP_MAX, PA_ALPHA_BOTTOM_MAX = PA_RATE_MAX + 5, PA_RATE_MAX + 6
+PA_CLIPPED, PA_SATURATED = PA_RATE_MAX + 7, PA_RATE_MAX + 8
+PA_COUPLED_MAX = PA_SATURATED + 1
+PA_EFFICACY = PA_COUPLED_MAX + 3
+PA_STATE_TREND = PA_EFFICACY + N_EFFICACY
+PA_LEG_TREND = PA_STATE_TREND + 4 + 2 * 3
+PA_KINDS = PA_LEG_TREND + 4 + 2 * MAX_ACTUATORS
+N_PLATFORM_ACC = PA_KINDS
+#: `platform_finish_lane`'s row: the state's drifts (3), the actuators' (MAX_ACTUATORS, the
+#: first n written), the tip errors' RMS, the two efficacies
+PR_STATE_DRIFT = 0
+PR_LEG_DRIFT = PR_STATE_DRIFT + 3
+PR_POSITION_RMS = PR_LEG_DRIFT + MAX_ACTUATORS
+PR_ORIENTATION_RMS = PR_POSITION_RMS + 1
+PR_ETA_PRINTED, PR_ETA = PR_ORIENTATION_RMS + 1, PR_ORIENTATION_RMS + 2
+N_PLATFORM_ROW = PR_ETA + 1
+
+#: the series `run_platform_add` reads, in its argument order (then the coupled displacement,
+#: the limit flags and the counts)
+PLATFORM_REDUCED = ("t", "state", "legs", "leg_rates", "tip_error", "alpha_top", "alpha_bottom",
+                    "clipped", "saturated")  # fmt: skip
+
+
+@register_borrowing
+def platform_begin_lane(acc: np.ndarray, end: int) -> None:
+    """Clear a small platform lane's accumulator row acc (N_PLATFORM_ACC + kinds,) for a series
+    of `end` samples (≥ 1): the first judged sample is min(SETTLE, end − 1)."""
+    for j in range(acc.shape[0]):
+        acc[j] = 0.0
+    acc[PA_FIRST] = min(SETTLE, end - 1)
+
+
+@register_borrowing
+def platform_add_lane(
+    t: np.ndarray,
+    state: np.ndarray,
+    legs: np.ndarray,
+    rates: np.ndarray,
+    tip_error: np.ndarray,
+    alpha_top: np.ndarray,
+    alpha_bottom: np.ndarray,
+    clipped: np.ndarray,
+    saturated: np.ndarray,
+    coupled: np.ndarray,
+    flags: np.ndarray,
+    acc: np.ndarray,
+) -> None:
+    """Add a small platform lane's next samples, in order, to its accumulator row (the block
+    comment above `MAX_ACTUATORS`).
+
+    Args:
+        t: (S,) [s]; state: (S, 3) [native, rad, rad]; legs, rates: (S, n) actuator lengths
+            [native] and rates [native/s], n ≤ MAX_ACTUATORS; tip_error: (S, 6) [m, rad];
+            alpha_top, alpha_bottom: (S,) [rad]; clipped, saturated: (S,) the step's
+            diagnostics; coupled: (S, 3) seed 001 eq (15) [mm], or (S, 0) for a mechanism
+            without; flags: (S, kinds) bool, each limit kind violated at each sample: the
+            samples after those already added.
+        acc: (N_PLATFORM_ACC + kinds,) the lane's row (`platform_begin_lane`), updated.
+    """
+    first = int(acc[PA_FIRST])
+    seen = int(acc[PA_SEEN])
+    n_legs, kinds, axes = legs.shape[1], flags.shape[1], coupled.shape[1]
+    efficacy = acc[PA_EFFICACY : PA_EFFICACY + N_EFFICACY]
+    state_trend = acc[PA_STATE_TREND:PA_LEG_TREND]
+    leg_trend = acc[PA_LEG_TREND : PA_LEG_TREND + 4 + 2 * n_legs]
+    e = tip_error
+    for i in range(t.shape[0]):
+        k = seen + i
+        bad = False
+        for j in range(kinds):
+            acc[PA_KINDS + j] += flags[i, j]
+            bad |= flags[i, j]
+        acc[PA_VIOLATIONS] += bad
+        for j in range(n_legs):
+            acc[PA_RATE_MAX] = max(acc[PA_RATE_MAX], abs(rates[i, j]))
+        acc[PA_CLIPPED] += clipped[i] > 0
+        acc[PA_SATURATED] += saturated[i] > 0
+        if k >= first:  # min and max, errors and tilts over the settled samples
+            p = math.sqrt(e[i, 0] * e[i, 0] + e[i, 1] * e[i, 1] + e[i, 2] * e[i, 2])
+            r = math.sqrt(e[i, 3] * e[i, 3] + e[i, 4] * e[i, 4] + e[i, 5] * e[i, 5])
+            if k == first:
+                for j in range(3):
+                    acc[PA_STATE_MIN + j], acc[PA_STATE_MAX + j] = state[i, j], state[i, j]
+                acc[PA_LEGS_MIN], acc[PA_LEGS_MAX] = legs[i, 0], legs[i, 0]
+                acc[PA_ALPHA_TOP_MAX] = alpha_top[i]
+                acc[PA_ALPHA_BOTTOM_MAX] = alpha_bottom[i]
+                for j in range(axes):
+                    acc[PA_COUPLED_MAX + j] = abs(coupled[i, j])
+            for j in range(3):
+                acc[PA_STATE_MIN + j] = min(acc[PA_STATE_MIN + j], state[i, j])
+                acc[PA_STATE_MAX + j] = max(acc[PA_STATE_MAX + j], state[i, j])
+            for j in range(n_legs):
+                acc[PA_LEGS_MIN] = min(acc[PA_LEGS_MIN], legs[i, j])
+                acc[PA_LEGS_MAX] = max(acc[PA_LEGS_MAX], legs[i, j])
+            acc[PA_POSITION] += p * p
+            acc[PA_ORIENTATION] += r * r
+            acc[PA_POSITION_MAX] = max(acc[PA_POSITION_MAX], p)
+            acc[PA_ORIENTATION_MAX] = max(acc[PA_ORIENTATION_MAX], r)
+            acc[PA_ALPHA_TOP_MAX] = max(acc[PA_ALPHA_TOP_MAX], alpha_top[i])
+            acc[PA_ALPHA_BOTTOM_MAX] = max(acc[PA_ALPHA_BOTTOM_MAX], alpha_bottom[i])
+            for j in range(axes):
+                acc[PA_COUPLED_MAX + j] = max(acc[PA_COUPLED_MAX + j], abs(coupled[i, j]))
+        efficacy_add(efficacy, alpha_top[i], alpha_bottom[i])
+        trend_add(state_trend, k + 1, t[i], state[i])
+        trend_add(leg_trend, k + 1, t[i], legs[i])
+    acc[PA_SEEN] = seen + t.shape[0]
+
+
+@register_borrowing
+def platform_finish_lane(acc: np.ndarray, n_legs: int, out: np.ndarray) -> None:
+    """What a small platform lane's metrics take beyond its accumulator row acc, after its last
+    sample (`platform_add_lane`), into out (N_PLATFORM_ROW,) (`PR_*`): the drifts, the tip
+    errors' RMS and the efficacies (fractions)."""
+    judged = acc[PA_SEEN] - acc[PA_FIRST]
+    trend_finish(acc[PA_STATE_TREND:PA_LEG_TREND], out[PR_STATE_DRIFT : PR_STATE_DRIFT + 3])
+    trend_finish(acc[PA_LEG_TREND : PA_LEG_TREND + 4 + 2 * n_legs],
+                 out[PR_LEG_DRIFT : PR_LEG_DRIFT + n_legs])  # fmt: skip
+    out[PR_POSITION_RMS] = math.sqrt(acc[PA_POSITION] / judged)
+    out[PR_ORIENTATION_RMS] = math.sqrt(acc[PA_ORIENTATION] / judged)
+    out[PR_ETA_PRINTED], out[PR_ETA] = efficacy_finish(acc[PA_EFFICACY : PA_EFFICACY + N_EFFICACY])
+
+
+def run_platform_add(
+    t: np.ndarray,
+    state: np.ndarray,
+    legs: np.ndarray,
+    rates: np.ndarray,
+    tip_error: np.ndarray,
+    alpha_top: np.ndarray,
+    alpha_bottom: np.ndarray,
+    clipped: np.ndarray,
+    saturated: np.ndarray,
+    coupled: np.ndarray,
+    flags: np.ndarray,
+    counts: np.ndarray,
+    acc: np.ndarray,
+) -> None:
+    """A chunk of N small-platform lanes into their accumulator rows (`platform_add_lane`),
+    lane n its first counts[n] samples (0 … S: a lane past its end adds none).
+
+    Args:
+        t .. flags: (N, S, ...) the chunk's records (`PLATFORM_REDUCED`), as
+            `platform_add_lane` takes them per lane (coupled (N, S, 0) for the 4-UPR).
+        counts: (N,) int.
+        acc: (N, N_PLATFORM_ACC + kinds), updated.
+    """
+    for n in prange(counts.shape[0]):
+        c = counts[n]
+        if c > 0:
+            platform_add_lane(t[n, :c], state[n, :c], legs[n, :c], rates[n, :c],
+                              tip_error[n, :c], alpha_top[n, :c], alpha_bottom[n, :c],
+                              clipped[n, :c], saturated[n, :c], coupled[n, :c], flags[n, :c],
+                              acc[n])  # fmt: skip
+
+
+def run_platform_finish(acc: np.ndarray, n_legs: int, out: np.ndarray) -> None:
+    """`platform_finish_lane` of N lanes: acc (N, N_PLATFORM_ACC + kinds), out (N,
+    N_PLATFORM_ROW) written."""
+    for n in range(acc.shape[0]):
+        platform_finish_lane(acc[n], n_legs, out[n])
+
+
+@cache
+def compiled_platform_add(parallel: bool) -> Callable:
+    """`run_platform_add` compiled (`compile_runner`); plain Python without numba."""
+    return compile_runner(run_platform_add, parallel)
+
+
+@cache
+def compiled_platform_finish() -> Callable:
+    """`run_platform_finish` compiled (`compile_runner`, serial); plain Python without numba."""
+    return compile_runner(run_platform_finish, False)

@@ -2,7 +2,7 @@ r"""What the hybrid system records at each sample, for a whole chunk, compiled.
 
 Nothing here feeds back into the stepping: the runner is called once per chunk, after the
 kernel has stepped it, over every lane and sample (`twin.sim.lanes.HybridLanes.run`). It uses
-the kernels' one-lane primitives (`twin.sim.kernels.hybrid`, `twin.sim.kernels.allocation`), so
+the kernels' one-lane primitives (`twin.sim.kernels.hybrid`, `twin.planners.allocation_step`), so
 the tip, its error, the legs and the manipulability are computed as the planners see them. It
 reads the base from each sample's target row ᴮT_d = ᴵT_B⁻¹ ᴵT_E* (`twin.sim.target.held_targets`,
 which the chunk's kernel read too), not from its pose: no roll-pitch-yaw to turn into ᴵR_B again.

@@ -1,10 +1,11 @@
-r"""The position-level planners of seed 004 (conv1, conv2, dwa) as a one-lane compiled kernel.
+r"""The position-level planners of seed 004 (conv1, conv2, dwa) on one lane, as the engine runs
+them.
 
 `allocation_velocity` is `twin.planners.allocation.AllocationPlanner.step` written on one lane
-(floats and small arrays, `register_jitable`): the runner
-`twin.sim.kernels.hybrid_runner.run_hybrid` calls it under numba, and without numba it runs as
-plain Python on the same numbers. The planner object stays the readable statement and the
-tests' oracle (to 1e-9, step after step).
+(floats and small arrays, in a style numba compiles and plain Python runs unchanged): the
+runner `twin.sim.kernels.hybrid_runner.run_hybrid` calls it, guards and integrates its
+velocity. The planner object stays the readable statement and the tests' oracle (to 1e-9,
+step after step).
 
 Each step splits the compensating motion C = ᴮT_E,d(t + dt) · ᴮT_E(0)⁻¹ (seed 000 §5.1)
 between the Stewart platform and the gangway and solves the gangway's analytic inverse
@@ -13,41 +14,32 @@ come from the Stewart manipulability (seed 004 §3.1 b) and the closed-form reac
 (seed 004 §3.1 c) of the previous step's pose, carried in the lane's `memory`.
 
 A lane's parameters are `twin.planners.allocation.ALLOCATION_PARAMETERS`, read by name
-(written by `AllocationPlanner.pack` after its reset).
+(written by `AllocationPlanner.pack` after its reset); the hybrid system's constants are
+`twin.mechanisms.hybrid.HYBRID_CONSTANTS`, read by name.
 
 `memory` rows: `M_SHARE` (3), DWA's position shares for the next step (seed 004's t − 1).
-
-It imports the shared one-lane primitives from `twin.sim.kernels.hybrid`; the runner that
-calls it is `twin.sim.kernels.hybrid_runner.run_hybrid`.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.gangway import gangway_inverse_lane
+from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
-from twin.planners.allocation import METHODS, reachable_range_lane
-from twin.planners.parameters import refuse
-from twin.sim.kernels.layout import (
-    C_A1,
-    C_BASE_HINGES,
-    C_D1,
-    C_LEG_MAX,
-    C_LEG_MIN,
-    C_PLATFORM_HINGES,
+from twin.planners.allocation import METHODS, AllocationPlanner, reachable_range_lane
+from twin.planners.lane_rows import (
     D_POSITION_SHARE,
     FAULT_PLANNER,
-    N_MEMORY,
     TARGET_P,
     TARGET_R,
     TARGET_V,
     TARGET_W,
 )
+from twin.planners.parameters import MEMORY_SIZE, refuse
 from twin.spatial import (
     matrix_to_rpy_lane,
     rpy_to_matrix_lane,
@@ -55,22 +47,10 @@ from twin.spatial import (
     so3_exp_lane,
 )
 
-if TYPE_CHECKING:
-    from twin.planners.allocation import AllocationPlanner
-
-
-
 #: Methods (a row's `method`), as `twin.planners.allocation.METHODS` numbers them.
 METHOD_CONV1, METHOD_CONV2, METHOD_DWA = METHODS["conv1"], METHODS["conv2"], METHODS["dwa"]
 #: memory rows: DWA's position shares (3).
 M_SHARE = 0
-
-
-# ---------------------------------------------------------------------------------------------
-# Primitives of the allocation planners
-# ---------------------------------------------------------------------------------------------
-
-
 
 
 @register_borrowing
@@ -78,7 +58,7 @@ def shares_lane(
     R: np.ndarray,
     p: np.ndarray,
     prm: np.record,
-    const: np.ndarray,
+    c: np.record,
     vectors: np.ndarray,
     lengths: np.ndarray,
     J: np.ndarray,
@@ -87,13 +67,14 @@ def shares_lane(
     """DWA's position shares [λ_p w_i]³ (3,) into out, clipped to [0, 1] (seed 004 §3.2,
     docs/planners.md), for the platform pose [ᴮR_P (3, 3), ᴮp_P (3,) [m]]: λ_p the
     manipulability over the working state's, w_i the reachable range over the working
-    state's (`AllocationPlanner.shares`). vectors (6, 3), lengths (6,) and J (6, 6) are
-    scratch (the legs and `manipulability_lane`'s)."""
-    platform = const[C_PLATFORM_HINGES : C_PLATFORM_HINGES + 18]
-    leg_vectors_lane(R, p, const[C_BASE_HINGES : C_BASE_HINGES + 18], platform, vectors, lengths)
+    state's (`AllocationPlanner.shares`); prm the lane's `ALLOCATION_PARAMETERS` and c its
+    `HYBRID_CONSTANTS` record. vectors (6, 3), lengths (6,) and J (6, 6) are scratch (the legs
+    and `manipulability_lane`'s)."""
+    platform = c.platform_hinges
+    leg_vectors_lane(R, p, c.base_hinges, platform, vectors, lengths)
     lam = manipulability_lane(R, vectors, lengths, platform, J) / prm.manip_mid
     # the ranges, made shares in place
-    reachable_range_lane(vectors, lengths, const[C_LEG_MIN], const[C_LEG_MAX], out)
+    reachable_range_lane(vectors, lengths, c.leg_min, c.leg_max, out)
     for k in range(3):
         out[k] = min(max(lam * (out[k] / prm.range_mid[k]), 0.0), 1.0) ** 3
 
@@ -223,11 +204,11 @@ def allocation_velocity(
     Args:
         x: (9,) xi [m, rad]: platform pose in B, then q1, q2 [rad], d3 [m].
         R: (3, 3) ᴮR_P of x (`rpy_to_matrix_lane`).
-        target: (18,) `layout.TARGET_*`: ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ_d; ᴮω_d]
+        target: (18,) `TARGET_*`: ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ_d; ᴮω_d]
             [m/s, rad/s] in B.
         prm: the lane's `ALLOCATION_PARAMETERS` record (its row, `AllocationPlanner.pack`).
-        memory: (N_MEMORY,) the lane's state: DWA's shares at `M_SHARE`, read and updated.
-        const: (N_HYBRID_CONSTANTS,) `layout.C_*` hybrid constants.
+        memory: (MEMORY_SIZE,) the lane's state: DWA's shares at `M_SHARE`, read and updated.
+        const: (N_HYBRID_CONSTANTS,) the hybrid constants (`HybridBoardingSystem.pack`).
         dt: [s] control period.
         work: `allocation_work()`, overwritten.
         v_out: (9,) written: platform body twist [ᴾṖ; ω_P] in P [m/s, rad/s], then q̇1, q̇2
@@ -240,6 +221,7 @@ def allocation_velocity(
         Fault bits: `FAULT_PLANNER` when the velocity is not finite, else 0.
     """
     method = int(prm.method)
+    c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
     rotations, points, vectors, lengths, J = work
     E, Ra, Rc, RP, Rrel = rotations[0], rotations[1], rotations[2], rotations[3], rotations[4]
     pa, pc, pP, rpy = points[0], points[1], points[2], points[3]
@@ -256,8 +238,8 @@ def allocation_velocity(
             RP[0, 0] * d0 + RP[1, 0] * d1 + RP[2, 0] * d2,
             RP[0, 1] * d0 + RP[1, 1] * d1 + RP[2, 1] * d2,
             RP[0, 2] * d0 + RP[1, 2] * d1 + RP[2, 2] * d2,
-            const[C_D1],
-            const[C_A1],
+            c.d1,
+            c.a1,
             q,
         )
     if method == METHOD_DWA:
@@ -265,7 +247,7 @@ def allocation_velocity(
             diag_out[D_POSITION_SHARE + i] = memory[M_SHARE + i]  # the shares used
         # next step's shares (t − 1 in seed 004); a step that cannot be planned (a target that
         # is not finite: AllocationPlanner raises there) keeps the last good ones
-        shares_lane(RP, pP, prm, const, vectors, lengths, J, following)
+        shares_lane(RP, pP, prm, c, vectors, lengths, J, following)
         if math.isfinite(following[0] + following[1] + following[2]):
             for i in range(3):
                 memory[M_SHARE + i] = following[i]
@@ -277,7 +259,7 @@ def allocation_velocity(
 
 
 def pack_allocation(planner: AllocationPlanner, hold: bool) -> tuple[np.ndarray, np.ndarray]:
-    """(prm (N_PARAMETERS,), memory (N_MEMORY,)) of one lane from an `AllocationPlanner` after
+    """(prm (ROW_SIZE,), memory (MEMORY_SIZE,)) of one lane from an `AllocationPlanner` after
     its `reset(xi, target)`: its `pack(hold)` (`ALLOCATION_PARAMETERS` by name), and memory
     with DWA's shares at `M_SHARE`.
 
@@ -288,6 +270,6 @@ def pack_allocation(planner: AllocationPlanner, hold: bool) -> tuple[np.ndarray,
     if pack is None:
         raise refuse(f"a {type(planner).__name__} as an allocation planner")
     prm, shares = pack(hold)
-    memory = np.zeros(N_MEMORY)
+    memory = np.zeros(MEMORY_SIZE)
     memory[M_SHARE : M_SHARE + 3] = shares
     return prm, memory

@@ -1,0 +1,164 @@
+"""Short runs on the server's own thread (issue 30: a 60 s run's POST p50): a run of at most
+`INLINE_MAX_STEPS` steps runs in process when that thread is free, with the same engine and the
+same stored outcome as on the executor; a second one meanwhile goes to the executor; a cancel
+in flight drops its outcome; a refused scenario is refused as before."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import twin.web.jobs
+from tests.web.support import wait_for
+from twin.sim import Scenario
+from twin.sim.executor import IN_PROCESS, Executor
+from twin.web.jobs import INLINE_MAX_STEPS, JobRunner, steps
+from twin.web.store import RunStore
+
+#: 20 steps of the hybrid system: well under INLINE_MAX_STEPS
+SHORT = {"mechanism": "hybrid", "duration": 1.0, "sea_state": 3}
+
+
+class Recording(Executor):
+    """An in-process executor that records the functions submitted to it."""
+
+    submitted: list[str]
+
+    def submit(self, fn: Any, *args: Any, **kwargs: Any) -> Any:
+        self.submitted.append(getattr(fn, "__name__", repr(fn)))
+        return super().submit(fn, *args, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def executor() -> Iterator[Recording]:
+    executor = Executor.start(IN_PROCESS)
+    executor.__class__ = Recording
+    assert isinstance(executor, Recording)
+    executor.submitted = []
+    try:
+        yield executor
+    finally:
+        executor.close()
+
+
+@pytest.fixture
+def store(tmp_path: Path) -> Iterator[RunStore]:
+    with RunStore(tmp_path / "runs.sqlite") as store:
+        yield store
+
+
+def _runner(store: RunStore, executor: Executor, **options: Any) -> JobRunner:
+    jobs = JobRunner(store, **options)
+    jobs.start(executor)
+    return jobs
+
+
+def test_a_short_run_runs_in_process_with_the_executors_outcome(
+    store: RunStore, executor: Recording
+) -> None:
+    """The same scenario in process and on the executor: one engine, so the same metrics and
+    series, and only the second is an executor task."""
+    scenario = Scenario(**SHORT)
+    assert steps(scenario) <= INLINE_MAX_STEPS
+    inline = _runner(store, executor)
+    try:
+        executor.submitted.clear()
+        here = inline.submit(store.create(scenario).id).result(timeout=120)
+        assert executor.submitted == []  # no Dask task for it
+    finally:
+        inline.shutdown()
+    remote = _runner(store, executor, inline_max_steps=0)
+    try:
+        there = remote.submit(store.create(scenario).id).result(timeout=120)
+        assert executor.submitted == ["run_scenario"]
+    finally:
+        remote.shutdown()
+    assert here.status == there.status == "done" and here.progress == 1.0
+    assert here.metrics == there.metrics
+    a, b = store.result(here.id), store.result(there.id)
+    assert a.series.keys() == b.series.keys()
+    for key in a.series:
+        assert (a.series[key] == b.series[key]).all(), key
+
+
+def test_a_short_run_while_one_is_in_hand_goes_to_the_executor(
+    store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One short run in process at a time: the next goes to the executor, and both finish."""
+    entered, release = threading.Event(), threading.Event()
+    real = twin.web.jobs.run_scenario
+
+    def held(*args: Any, **kwargs: Any) -> Any:
+        entered.set()
+        release.wait(60)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(twin.web.jobs, "run_scenario", held)
+    jobs = _runner(store, executor)
+    try:
+        executor.submitted.clear()
+        first = jobs.submit(store.create(Scenario(**SHORT)).id)
+        assert entered.wait(60)
+        second = jobs.submit(store.create(Scenario(**SHORT)).id)
+        assert second.result(timeout=120).status == "done"
+        assert executor.submitted == ["run_scenario"]
+        assert not first.done()  # still held on the server's thread
+        release.set()
+        assert first.result(timeout=120).status == "done"
+    finally:
+        release.set()
+        jobs.shutdown()
+
+
+def test_cancelling_a_short_run_in_flight_drops_its_outcome(
+    store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    entered, release = threading.Event(), threading.Event()
+    real = twin.web.jobs.run_scenario
+
+    def held(*args: Any, **kwargs: Any) -> Any:
+        entered.set()
+        release.wait(60)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(twin.web.jobs, "run_scenario", held)
+    jobs = _runner(store, executor)
+    try:
+        run = store.create(Scenario(**SHORT))
+        done = jobs.submit(run.id)
+        assert entered.wait(60)
+        assert store.get(run.id).status == "running"
+        assert jobs.cancel(run.id)
+        release.set()
+        assert wait_for(done.done, timeout=60) and done.cancelled()
+        stored = store.get(run.id)
+        assert stored.status == "failed" and stored.error is not None
+        assert stored.error.startswith("cancelled") and stored.metrics is None
+        assert jobs.pending() == 0
+    finally:
+        release.set()
+        jobs.shutdown()
+
+
+def test_a_short_run_the_engine_refuses_raises_as_on_the_executor(
+    store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A `ValueError` before the first step reaches the request (a 422 there), stored failed."""
+    from twin.errors import TwinError
+
+    def refusing(*args: Any, **kwargs: Any) -> Any:
+        raise TwinError("heading: refused by the engine (test)")
+
+    monkeypatch.setattr(twin.web.jobs, "run_scenario", refusing)
+    jobs = _runner(store, executor)
+    try:
+        run = store.create(Scenario(**SHORT))
+        with pytest.raises(ValueError, match="refused by the engine"):
+            jobs.submit(run.id).result(timeout=60)
+        assert store.get(run.id).status == "failed"
+    finally:
+        jobs.shutdown()
