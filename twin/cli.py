@@ -115,13 +115,24 @@ def read_input(parser: argparse.ArgumentParser, path: Path) -> bytes:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The `twin` parser: one sub-command per `_add_*` below, in the order `twin --help`
+    lists them."""
     parser = argparse.ArgumentParser(
         prog="twin",
         description="Digital twin of offshore wave-motion compensation (hybrid boarding "
         "gangway, 3UPU_UP and 4-UPR platforms).",
     )
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    _add_serve(commands)
+    _add_run(commands)
+    _add_sweep(commands)
+    _add_workability(commands)
+    _add_warm(commands)
+    return parser
 
+
+def _add_serve(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """`twin serve` and its options, in the order its --help lists them."""
     serve = commands.add_parser(
         "serve",
         help="run the live twin: 3D viewer, REST API and landing page",
@@ -131,6 +142,14 @@ def build_parser() -> argparse.ArgumentParser:
         "Dask executor started with the server.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
+    _add_serve_places(serve)
+    _add_serve_clients(serve)
+    _add_serve_store(serve)
+    serve.set_defaults(handler=_serve)
+
+
+def _add_serve_places(serve: argparse.ArgumentParser) -> None:
+    """`twin serve`: where it listens, keeps its runs and executes them (--host … --workers)."""
     serve.add_argument(
         "--host", type=host, default="127.0.0.1", help="interface to bind (0.0.0.0: all)"
     )
@@ -150,6 +169,11 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument(
         "--workers", type=workers, help="workers of the local cluster (default: the cores)"
     )
+
+
+def _add_serve_clients(serve: argparse.ArgumentParser) -> None:
+    """`twin serve`: whom it answers and how it treats their browsers and runs (--allow-host
+    … --private)."""
     serve.add_argument(
         "--allow-host", action="append", default=[], metavar="NAME", type=host,
         help="another Host name the server answers to, REST and 3D viewer (repeatable); "
@@ -183,6 +207,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="with TWIN_TOKEN, reading stored runs and sweeps (GET /api/runs…, /api/sweeps…) "
         "needs the token too; default: anyone who can reach the server may read them",
     )  # fmt: skip
+
+
+def _add_serve_store(serve: argparse.ArgumentParser) -> None:
+    """`twin serve`: the run store's limits and the Dask dashboard (--max-store … --dashboard)."""
     serve.add_argument(
         "--max-store", type=size, metavar="SIZE",
         help="most the run store may hold, e.g. 2G or 500M (runs' series, sweeps' tables and "
@@ -202,8 +230,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="serve the Dask scheduler's dashboard on 127.0.0.1 (a free port, printed); "
         "default off",
     )  # fmt: skip
-    serve.set_defaults(handler=_serve)
 
+
+def _add_run(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """`twin run`: one scenario to the end."""
     run = commands.add_parser(
         "run",
         help="run one scenario to the end and print its metrics",
@@ -220,6 +250,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.set_defaults(handler=_run)
 
+
+def _add_sweep(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """`twin sweep`: an operability sweep to a folder."""
     sweep = commands.add_parser(
         "sweep",
         help="run an operability sweep and write its table and heatmap",
@@ -241,6 +274,9 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--out", type=Path, default=Path("sweep"), help="folder of the outputs")
     sweep.set_defaults(handler=_sweep)
 
+
+def _add_workability(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """`twin workability`: a site record's workability to a folder."""
     workability = commands.add_parser(
         "workability",
         help="a site record's workability per planner: CSV, JSON and PNG plots",
@@ -285,6 +321,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     workability.set_defaults(handler=_workability)
 
+
+def _add_warm(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """`twin warm`: compile the kernels ahead."""
     warm = commands.add_parser(
         "warm",
         help="compile every kernel into numba's disk cache (or load it from there)",
@@ -299,7 +338,6 @@ def build_parser() -> argparse.ArgumentParser:
         "default: one per core",
     )  # fmt: skip
     warm.set_defaults(handler=_warm)
-    return parser
 
 
 def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

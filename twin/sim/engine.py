@@ -765,60 +765,77 @@ def warm_in_processes(processes: int | None = None, progress: WarmProgress | Non
         raise ValueError(f"warm: {processes} processes; 1-{len(WARM_SHARES)} (one per share)")
     if processes == 1:
         return warm(progress=progress)
-    import multiprocessing
-
     start = time.perf_counter()
     shares = list(range(len(WARM_SHARES)))
     groups = [shares[i::processes] for i in range(processes)]
-    lock = threading.Lock()
-    first_done, decided = threading.Event(), threading.Event()
-    spawned: dict[str, Any] = {}
+    relay = _WarmRelay(groups, progress)
+    relay.thread.start()
+    rest = [share for group in groups[1:] for share in group]
+    try:
+        warm("auto", groups[0], progress=relay.report)
+        relay.first_done.set()
+        # what the processes have compiled meanwhile loads from the cache; the rest compiles
+        # here too, so the slower of two copies never holds the start-up
+        warm("auto", rest, progress=relay.report)
+    finally:
+        relay.close()
+    return time.perf_counter() - start
 
-    reported: set[str] = set()
 
-    def report(label: str) -> None:
+class _WarmRelay:
+    """The shares of `warm_in_processes` beyond this process's first group (`groups[1:]`): a
+    thread that, after `SPAWN_AFTER` s of share 0 (at once with numba's cache empty), starts
+    them in processes of their own and relays their progress. `report` calls `progress` once
+    per lane set, whether it was done here or there; `close` stops what the thread started."""
+
+    def __init__(self, groups: list[list[int]], progress: WarmProgress | None) -> None:
+        self.groups, self.progress = groups, progress
+        self.lock = threading.Lock()
+        self.first_done, self.decided = threading.Event(), threading.Event()
+        self.spawned: dict[str, Any] = {}
+        self.reported: set[str] = set()
+        self.thread = threading.Thread(target=self.relay, name="twin-warm", daemon=True)
+
+    def report(self, label: str) -> None:
         """`progress`, once per lane set (a share may be done here and in a process)."""
-        with lock:
-            if label in reported or progress is None:
+        with self.lock:
+            if label in self.reported or self.progress is None:
                 return
-            reported.add(label)
-            progress(label)
+            self.reported.add(label)
+            self.progress(label)
 
-    def relay() -> None:
+    def relay(self) -> None:
         """After `SPAWN_AFTER` s of share 0, the other shares in processes of their own."""
+        import multiprocessing
+
+        spawned = self.spawned
         try:
-            if first_done.wait(SPAWN_AFTER if kernel_cache_filled() else 0.0):
+            if self.first_done.wait(SPAWN_AFTER if kernel_cache_filled() else 0.0):
                 return  # loaded from the cache: no process needed
             # spawned, not forked: a fork would copy this process's numba and thread state
             context = multiprocessing.get_context("spawn")
             spawned["manager"] = manager = context.Manager()
             spawned["done"] = done = manager.Queue()
-            spawned["pool"] = pool = context.Pool(processes - 1)
+            # one process per group but this process's own
+            spawned["pool"] = pool = context.Pool(len(self.groups) - 1)
             spawned["result"] = pool.starmap_async(
-                _warm_group, [(group, done) for group in groups[1:]]
+                _warm_group, [(group, done) for group in self.groups[1:]]
             )
         finally:
-            decided.set()
+            self.decided.set()
         while (label := done.get()) is not None:
-            report(label)
+            self.report(label)
 
-    thread = threading.Thread(target=relay, name="twin-warm", daemon=True)
-    thread.start()
-    rest = [share for group in groups[1:] for share in group]
-    try:
-        warm("auto", groups[0], progress=report)
-        first_done.set()
-        # what the processes have compiled meanwhile loads from the cache; the rest compiles
-        # here too, so the slower of two copies never holds the start-up
-        warm("auto", rest, progress=report)
-    finally:
-        first_done.set()
-        decided.wait()
+    def close(self) -> None:
+        """Once this process's shares are done (or failed): end the processes, the relay
+        thread and the manager, if they were started."""
+        self.first_done.set()
+        self.decided.wait()
+        spawned = self.spawned
         if "pool" in spawned:
             spawned["pool"].terminate()  # numba writes its cache files whole (os.replace)
             spawned["pool"].join()
             spawned["done"].put(None)
-            thread.join()
+            self.thread.join()
         if "manager" in spawned:
             spawned["manager"].shutdown()
-    return time.perf_counter() - start

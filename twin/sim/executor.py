@@ -356,52 +356,18 @@ class Executor:
             ValueError: an address that is not a Dask scheduler's, or a bad `n_workers`.
             OSError, TimeoutError: the scheduler cannot be reached.
         """
-        import dask
-        from distributed import Client, LocalCluster
-
         if n_workers is not None and not 1 <= n_workers <= 256:
             raise TwinError(f"n_workers: got {n_workers}; allowed 1 … 256")
         if not 0 <= nice <= 19:
             raise TwinError(f"nice: got {nice}; allowed 0 … 19")
         if scheduler is None or scheduler == IN_PROCESS:
-            in_process = scheduler == IN_PROCESS
-            quiet = dict(QUIET_DASK)
-            if dashboard:  # the dashboard's profile plots need the profiler
-                del quiet["distributed.worker.profile.enabled"]
-            with dask.config.set(quiet):  # read as the scheduler and workers are made
-                cluster = LocalCluster(
-                    n_workers=1 if in_process else n_workers or os.cpu_count() or 1,
-                    threads_per_worker=1,
-                    processes=not in_process,
-                    # no dashboard unless asked for (the scheduler's HTTP routes of health and
-                    # metrics stay); on loopback (an in-process worker would listen on every
-                    # interface) and on a free port (not 8787, which another cluster may hold)
-                    dashboard_address="127.0.0.1:0",
-                    scheduler_kwargs={"dashboard": dashboard},
-                    worker_dashboard_address=None,
-                    # the scheduler takes pickled functions from whoever connects: over TLS with a
-                    # key made for this cluster and held only in memory (`Security.temporary`),
-                    # another local user cannot submit one (an in-process cluster has no port)
-                    security=None if in_process else True,
-                    # workers log connection errors while a cluster shuts down; a task's own error
-                    # still reaches its future
-                    silence_logs=logging.CRITICAL,
-                )
-            try:
-                client = Client(cluster, timeout=timeout, set_as_default=False)
-            except BaseException:
-                cluster.close()
-                raise
-            executor = cls(client, cluster, where=IN_PROCESS if in_process else "local cluster")
-            executor.dashboard = dashboard
+            executor = cls._start_local(
+                in_process=scheduler == IN_PROCESS, n_workers=n_workers, timeout=timeout,
+                dashboard=dashboard,
+            )  # fmt: skip
         else:
-            if not scheduler.startswith(("tcp://", "tls://", "inproc://", "ucx://")):
-                raise TwinError(
-                    f"scheduler: got {scheduler!r}; allowed None (a local cluster), "
-                    f"{IN_PROCESS!r} or a Dask address such as 'tcp://HOST:PORT'"
-                )
-            client = Client(scheduler, timeout=timeout, set_as_default=False)
-            executor = cls(client, where=scheduler)
+            executor = cls._join(scheduler, timeout=timeout)
+        client = executor.client
         try:
             if not client.scheduler_info(n_workers=-1)["workers"]:
                 client.wait_for_workers(1, timeout=timeout)
@@ -412,6 +378,64 @@ class Executor:
             executor.close()
             raise
         return executor
+
+    @classmethod
+    def _start_local(
+        cls, *, in_process: bool, n_workers: int | None, timeout: float, dashboard: bool
+    ) -> Executor:
+        """`start`'s LocalCluster (`n_workers` processes, or one worker thread `in_process`)
+        with Dask's `QUIET_DASK` settings, and its client; the cluster is closed if the client
+        cannot connect."""
+        import dask
+        from distributed import Client, LocalCluster
+
+        quiet = dict(QUIET_DASK)
+        if dashboard:  # the dashboard's profile plots need the profiler
+            del quiet["distributed.worker.profile.enabled"]
+        with dask.config.set(quiet):  # read as the scheduler and workers are made
+            cluster = LocalCluster(
+                n_workers=1 if in_process else n_workers or os.cpu_count() or 1,
+                threads_per_worker=1,
+                processes=not in_process,
+                # no dashboard unless asked for (the scheduler's HTTP routes of health and
+                # metrics stay); on loopback (an in-process worker would listen on every
+                # interface) and on a free port (not 8787, which another cluster may hold)
+                dashboard_address="127.0.0.1:0",
+                scheduler_kwargs={"dashboard": dashboard},
+                worker_dashboard_address=None,
+                # the scheduler takes pickled functions from whoever connects: over TLS with a
+                # key made for this cluster and held only in memory (`Security.temporary`),
+                # another local user cannot submit one (an in-process cluster has no port)
+                security=None if in_process else True,
+                # workers log connection errors while a cluster shuts down; a task's own error
+                # still reaches its future
+                silence_logs=logging.CRITICAL,
+            )
+        try:
+            client = Client(cluster, timeout=timeout, set_as_default=False)
+        except BaseException:
+            cluster.close()
+            raise
+        executor = cls(client, cluster, where=IN_PROCESS if in_process else "local cluster")
+        executor.dashboard = dashboard
+        return executor
+
+    @classmethod
+    def _join(cls, scheduler: str, *, timeout: float) -> Executor:
+        """`start`'s client of an existing scheduler at a Dask address.
+
+        Raises:
+            TwinError: `scheduler` is not a Dask address (tcp://, tls://, inproc://, ucx://).
+        """
+        from distributed import Client
+
+        if not scheduler.startswith(("tcp://", "tls://", "inproc://", "ucx://")):
+            raise TwinError(
+                f"scheduler: got {scheduler!r}; allowed None (a local cluster), "
+                f"{IN_PROCESS!r} or a Dask address such as 'tcp://HOST:PORT'"
+            )
+        client = Client(scheduler, timeout=timeout, set_as_default=False)
+        return cls(client, where=scheduler)
 
     # -- readers -----------------------------------------------------------------------------
     @property

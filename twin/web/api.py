@@ -22,8 +22,8 @@ was deleted or replaced answers 503.
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
+from collections.abc import AsyncIterator, Callable
+from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from pathlib import Path
 
 import fastapi_offline
@@ -158,6 +158,28 @@ def create_app(
         workability=workability if workability is not None
         else WorkabilityRunner(WorkabilityStore(store.path)),
     )
+    app = FastAPI(
+        title="wave-twin",
+        version=twin.__version__,
+        summary="Digital twin of offshore wave-motion compensation: runs and the live session",
+        lifespan=_lifespan(services, executor, warmup),
+        docs_url=None,  # served below from local files
+        redoc_url=None,
+    )
+    _offline_docs(app)
+    app.state.services = services
+    _add_middleware(app, services.access, max_body)
+    _add_exception_handlers(app)
+    _add_routers(app)
+    return app
+
+
+def _lifespan(
+    services: Services, executor: Executor | None, warmup: Warmup | None
+) -> Callable[[FastAPI], AbstractAsyncContextManager[None]]:
+    """The app's lifespan: at start-up (unless a server still `warmup`s, which attaches its
+    executor later) the runners start on `executor`, or on an in-process one the app starts
+    and so closes; at shutdown `services.stopping` is set and the runners shut down."""
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
@@ -183,16 +205,11 @@ def create_app(
             if own is not None:
                 await run_in_threadpool(own.close)
 
-    app = FastAPI(
-        title="wave-twin",
-        version=twin.__version__,
-        summary="Digital twin of offshore wave-motion compensation: runs and the live session",
-        lifespan=lifespan,
-        docs_url=None,  # served below from local files
-        redoc_url=None,
-    )
-    _offline_docs(app)
-    app.state.services = services
+    return lifespan
+
+
+def _add_middleware(app: FastAPI, access: Access, max_body: int) -> None:
+    """The body limit, then, outermost, the access guard (Host, token, origin)."""
     # a site record's upload takes more than a scenario; every other route keeps max_body
     app.add_middleware(
         BodyLimit,
@@ -200,7 +217,12 @@ def create_app(
         route_limits={("POST", "/api/workability"): max(UPLOAD_BODY, max_body)},
     )
     # the outermost: refused before anything is read
-    app.add_middleware(Guard, access=services.access)
+    app.add_middleware(Guard, access=access)
+
+
+def _add_exception_handlers(app: FastAPI) -> None:
+    """Bad input is a 422 naming each field and its allowed range; an unknown run a 404; a
+    store whose file was deleted or replaced a 503."""
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
@@ -215,11 +237,13 @@ def create_app(
     async def _unavailable(_: Request, exc: StoreUnavailable) -> JSONResponse:
         return JSONResponse({"detail": str(exc), "message": str(exc)}, status_code=503)
 
+
+def _add_routers(app: FastAPI) -> None:
+    """The routers of `twin.web.routers`, then the Workability page."""
     for module in (routers.registries, routers.runs, routers.sweeps, routers.workability,
                    routers.live):  # fmt: skip
         app.include_router(module.router)
     app.include_router(routers.workability.pages)  # the Workability page
-    return app
 
 
 def _offline_docs(app: FastAPI) -> None:

@@ -27,6 +27,7 @@ from types import FrameType
 from typing import Any
 
 import uvicorn
+from fastapi import FastAPI
 
 from twin.errors import TwinError
 from twin.sim.engine import warm_in_processes
@@ -314,9 +315,43 @@ def serve(
             (`listen`); nothing is started.
     """
     quiet_resource_tracker()
+    access = _checked_access(
+        host, (port, viser_port), token, viewer=viewer, graphics=graphics,
+        allow_hosts=allow_hosts, allow_origins=allow_origins, private=private,
+    )  # fmt: skip
+    with _Held(data_dir, host, port) as held:
+        # the store first: a bad file is one line before seconds of start-up (issue 30)
+        held.store = RunStore(Path(data_dir) / DATABASE, Quota(max_store, max_runs, retain))
+        app, held.startup = _assemble(
+            held.store, access, host, port, viser_port, viewer=viewer, scheduler=scheduler,
+            workers=workers, dashboard=dashboard, run_budget=run_budget, graphics=graphics,
+        )  # fmt: skip
+        held.startup.start()
+        config = uvicorn_config(app, host, port, forwarded_allow_ips=forwarded_allow_ips)
+        _Uvicorn(config, app.state.services.stopping).run(sockets=[held.rest])
+
+
+def _checked_access(
+    host: str,
+    ports: tuple[int, int],
+    token: str | None,
+    *,
+    viewer: bool,
+    graphics: str,
+    allow_hosts: tuple[str, ...],
+    allow_origins: tuple[str, ...],
+    private: bool,
+) -> Access:
+    """`serve`'s option checks, before anything starts: a known `graphics` (with the viewer),
+    a token unless `host` is loopback, then the access policy of `host` on `ports` (which
+    checks the allowed hosts and origins).
+
+    Raises:
+        TwinError: saying which option is wrong and what is allowed.
+    """
     if viewer:
         # Imported here: the scene pulls in viser and the meshes, which REST-only needs not.
-        from twin.web.viewer import check_graphics, start_viewer
+        from twin.web.viewer import check_graphics
 
         check_graphics(graphics)
     if not is_loopback(host) and not token:
@@ -325,63 +360,103 @@ def serve(
             "live session and submit runs. Set TWIN_TOKEN (e.g. TWIN_TOKEN=$(openssl rand -hex "
             "16)) or bind 127.0.0.1"
         )
-    access = Access.for_server(
-        host, (port, viser_port), token=token, allow_hosts=allow_hosts,
+    return Access.for_server(
+        host, ports, token=token, allow_hosts=allow_hosts,
         allow_origins=allow_origins, private=private,
     )  # fmt: skip
-    lock = DataDirLock(data_dir).acquire()  # before anything starts: a second server stops here
-    try:
-        rest = listen(host, port)
-    except TwinError:
-        lock.release()
-        raise
-    previous = signal.getsignal(signal.SIGTERM)
-    main = threading.current_thread() is threading.main_thread()
-    if main:  # PID 1 in a container ignores SIGTERM unless something handles it
-        signal.signal(signal.SIGTERM, _terminate)
-    store: RunStore | None = None
-    startup: _StartUp | None = None
-    try:
-        # the store first: a bad file is one line before seconds of start-up (issue 30)
-        store = RunStore(Path(data_dir) / DATABASE, Quota(max_store, max_runs, retain))
-        warmup = Warmup()
-        page = WarmingPage(warmup, host, viser_port) if viewer else None
-        if page is not None:
-            viser_port = page.port  # the viewer takes it when the page closes
-            access = dataclasses.replace(access, ports=frozenset({port, viser_port}))
-        sweeps = SweepRunner(store)  # the REST app's, and the viewer's Operability folder's
-        app = create_app(
-            None,
-            store,
-            access=access,
-            jobs=JobRunner(store, budget=run_budget),
-            sweeps=sweeps,
-            viewer_port=viser_port if viewer else None,
-            warmup=warmup,
-        )
-        print(f"twin: landing page and REST API {url(host, port)}  (docs: {url(host, port)}docs)")
-        if viewer:
-            print(f"twin: 3D twin {url(host, viser_port)}")
-        print(f"twin: runs stored in {store.path}", flush=True)
-        startup = _StartUp(
-            app.state.services, warmup, page,
-            executor=lambda: Executor.start(scheduler, n_workers=workers, dashboard=dashboard,
-                                            nice=WORKER_NICE),
-            viewer=None if page is None else lambda session: start_viewer(
-                session, host, viser_port, access=dataclasses.replace(
-                    access, ports=frozenset({port})),  # and its own actual port's
-                store=store, sweeps=sweeps, api_url=url(host, port), graphics=graphics,
-            ),
-        )  # fmt: skip
-        startup.start()
-        config = uvicorn_config(app, host, port, forwarded_allow_ips=forwarded_allow_ips)
-        _Uvicorn(config, app.state.services.stopping).run(sockets=[rest])
-    finally:
-        rest.close()
-        if startup is not None:
-            startup.stop()
-        if store is not None:
-            store.close()
-        lock.release()
-        if main:
-            signal.signal(signal.SIGTERM, previous)
+
+
+class _Held:
+    """What `serve` holds from before start-up until after shutdown: the data directory's lock,
+    the REST port's socket and, on the main thread, SIGTERM (raising `Terminated`); then the
+    run store and the start-up, once `serve` has made them. Leaving the `with` block closes
+    them in this order: the socket, the start-up (viewer, session, executor: newest first),
+    the store, the lock, and SIGTERM goes back to its previous handler."""
+
+    def __init__(self, data_dir: str | Path, host: str, port: int) -> None:
+        self.data_dir, self.host, self.port = data_dir, host, port
+        self.store: RunStore | None = None
+        self.startup: _StartUp | None = None
+
+    def __enter__(self) -> _Held:
+        """Lock the data directory, bind the port, handle SIGTERM.
+
+        Raises:
+            TwinError: the data directory is held by another server (`DataDirBusy`) or the
+                port cannot be bound (`listen`); nothing is left held.
+        """
+        # before anything starts: a second server stops here
+        self.lock = DataDirLock(self.data_dir).acquire()
+        try:
+            self.rest = listen(self.host, self.port)
+        except TwinError:
+            self.lock.release()
+            raise
+        self.previous = signal.getsignal(signal.SIGTERM)
+        self.main = threading.current_thread() is threading.main_thread()
+        if self.main:  # PID 1 in a container ignores SIGTERM unless something handles it
+            signal.signal(signal.SIGTERM, _terminate)
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        """Close all that is held (an exception on the way in goes on)."""
+        self.rest.close()
+        if self.startup is not None:
+            self.startup.stop()
+        if self.store is not None:
+            self.store.close()
+        self.lock.release()
+        if self.main:
+            signal.signal(signal.SIGTERM, self.previous)
+
+
+def _assemble(
+    store: RunStore,
+    access: Access,
+    host: str,
+    port: int,
+    viser_port: int,
+    *,
+    viewer: bool,
+    scheduler: str | None,
+    workers: int | None,
+    dashboard: bool,
+    run_budget: float,
+    graphics: str,
+) -> tuple[FastAPI, _StartUp]:
+    """`serve`'s start-up once the store is open: the warming page (with the viewer, on its
+    port, which the viewer takes when the page closes), the REST app (answering at once), the
+    addresses printed, and the start-up thread, not yet started, that builds the executor,
+    the live session and the viewer (`_StartUp`)."""
+    if viewer:
+        from twin.web.viewer import start_viewer
+    warmup = Warmup()
+    page = WarmingPage(warmup, host, viser_port) if viewer else None
+    if page is not None:
+        viser_port = page.port  # the viewer takes it when the page closes
+        access = dataclasses.replace(access, ports=frozenset({port, viser_port}))
+    sweeps = SweepRunner(store)  # the REST app's, and the viewer's Operability folder's
+    app = create_app(
+        None,
+        store,
+        access=access,
+        jobs=JobRunner(store, budget=run_budget),
+        sweeps=sweeps,
+        viewer_port=viser_port if viewer else None,
+        warmup=warmup,
+    )
+    print(f"twin: landing page and REST API {url(host, port)}  (docs: {url(host, port)}docs)")
+    if viewer:
+        print(f"twin: 3D twin {url(host, viser_port)}")
+    print(f"twin: runs stored in {store.path}", flush=True)
+    startup = _StartUp(
+        app.state.services, warmup, page,
+        executor=lambda: Executor.start(scheduler, n_workers=workers, dashboard=dashboard,
+                                        nice=WORKER_NICE),
+        viewer=None if page is None else lambda session: start_viewer(
+            session, host, viser_port, access=dataclasses.replace(
+                access, ports=frozenset({port})),  # and its own actual port's
+            store=store, sweeps=sweeps, api_url=url(host, port), graphics=graphics,
+        ),
+    )  # fmt: skip
+    return app, startup

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from functools import cache
+from typing import Any
 
 import numpy as np
 
@@ -307,22 +308,10 @@ class HybridRunners:
     def __init__(self, main: Callable, qp: Callable) -> None:
         self.main, self.qp = main, qp
 
-    def __call__(
-        self,
-        xs: np.ndarray,
-        targets: np.ndarray,
-        prm: np.ndarray,
-        memory: np.ndarray,
-        const: np.ndarray,
-        dt: float,
-        diag: np.ndarray,
-        faults: np.ndarray,
-        first: int,
-        errors: np.ndarray,
-        tips: np.ndarray,
-    ) -> None:
+    def __call__(self, *arguments: Any) -> None:
+        """One chunk: `run_hybrid`'s arguments (xs, targets, prm, …), prm the third."""
+        prm = arguments[2]
         is_qp = prm[:, P_KIND] == KIND_QP
-        arguments = (xs, targets, prm, memory, const, dt, diag, faults, first, errors, tips)
         if not is_qp.all():
             self.main(*arguments)
         if is_qp.any():
