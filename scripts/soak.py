@@ -71,7 +71,7 @@ def free_port() -> int:
 class Soak:
     """The server under test and what was measured."""
 
-    def __init__(self, folder: Path, workers: int) -> None:
+    def __init__(self, folder: Path, workers: int, worker_nice: int = 0) -> None:
         self.port, self.viser_port = free_port(), free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.data = folder / "data"
@@ -80,6 +80,7 @@ class Soak:
             sys.executable, "-m", "twin.cli", "serve", "--host", "127.0.0.1",
             "--port", str(self.port), "--viser-port", str(self.viser_port),
             "--data-dir", str(self.data), "--workers", str(workers),
+            "--worker-nice", str(worker_nice),
         ]  # fmt: skip
         with self.log_path.open("wb") as log:
             self.process = subprocess.Popen(
@@ -368,7 +369,7 @@ def soak_once(args: argparse.Namespace) -> dict[str, Any]:
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
     resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))  # the slowloris needs its fds
     with tempfile.TemporaryDirectory(prefix="twin-soak-") as folder:
-        soak = Soak(Path(folder), args.workers)
+        soak = Soak(Path(folder), args.workers, args.worker_nice)
         try:
             soak.figures["startup_s"] = round(soak.wait_ready(), 1)
             attacks = [
@@ -506,6 +507,8 @@ def main() -> int:
     parser.add_argument("--slowloris", type=int, help="slow connections (5000; short 500)")
     parser.add_argument("--clients", type=int, default=4, help="mixed-load clients")
     parser.add_argument("--workers", type=int, default=2, help="the server's workers")
+    parser.add_argument("--worker-nice", type=int, default=0,
+                        help="the server's --worker-nice (10: a machine of its own)")  # fmt: skip
     parser.add_argument("--rss-bound", type=int, default=1500,
                         help="[MB] the server process's RSS must stay under it")  # fmt: skip
     parser.add_argument("--json", type=Path, help="write the figures here")

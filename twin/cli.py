@@ -52,6 +52,14 @@ def workers(text: str) -> int:
     return value
 
 
+def niceness(text: str) -> int:
+    """A process niceness, 0-19 (argparse type)."""
+    value = int(text)
+    if not 0 <= value <= 19:
+        raise argparse.ArgumentTypeError(f"{value}: niceness is 0-19")
+    return value
+
+
 def seconds(text: str) -> float:
     """A positive, finite number of seconds, at most an hour (argparse type)."""
     value = float(text)
@@ -169,6 +177,11 @@ def _add_serve_places(serve: argparse.ArgumentParser) -> None:
     serve.add_argument(
         "--workers", type=workers, help="workers of the local cluster (default: the cores)"
     )
+    serve.add_argument(
+        "--worker-nice", type=niceness, default=0, metavar="N",
+        help="niceness 0-19 of the local cluster's workers once warm: batch work yields the "
+        "CPU to the REST server (default 0; 10 on a machine of its own)",
+    )  # fmt: skip
 
 
 def _add_serve_clients(serve: argparse.ArgumentParser) -> None:
@@ -363,6 +376,7 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             max_store=args.max_store,
             max_runs=args.max_runs,
             retain=args.retain,
+            worker_nice=args.worker_nice,
             **({} if args.run_budget is None else {"run_budget": args.run_budget}),
         )
     except (KeyboardInterrupt, Terminated):  # how a server is stopped; serve has cleaned up

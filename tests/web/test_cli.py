@@ -409,3 +409,17 @@ def test_the_resource_tracker_warning_is_silenced_once(monkeypatch: pytest.Monke
     quiet_resource_tracker()
     quiet_resource_tracker()
     assert os.environ["PYTHONWARNINGS"] == f"default,{TRACKER_WARNING}"
+
+
+def test_serve_takes_a_worker_niceness_and_refuses_one_out_of_range(
+    capsys: pytest.CaptureFixture,
+) -> None:
+    """`--worker-nice` defaults to 0 (a niced worker yields to a shared machine's every other
+    process) and takes 0-19; anything else exits 2 naming the range, before starting."""
+    parser = build_parser()
+    assert parser.parse_args(["serve"]).worker_nice == 0
+    assert parser.parse_args(["serve", "--worker-nice", "10"]).worker_nice == 10
+    with pytest.raises(SystemExit) as exited:
+        parser.parse_args(["serve", "--worker-nice", "20"])
+    assert exited.value.code == 2
+    assert "20: niceness is 0-19" in capsys.readouterr().err

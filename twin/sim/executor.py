@@ -51,8 +51,11 @@ PROGRESS_STEPS = 1000
 #: Dask priorities: a REST run goes before the queued chunks of a sweep
 RUN_PRIORITY = 10
 SWEEP_PRIORITY = 0
-#: niceness `twin serve` asks for its LocalCluster's worker processes (`Executor.start(nice=)`,
-#: `os.nice`, 0 … 19; 0: as the server): batch work (runs, sweep chunks, heatmaps) yields the
+#: niceness `twin serve --worker-nice` suggests for its LocalCluster's worker processes
+#: (`Executor.start(nice=)`, `os.nice`, 0 … 19; the default is 0, as the server, because a
+#: niced worker also yields to every other process of a shared machine: with two busy loops
+#: beside it a run took several times longer, and the crash test's runs outlived three restarts
+#: and failed). On a machine of its own: batch work (runs, sweep chunks, heatmaps) yields the
 #: CPU to the process that answers requests, so a busy cluster on a busy machine cannot starve
 #: /api/health (issue 30's soak: health p99 1.3 s at load 12, the server's event loop idle
 #: 86 % of the time: waiting for a core, not working). Workers still take every idle cycle;

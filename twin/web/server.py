@@ -31,7 +31,7 @@ from fastapi import FastAPI
 
 from twin.errors import TwinError
 from twin.sim.engine import warm_in_processes
-from twin.sim.executor import RUN_BUDGET, WORKER_NICE, Executor
+from twin.sim.executor import RUN_BUDGET, Executor
 from twin.sim.heap import freeze_startup
 from twin.sim.live import LiveSession
 from twin.web.access import Access, is_loopback
@@ -272,6 +272,7 @@ def serve(
     max_store: int | None = None,
     max_runs: int | None = None,
     retain: bool = False,
+    worker_nice: int = 0,
 ) -> None:
     """Run the twin until interrupted (Ctrl-C: KeyboardInterrupt; SIGTERM: `Terminated`, each
     raised once all is stopped).
@@ -307,6 +308,8 @@ def serve(
         max_store: [bytes] the store's quota (`twin.web.store.Quota`); None: none.
         max_runs: runs the store may hold; None: no limit.
         retain: when full, delete the oldest finished unpinned results instead of refusing.
+        worker_nice: niceness (0 … 19) of the LocalCluster's workers once warm, so batch work
+            yields the CPU to the front end (`twin.sim.executor.WORKER_NICE`); 0: as the server.
 
     Raises:
         TwinError: `host` is not loopback and there is no token, a short token, a bad
@@ -325,6 +328,7 @@ def serve(
         app, held.startup = _assemble(
             held.store, access, host, port, viser_port, viewer=viewer, scheduler=scheduler,
             workers=workers, dashboard=dashboard, run_budget=run_budget, graphics=graphics,
+            worker_nice=worker_nice,
         )  # fmt: skip
         held.startup.start()
         config = uvicorn_config(app, host, port, forwarded_allow_ips=forwarded_allow_ips)
@@ -423,6 +427,7 @@ def _assemble(
     dashboard: bool,
     run_budget: float,
     graphics: str,
+    worker_nice: int = 0,
 ) -> tuple[FastAPI, _StartUp]:
     """`serve`'s start-up once the store is open: the warming page (with the viewer, on its
     port, which the viewer takes when the page closes), the REST app (answering at once), the
@@ -452,7 +457,7 @@ def _assemble(
     startup = _StartUp(
         app.state.services, warmup, page,
         executor=lambda: Executor.start(scheduler, n_workers=workers, dashboard=dashboard,
-                                        nice=WORKER_NICE),
+                                        nice=worker_nice),
         viewer=None if page is None else lambda session: start_viewer(
             session, host, viser_port, access=dataclasses.replace(
                 access, ports=frozenset({port})),  # and its own actual port's
