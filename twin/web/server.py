@@ -308,8 +308,7 @@ def serve(
         max_store: [bytes] the store's quota (`twin.web.store.Quota`); None: none.
         max_runs: runs the store may hold; None: no limit.
         retain: when full, delete the oldest finished unpinned results instead of refusing.
-        worker_nice: niceness (0 … 19) of the LocalCluster's workers once warm, so batch work
-            yields the CPU to the front end (`twin.sim.executor.WORKER_NICE`); 0: as the server.
+        worker_nice: niceness 0-19 of the LocalCluster's workers once warm (`WORKER_NICE`).
 
     Raises:
         TwinError: `host` is not loopback and there is no token, a short token, a bad
