@@ -7,8 +7,9 @@
   the initial scene; CPU per update is the process's CPU time (simulation, render thread and
   websocket server together) over the render frames drawn in that window.
 - **REST**: `POST /api/runs` of a 60 s scenario (1200 steps, under the synchronous cap, so the
-  answer comes when the run is done: stored, simulated on the server's own run thread — a run
-  of at most `twin.web.jobs.INLINE_MAX_STEPS` steps when that thread is free, else on one of
+  answer comes when the run is done: stored, simulated in the server process on the request's
+  own worker thread (`twin.web.jobs.JobRunner.run_here`) — a run of at most
+  `twin.web.jobs.INLINE_MAX_STEPS` steps when no other short run is in hand, else on one of
   two run workers, processes of the server's executor, as `twin serve` starts them — its
   result stored and read back)
   against uvicorn in a thread, from C concurrent httpx clients in threads; p50 and p99

@@ -9,7 +9,9 @@ its own process group and data directory) is driven, all at once, by:
 
 - **mixed load** from 127.0.0.1: runs of 5-60 s submitted, listed, read back, exported (CSV
   and JSON, part of them selected with `every`), some cancelled and deleted; small sweeps;
-- **viewers**: `--viewers` websocket clients of the 3D viewer that read every message;
+- **viewers**: `--viewers` websocket clients of the 3D viewer that announce themselves as a
+  browser does (its camera: the render loop then draws for them) and read every frame, in a
+  process of their own;
 - **slowloris** from 127.0.0.2: `--slowloris` connections, each sending a header byte a
   second and never finishing its request, opened again as soon as the server closes them;
 - **the heatmap attack**: a sweep of 5,000 headings (must be refused, 422) and one at the
@@ -204,26 +206,62 @@ def mixed_load(soak: Soak, seed: int) -> None:
             soak.stop.wait(rng.uniform(0.05, 0.3))
 
 
-async def _viewer(soak: Soak, index: int) -> None:
+def _camera_message() -> bytes:
+    """What a browser sends once its page has drawn: its camera. viser then counts it a
+    browser, the viewer builds its panel, and the render loop draws `FPS` frames a second for
+    it; a client that never sends it gets the scene once and then nothing (issue 30 item 7)."""
+    import msgspec
+
+    from twin.web.viewer.viser_adapter import browser_message
+
+    return msgspec.msgpack.encode(browser_message(
+        "ViewerCameraMessage", wxyz=(1.0, 0.0, 0.0, 0.0), position=(3.0, 3.0, 3.0), fov=1.3,
+        near=0.01, far=1000.0, image_height=600, image_width=800, look_at=(0.0, 0.0, 0.0),
+        up_direction=(0.0, 0.0, 1.0),
+    ).as_serializable_dict())  # fmt: skip
+
+
+async def _viewer(port: int, index: int, camera: bytes, stop: Any, counts: dict[str, int]) -> None:
     import viser
     import websockets
 
     protocol = websockets.Subprotocol(f"viser-v{viser.__version__}")
-    url = f"ws://127.0.0.1:{soak.viser_port}"
-    while not soak.stop.is_set():
+    url = f"ws://127.0.0.1:{port}"
+    while not stop.is_set():
         try:
             async with websockets.connect(url, subprotocols=[protocol], max_size=None,
                                           open_timeout=60) as ws:  # fmt: skip
-                with soak.lock:
-                    soak.ws_connected += 1
-                while not soak.stop.is_set():
+                counts["connected"] += 1
+                await ws.send(camera)
+                while not stop.is_set():
                     try:
                         await asyncio.wait_for(ws.recv(), 1.0)
-                        soak.ws_messages += 1
+                        counts["messages"] += 1
                     except TimeoutError:
                         continue
         except Exception:  # refused, closed: connect again, as a browser tab would
             await asyncio.sleep(1.0 + index % 5)
+
+
+def viewers_process(
+    port: int, viewers: int, camera: bytes, stop: Any, connected: Any, messages: Any
+) -> None:
+    """The viewers, in a process of their own (as the slowloris): reading every frame of the
+    render loop, they must not slow the soak's own health polls (one GIL), only the server.
+    `camera`: `_camera_message()`, built by the soak (this process need not import twin)."""
+    counts = {"connected": 0, "messages": 0}
+
+    async def report() -> None:
+        while not stop.is_set():
+            connected.value, messages.value = counts["connected"], counts["messages"]
+            await asyncio.sleep(0.5)
+        connected.value, messages.value = counts["connected"], counts["messages"]
+
+    async def main() -> None:
+        clients = (_viewer(port, i, camera, stop, counts) for i in range(viewers))
+        await asyncio.gather(report(), *clients, return_exceptions=True)
+
+    asyncio.run(main())
 
 
 async def _slow_connection(port: int, stop: Any, counts: dict[str, int]) -> None:
@@ -267,13 +305,6 @@ def slowloris_process(port: int, connections: int, stop: Any, opened: Any, close
 
     asyncio.run(main())
     opened.value, closed.value = counts["opened"], counts["closed"]
-
-
-def run_async(soak: Soak, coroutines: list[Any]) -> None:
-    async def main() -> None:
-        await asyncio.gather(*coroutines, return_exceptions=True)
-
-    asyncio.run(main())
 
 
 def heatmap_attack(soak: Soak) -> None:
@@ -382,11 +413,14 @@ def soak_once(args: argparse.Namespace) -> dict[str, Any]:
                 *(threading.Thread(target=mixed_load, args=(soak, i), daemon=True)
                   for i in range(args.clients)),
             ]  # fmt: skip
-            viewers = threading.Thread(
-                target=run_async, daemon=True,
-                args=(soak, [_viewer(soak, i) for i in range(args.viewers)]),
-            )  # fmt: skip
             context = multiprocessing.get_context("spawn")
+            viewer_stop = context.Event()
+            connected, messages = context.Value("q", 0), context.Value("q", 0)
+            viewers = context.Process(
+                target=viewers_process, daemon=True,
+                args=(soak.viser_port, args.viewers, _camera_message(), viewer_stop, connected,
+                      messages),
+            )  # fmt: skip
             slow_stop = context.Event()  # the slowloris stops before the rest
             opened, closed = context.Value("q", 0), context.Value("q", 0)
             slowloris = context.Process(
@@ -407,8 +441,10 @@ def soak_once(args: argparse.Namespace) -> dict[str, Any]:
                 thread.join(300)
             soak.figures["load_s"] = round(time.monotonic() - start, 1)
             soak.stop.set()  # the load, the viewers and the health polls stop: then SIGTERM
+            viewer_stop.set()
             for thread in (*threads, viewers):
                 thread.join(10)
+            soak.ws_connected, soak.ws_messages = connected.value, messages.value
             stopped = _sigterm_with_a_sweep_open(soak, args.stretch)
         finally:
             soak.stop.set()

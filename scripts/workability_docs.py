@@ -1,7 +1,8 @@
-"""Measure the shipped NDBC record's workability; write docs/workability/ (PNGs, measured.json).
+"""Measure the shipped NDBC record's workability; write PNGs and measured.json to --out.
 
-python scripts/workability_docs.py [--seeds 5] [--every 3] [--out docs/workability]
+python scripts/workability_docs.py [--seeds 5] [--every 3] [--out /tmp/workability/docs_script]
                                    [--data-dir /tmp/twin-cells] [--workers 2]
+                                   [--scheduler in-process|tcp://HOST:PORT]
 
 1. Cells method (linear lookup, the default), every hybrid planner, on the whole record (NDBC
    46097, August 2019, hourly), relative heading fixed at 150° (Scenario's default), then the
@@ -42,14 +43,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--every", type=int, default=3)
-    parser.add_argument("--out", type=Path, default=Path("docs/workability"))
+    parser.add_argument("--out", type=Path, default=Path("/tmp/workability/docs_script"))
     parser.add_argument("--data-dir", type=Path, default=Path("/tmp/twin-cells"))
     parser.add_argument("--workers", type=int, default=2)
+    # in-process: one worker thread, for a busy machine where a local cluster fails to start
+    parser.add_argument("--scheduler", default=None, help="default: a local cluster")
     args = parser.parse_args()
     record = read_record(asset_path("site", "46097h2019_08.txt"))
     measured: dict = {"record": record.summary(), "seeds": args.seeds}
     args.out.mkdir(parents=True, exist_ok=True)
-    with Executor.start(n_workers=args.workers) as executor:
+    with Executor.start(args.scheduler, n_workers=args.workers) as executor:
         common = {"seeds": args.seeds, "window_hours": [6.0, 12.0], "shift": None}
         for name, heading in (
             ("fixed150", {"kind": "fixed", "headings": [150.0]}),

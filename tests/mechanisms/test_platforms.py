@@ -12,7 +12,7 @@ import pytest
 
 from twin.mechanisms import Upr4, Upu3Up
 from twin.mechanisms import platforms as lanes
-from twin.mechanisms.newton import least_squares_lane, solve3_lane
+from twin.mechanisms.newton import least_squares_lane, solve_lane
 
 MECHANISMS = {"upu3up": Upu3Up, "upr4": Upr4}
 
@@ -108,17 +108,17 @@ def test_compiled_batch_and_plain_python_agree(name: str, rng: np.random.Generat
 
 
 def test_solves_match_lapack(rng: np.random.Generator) -> None:
-    """`solve3_lane` is `np.linalg.solve`, `least_squares_lane` (4 × 3) `np.linalg.lstsq`, to
+    """`solve_lane` (3 × 3) is `np.linalg.solve`, `least_squares_lane` (4 × 3) `np.linalg.lstsq`, to
     rounding; a singular system is refused."""
     for _ in range(50):
         A, b = rng.normal(size=(3, 3)), rng.normal(size=3)
         x = np.zeros(3)
-        assert solve3_lane(np.c_[A, b], x)
+        assert solve_lane(np.c_[A, b], x)
         np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-9, atol=1e-12)
         J, r = rng.normal(size=(4, 3)), rng.normal(size=4)
         assert least_squares_lane(J, r, 4, np.zeros((3, 4)), x)
         np.testing.assert_allclose(x, np.linalg.lstsq(J, r, rcond=None)[0], rtol=1e-9, atol=1e-12)
     singular = np.array([[1.0, 2.0, 3.0, 1.0], [2.0, 4.0, 6.0, 2.0], [0.0, 0.0, 1.0, 3.0]])
     x = np.full(3, 7.0)
-    assert not solve3_lane(singular, x)
+    assert not solve_lane(singular, x)
     np.testing.assert_array_equal(x, 7.0)  # untouched

@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 
 from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms.legs import legs
-from twin.mechanisms.upr4 import LIMIT_NAMES, Upr4
+from twin.mechanisms.upr4 import FRAME, LIMIT_NAMES, Upr4, platform_transform
 from twin.spatial import pose_to_transform, rpy_to_matrix
 
 UPR = Upr4()
@@ -74,6 +74,22 @@ def test_platform_pose_is_eq_16_and_closes_the_layout(rng: np.random.Generator) 
     np.testing.assert_allclose(closed, reference_lengths(states), rtol=0, atol=1e-14)
     np.testing.assert_allclose(UPR.layout.base_hinges, BASE)
     np.testing.assert_allclose(UPR.layout.platform_hinges, TOP)
+
+
+def test_platform_transform_is_eqs_15_16_over_a_batch(rng: np.random.Generator) -> None:
+    """`platform_transform` (`upr4_frame_lane` lane by lane): eq (15)'s printed rotation, eq
+    (16)'s origin (0, 0, z) and a homogeneous last row, for a (4, 5) batch broadcast from z
+    (4, 1) against roll and pitch (4, 5), compiled and plain alike."""
+    z = rng.uniform(0.3, 0.8, (4, 1))
+    roll, pitch = rng.uniform(-0.5, 0.5, (2, 4, 5))
+    T = platform_transform(z, roll, pitch)
+    assert T.shape == (4, 5, 4, 4)
+    np.testing.assert_array_equal(T, FRAME([z, roll, pitch], [], [(4, 4)], plain=True)[0])
+    for index in np.ndindex(4, 5):
+        want = np.eye(4)
+        want[:3, :3] = eq_15(roll[index], pitch[index])
+        want[2, 3] = z[index[0], 0]
+        np.testing.assert_allclose(T[index], want, rtol=0, atol=1e-15)
 
 
 @pytest.mark.parametrize("u_limit", [30 * DEG, 45 * DEG])  # SPEC erratum 10: both printed

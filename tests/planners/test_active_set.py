@@ -16,6 +16,8 @@ from twin.planners.active_set import (
     INFEASIBLE,
     NOT_CONVEX,
     OPTIMAL,
+    cholesky,
+    equality_minimum,
     qp_work,
     solve_dense_qp,
 )
@@ -170,3 +172,35 @@ def test_a_redundant_equality_is_skipped(dependent: bool) -> None:
         assert status == OPTIMAL and x.sum() == pytest.approx(0.3, abs=1e-12)
     else:
         assert status == INFEASIBLE
+
+
+def test_the_equalities_shortcut_is_their_kkt_point(rng: np.random.Generator) -> None:
+    """`equality_minimum` (the step where only the equalities bind) gives the minimum on the
+    equalities alone, the KKT system's solution [H Aₑᵀ; Aₑ 0] [x; λ] = [−f; b], to 1e-9; it
+    leaves an equality nearly a combination of the others to the method, which still meets it."""
+    n, m = 9, 18
+    for _ in range(50):
+        M = rng.normal(size=(n, n))
+        H = M @ M.T + 1e-2 * np.eye(n)
+        f, A, b = rng.normal(size=n), rng.normal(size=(m, n)), rng.normal(size=m)
+        kkt = np.block([[H, A[:3].T], [A[:3], np.zeros((3, 3))]])
+        want = np.linalg.solve(kkt, np.r_[-f, b[:3]])[:n]
+        work, x = qp_work(n, m), np.empty(n)
+        assert cholesky(H, n, work[1], work[7])
+        assert equality_minimum(A, f, b, n, 3, work, x)
+        np.testing.assert_allclose(x, want, rtol=0, atol=1e-9 * (1 + np.abs(want).max()))
+        # the third equality nearly the others' combination: its part outside their span
+        # (in the metric of H) 1e-5 of it, 1e-10 squared: between DEPENDENT_TOL and SHORTCUT_TOL
+        Y = np.linalg.solve(np.linalg.cholesky(H), np.c_[A[:2].T, A[0] - 2 * A[1], A[2]])
+        span = Y[:, :2] @ np.linalg.lstsq(Y[:, :2], Y[:, 3], rcond=None)[0]
+        away = (Y[:, 3] - span) / np.linalg.norm(Y[:, 3] - span)
+        A[2] = A[0] - 2 * A[1] + 1e-5 * np.linalg.norm(Y[:, 2]) * (np.linalg.cholesky(H) @ away)
+        b[:3] = A[:3] @ rng.uniform(-0.1, 0.1, n)  # consistent
+        assert cholesky(H, n, work[1], work[7])
+        assert not equality_minimum(A, f, b, n, 3, work, x)
+        far = np.full(n, 1e3)
+        rows = np.full(m, 1e3)
+        rows[:3] = b[:3]
+        status = solve_dense_qp(H, f, A, -far, far, np.r_[b[:3], -rows[3:]], rows, 3, work, x)
+        assert status == OPTIMAL
+        np.testing.assert_allclose(A[:3] @ x, b[:3], rtol=0, atol=1e-8)

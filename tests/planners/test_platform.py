@@ -16,7 +16,7 @@ from twin.planners import (
     advance_target,
     get_planner,
 )
-from twin.spatial import invert_transform, pose_to_transform, rpy_to_matrix
+from twin.spatial import invert_transform, pose_to_transform, rpy_to_matrix, so3_exp
 
 MODELS = {"upu3up": PlatformModel(Upu3Up()), "upr4": PlatformModel(Upr4())}
 
@@ -93,7 +93,10 @@ def test_ik_lands_on_the_next_target(name: str) -> None:
     lengths = model.leg_lengths(state)
     dt = 0.05
     out = planner.step(lengths, target, dt)
-    expected = model.leg_lengths(model.desired_state(advance_target(target, dt)))
+    ahead = np.array(target.transform)  # the target advanced by its twist, in numpy
+    ahead[:3, :3] = so3_exp(twist[3:] * dt) @ ahead[:3, :3]
+    ahead[:3, 3] += twist[:3] * dt
+    expected = model.leg_lengths(model.desired_state(ahead))
     np.testing.assert_allclose(lengths + out.velocity * dt, expected, rtol=0, atol=1e-12)
     assert out.diagnostics["saturated"] == 0.0
 
@@ -106,6 +109,23 @@ def test_advance_target_rotates_in_the_base_frame() -> None:
     T1 = advance_target(TipTarget(T, twist), 0.5)
     np.testing.assert_allclose(T1[:3, :3], rpy_to_matrix(np.array([0.0, 0.0, 0.5])) @ T[:3, :3])
     np.testing.assert_allclose(T1[:3, 3], T[:3, 3] + [0.1, 0.0, -0.2])
+
+
+def test_advance_target_is_the_rotation_exponential_batched(rng: np.random.Generator) -> None:
+    """A batch (2, 3) of targets advances lane by lane: R(t + dt) = exp([ω dt]×) R by scipy's
+    `expm`, p + ṗ dt, the last row (0, 0, 0, 1)."""
+    from scipy.linalg import expm
+
+    T = pose_to_transform(rng.uniform(-0.5, 0.5, (2, 3, 6)))
+    twist = rng.normal(size=(2, 3, 6))
+    T1 = advance_target(TipTarget(T, twist), 0.05)
+    assert T1.shape == (2, 3, 4, 4)
+    for k in np.ndindex(2, 3):
+        w = twist[k][3:] * 0.05
+        W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+        np.testing.assert_allclose(T1[k][:3, :3], expm(W) @ T[k][:3, :3], atol=1e-14)
+        np.testing.assert_allclose(T1[k][:3, 3], T[k][:3, 3] + twist[k][:3] * 0.05, atol=1e-15)
+        np.testing.assert_array_equal(T1[k][3], [0.0, 0.0, 0.0, 1.0])
 
 
 def test_pid_follows_its_law() -> None:

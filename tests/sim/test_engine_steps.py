@@ -13,8 +13,9 @@ statements (`tests.sim.oracle`), not against a second stepping of the same code:
   then in force, leaves the steps before it alone and changes the run after it; an injected
   planner fault (a NaN target) or a failed base motion holds the run as it says.
 
-The planner's velocity itself is held to the papers' tables and properties on the engine path
-in tests/planners (`engine_step`) and to Pinocchio in tests/sim/test_pinocchio_peer.py.
+The planner's velocity itself is held to the papers' tables and properties in tests/planners
+(the objects' `step` is the engine's step code) and to Pinocchio in
+tests/sim/test_pinocchio_peer.py.
 
 Runs are 3 s at dt = 0.05 (60 steps). The hybrid system starts towards its joint limits in a
 rough sea, so `hold` mode shortens steps and `record` mode passes the limits; the Upr4 starts

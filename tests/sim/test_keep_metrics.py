@@ -4,6 +4,8 @@ the bits of the whole-series reduction, with memory that does not grow with the 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -11,6 +13,7 @@ from twin.errors import TwinError
 from twin.sim import simulate_many
 from twin.sim.engine import Simulation
 from twin.sim.kernels import metrics as kernel
+from twin.sim.lanes import HybridLanes
 from twin.sim.metrics import HybridReduction, hybrid_metrics_lanes
 
 from .kernels.test_metrics_kernel import assert_matches_oracle
@@ -125,3 +128,65 @@ def test_keep_is_checked() -> None:
     simulation.update({"hs": 1.0})  # a sea change is fine
     simulation.run()
     assert simulation.result().metrics["violations"] >= 0
+
+
+def test_hybrid_lanes_keeping_metrics_skip_the_records_pass(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """keep="metrics" on the hybrid system records each sample as it reduces it
+    (`HybridLanes.reduce`): the chunk's records pass (`HybridLanes.records`) never runs, and
+    the newest sample the history keeps is the one a kept series ends with."""
+    calls = {"records": 0, "reduce": 0}
+    records, reduce = HybridLanes.records, HybridLanes.reduce
+
+    def counted(name: str, method: Any) -> Any:
+        def call(*args: Any, **kwargs: Any) -> Any:
+            calls[name] += 1
+            return method(*args, **kwargs)
+
+        return call
+
+    monkeypatch.setattr(HybridLanes, "records", counted("records", records))
+    monkeypatch.setattr(HybridLanes, "reduce", counted("reduce", reduce))
+    scenarios = [{"sea_state": 6, "seed": s, **lane} for s, lane in enumerate(LANES)]
+    reduced = Simulation(scenarios, keep="metrics")
+    while not reduced.done:
+        reduced.advance(23)
+    assert calls == {"records": 0, "reduce": -(-reduced.n_steps // 23)}
+    full = Simulation(scenarios)
+    full.run()
+    for lane in range(len(LANES)):
+        got, want = reduced.latest(lane), full.latest(lane)
+        assert got.keys() == want.keys()
+        for key, values in want.items():
+            np.testing.assert_array_equal(got[key], values, err_msg=key)
+
+
+def test_a_non_finite_record_is_held_as_a_kept_series_holds_it() -> None:
+    """A target row that turns a sample's record non-finite (its tip error), or a state that is
+    not finite: the reduced lanes fall back to recording the chunk and holding the sample
+    (`hold_nonfinite`), so their metrics and fault counts still equal a kept series'."""
+
+    def spoil(simulation: Simulation, row: int, column: int) -> None:
+        run = simulation.lanes.run
+
+        def spoiled(*args: Any, **kwargs: Any) -> None:
+            run(*args, **kwargs)
+            xs, targets = args[1], args[2]
+            if simulation.k == 20:  # the chunk of steps 21 …
+                (xs if column < 0 else targets)[1, row, abs(column)] = np.nan
+
+        simulation.lanes.run = spoiled  # type: ignore[method-assign]
+
+    scenarios = [{"sea_state": 6, "seed": s, **lane} for s, lane in enumerate(LANES[:3])]
+    for column in (0, -8):  # a target's rotation; a state's d3
+        full = Simulation(scenarios)
+        reduced = Simulation(scenarios, keep="metrics")
+        for simulation in (full, reduced):
+            spoil(simulation, 4, column)
+            for size in (20, 30, 1000):
+                simulation.advance(size)
+        want, got = full.results(), reduced.results()
+        assert want[1].metrics["fault_counts"]["planner"] > 0  # the sample was held
+        for g, w in zip(got, want, strict=True):
+            assert g.metrics == w.metrics

@@ -1,12 +1,13 @@
 """`twin.sim.engine.warm` leaves nothing to compile: after it, a run of any planner on any
-mechanism, one lane or several, compiles no kernel (a server that says it is ready is)."""
+mechanism, one lane or several, keeping its series or its metrics alone, compiles no kernel
+(a server that says it is ready is)."""
 
 from __future__ import annotations
 
 import pytest
 
 from twin.planners.registry import PLANNERS
-from twin.sim.engine import Simulation, warm
+from twin.sim.engine import KEEPS, Simulation, warm
 
 numba = pytest.importorskip("numba")
 
@@ -32,7 +33,8 @@ def test_after_warm_no_run_compiles_a_kernel() -> None:
             for mechanism in spec.mechanisms:
                 lane = {"mechanism": mechanism, "planner": name, "duration": 0.1}
                 for lanes in ([lane], [lane, {**lane, "seed": 1}]):  # serial and parallel
-                    Simulation(lanes).run()
-                    runs.append((mechanism, name, len(lanes)))
-    assert len(runs) >= 2 * len(PLANNERS)  # every planner ran
+                    for keep in KEEPS:  # a series kept, or the metrics reduced as stepped
+                        Simulation(lanes, keep=keep).run()
+                        runs.append((mechanism, name, len(lanes), keep))
+    assert len(runs) >= 4 * len(PLANNERS)  # every planner ran, both ways
     assert compiled == [], f"kernels compiled after warm(): {compiled}"

@@ -162,3 +162,115 @@ def test_a_short_run_the_engine_refuses_raises_as_on_the_executor(
         assert store.get(run.id).status == "failed"
     finally:
         jobs.shutdown()
+
+
+def test_run_here_runs_on_the_calling_thread_with_the_executors_outcome(
+    store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A request's worker thread runs its short run itself (no hand-off to the runner's
+    thread): resolved when `run_here` returns, no executor task, and the same stored run as
+    the executor's."""
+    threads: list[threading.Thread] = []
+    real = twin.web.jobs.run_scenario
+
+    def recorded(*args: Any, **kwargs: Any) -> Any:
+        threads.append(threading.current_thread())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(twin.web.jobs, "run_scenario", recorded)
+    scenario = Scenario(**SHORT)
+    jobs = _runner(store, executor)
+    try:
+        executor.submitted.clear()
+        done = jobs.run_here(store.create(scenario).id)
+        assert done.done() and threads == [threading.current_thread()]
+        assert executor.submitted == [] and jobs.pending() == 0
+        here = done.result()
+    finally:
+        jobs.shutdown()
+    remote = _runner(store, executor, inline_max_steps=0)
+    try:
+        there = remote.run_here(store.create(scenario).id).result(timeout=120)
+        assert executor.submitted == ["run_scenario"]  # too long to run here: the executor
+    finally:
+        remote.shutdown()
+    assert here.status == there.status == "done" and here.metrics == there.metrics
+    assert here == store.get(here.id)  # the answer is the run as stored
+    a, b = store.result(here.id), store.result(there.id)
+    for key in a.series:
+        assert (a.series[key] == b.series[key]).all(), key
+
+
+def test_run_here_while_a_run_is_in_hand_goes_to_the_executor(
+    store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The slot is one for both threads: a request's run while the runner's thread holds one
+    goes to the executor instead of waiting, and both finish."""
+    entered, release = threading.Event(), threading.Event()
+    real = twin.web.jobs.run_scenario
+
+    def held(*args: Any, **kwargs: Any) -> Any:
+        if not entered.is_set():
+            entered.set()
+            release.wait(60)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(twin.web.jobs, "run_scenario", held)
+    jobs = _runner(store, executor)
+    try:
+        executor.submitted.clear()
+        first = jobs.submit(store.create(Scenario(**SHORT)).id)
+        assert entered.wait(60)
+        second = jobs.run_here(store.create(Scenario(**SHORT)).id)
+        assert second.result(timeout=120).status == "done"
+        assert executor.submitted == ["run_scenario"] and not first.done()
+        release.set()
+        assert first.result(timeout=120).status == "done"
+    finally:
+        release.set()
+        jobs.shutdown()
+
+
+def test_cancelling_a_run_running_here_drops_its_outcome(
+    store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A cancel while a request's thread runs the run: the future is cancelled, the run stays
+    cancelled in the store, and the slot is free again."""
+    entered, release = threading.Event(), threading.Event()
+    real = twin.web.jobs.run_scenario
+
+    def held(*args: Any, **kwargs: Any) -> Any:
+        entered.set()
+        release.wait(60)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(twin.web.jobs, "run_scenario", held)
+    jobs = _runner(store, executor)
+    run = store.create(Scenario(**SHORT))
+    outcome: list[Any] = []
+    request = threading.Thread(target=lambda: outcome.append(jobs.run_here(run.id)))
+    try:
+        request.start()
+        assert entered.wait(60) and store.get(run.id).status == "running"
+        assert jobs.cancel(run.id)
+        release.set()
+        request.join(60)
+        assert outcome and outcome[0].cancelled()
+        stored = store.get(run.id)
+        assert stored.status == "failed" and stored.error is not None
+        assert stored.error.startswith("cancelled") and stored.metrics is None
+        assert jobs.pending() == 0
+        executor.submitted.clear()
+        assert jobs.run_here(store.create(Scenario(**SHORT)).id).done()  # the slot is free
+        assert executor.submitted == []
+    finally:
+        release.set()
+        jobs.shutdown()
+
+
+def test_run_here_before_start_says_so_as_submit_does(store: RunStore) -> None:
+    """Not started: as `submit`, it says so (and runs nothing)."""
+    run = store.create(Scenario(**SHORT))
+    with pytest.raises(RuntimeError, match="start"):
+        JobRunner(store).run_here(run.id)
+    assert store.get(run.id).status == "queued"

@@ -74,21 +74,22 @@ def legs(layout: LegLayout, transform: np.ndarray) -> LegState:
     by `leg_vectors_lane` lane by lane (`LEGS`)."""
     n = layout.n_legs
     base, platform = layout.base_hinges.reshape(-1), layout.platform_hinges.reshape(-1)
-    vectors, lengths = LEGS([transform], [base, platform], [(n, 3), (n,)])
-    arms = (transform[..., None, :3, :3] @ layout.platform_hinges[..., None])[..., 0]  # ᴮR_P ᴾP_i
+    vectors, lengths, arms = LEGS([transform], [base, platform], [(n, 3), (n,), (n, 3)])
     return LegState(vectors, lengths, vectors / lengths[..., None], arms)
 
 
 def twist_jacobian(state: LegState) -> np.ndarray:
     """J with l̇ = J [v_O; ω], v_O the platform-origin velocity and ω the angular velocity,
-    both in the base frame; rows [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ], (..., n, 6).
+    both in the base frame; rows [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ], (..., n, 6), by
+    `leg_twist_row_lane` leg by leg (`TWIST`) from the state's arms, vectors and lengths.
 
     seed 000 eq (8) prints the moment arm as ᴮP_i, which is right for the spatial twist
     (velocity of the body point at the base origin); for the origin velocity it is the
     arm ᴮR_P ᴾP_i. The two differ by a unit-determinant shear, so manipulability is the
     same (docs/decisions.md).
     """
-    return np.concatenate([state.units, np.cross(state.arms, state.units)], -1)
+    n = state.lengths.shape[-1]
+    return TWIST([state.arms, state.vectors, state.lengths], [], [(n, 6)])[0]
 
 
 def universal_frames(home_units: np.ndarray) -> np.ndarray:
@@ -173,16 +174,69 @@ def leg_vectors_lane(
         lengths_out[i] = math.sqrt(s)
 
 
+@register_inline
+def leg_arm_lane(R: np.ndarray, platform: np.ndarray, i: int) -> tuple[float, float, float]:
+    """The arm ᴮR_P ᴾP_i [m] of leg i, platform origin → hinge in B (the first term of seed 000 eqs
+    (4)-(5)); R (3, 3) ᴮR_P, platform (3n,) ᴾP_i row-major [m]."""
+    h0, h1, h2 = platform[3 * i], platform[3 * i + 1], platform[3 * i + 2]
+    return (
+        R[0, 0] * h0 + R[0, 1] * h1 + R[0, 2] * h2,
+        R[1, 0] * h0 + R[1, 1] * h1 + R[1, 2] * h2,
+        R[2, 0] * h0 + R[2, 1] * h1 + R[2, 2] * h2,
+    )
+
+
+@register_inline
+def leg_twist_row_lane(
+    a0: float, a1: float, a2: float, v0: float, v1: float, v2: float, length: float
+) -> tuple[float, float, float, float, float, float]:
+    """The leg's row [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ] of the twist Jacobian (seed 000 eq (8) with
+    the arm of `twist_jacobian`), n_i = l_i / |l_i|, as six floats [-, m].
+
+    Every leg Jacobian of the package is built from this row: `twist_jacobian`,
+    `manipulability_lane`, `twin.mechanisms.stewart.stewart_kinematics_lane` (Euler rates)
+    and `twin.mechanisms.platforms.platform_kinematics` (the small platforms' state rates).
+
+    Args:
+        a0, a1, a2: the arm ᴮR_P ᴾP_i [m] in B (`leg_arm_lane`).
+        v0, v1, v2: the leg l_i [m] in B (`leg_vectors_lane`); length: |l_i| [m].
+    """
+    inverse = 1.0 / length  # one division, three multiplications
+    n0, n1, n2 = v0 * inverse, v1 * inverse, v2 * inverse
+    return n0, n1, n2, a1 * n2 - a2 * n1, a2 * n0 - a0 * n2, a0 * n1 - a1 * n0
+
+
 def _legs_batch(
-    T: np.ndarray, base: np.ndarray, platform: np.ndarray, vectors: np.ndarray, lengths: np.ndarray
+    T: np.ndarray,
+    base: np.ndarray,
+    platform: np.ndarray,
+    vectors: np.ndarray,
+    lengths: np.ndarray,
+    arms: np.ndarray,
 ) -> None:
-    """`leg_vectors_lane` over transforms T (N, 4, 4) into vectors (N, n, 3), lengths (N, n)."""
+    """`leg_vectors_lane` and `leg_arm_lane` over transforms T (N, 4, 4) into vectors
+    (N, n, 3), lengths (N, n) and arms (N, n, 3)."""
     for k in range(T.shape[0]):
         leg_vectors_lane(T[k, :3, :3], T[k, :3, 3], base, platform, vectors[k], lengths[k])
+        for i in range(lengths.shape[1]):
+            arms[k, i, 0], arms[k, i, 1], arms[k, i, 2] = leg_arm_lane(T[k, :3, :3], platform, i)
+
+
+def _twist_batch(arms: np.ndarray, vectors: np.ndarray, lengths: np.ndarray, J: np.ndarray) -> None:
+    """`leg_twist_row_lane` of arms (N, n, 3), vectors (N, n, 3), lengths (N, n) into J
+    (N, n, 6)."""
+    for k in range(lengths.shape[0]):
+        for i in range(lengths.shape[1]):
+            a, v = arms[k, i], vectors[k, i]
+            row = leg_twist_row_lane(a[0], a[1], a[2], v[0], v[1], v[2], lengths[k, i])
+            for j in range(6):
+                J[k, i, j] = row[j]
 
 
 #: the legs of a batch of poses, lane by lane: what `legs` calls
 LEGS = LaneBatch(_legs_batch, cores=(2,))
+#: the twist Jacobians of a batch of leg states: what `twist_jacobian` calls
+TWIST = LaneBatch(_twist_batch, cores=(2, 2, 1))
 
 
 @register_inline
@@ -190,7 +244,7 @@ def manipulability_lane(
     R: np.ndarray, vectors: np.ndarray, lengths: np.ndarray, platform: np.ndarray, J: np.ndarray
 ) -> float:
     """Yoshikawa's sqrt(det(J Jᵀ)) = |det J| [-] of the six-leg Jacobian J (6, 6), rows
-    [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ] (`twist_jacobian`; seed 004 §3.1 b, SPEC erratum 7), by
+    [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ] (`leg_twist_row_lane`; seed 004 §3.1 b, SPEC erratum 7), by
     Gaussian elimination with partial pivoting.
 
     Args:
@@ -199,14 +253,11 @@ def manipulability_lane(
         J: (6, 6) scratch (the caller's, allocated once: numba puts arrays on the heap).
     """
     for i in range(6):
-        h0, h1, h2 = platform[3 * i], platform[3 * i + 1], platform[3 * i + 2]
-        a0 = R[0, 0] * h0 + R[0, 1] * h1 + R[0, 2] * h2
-        a1 = R[1, 0] * h0 + R[1, 1] * h1 + R[1, 2] * h2
-        a2 = R[2, 0] * h0 + R[2, 1] * h1 + R[2, 2] * h2
-        inverse = 1.0 / lengths[i]  # one division, three multiplications
-        n0, n1, n2 = vectors[i, 0] * inverse, vectors[i, 1] * inverse, vectors[i, 2] * inverse
-        J[i, 0], J[i, 1], J[i, 2] = n0, n1, n2
-        J[i, 3], J[i, 4], J[i, 5] = a1 * n2 - a2 * n1, a2 * n0 - a0 * n2, a0 * n1 - a1 * n0
+        a0, a1, a2 = leg_arm_lane(R, platform, i)
+        v0, v1, v2 = vectors[i, 0], vectors[i, 1], vectors[i, 2]
+        J[i, 0], J[i, 1], J[i, 2], J[i, 3], J[i, 4], J[i, 5] = leg_twist_row_lane(
+            a0, a1, a2, v0, v1, v2, lengths[i]
+        )
     det = 1.0
     for j in range(6):
         pivot = j

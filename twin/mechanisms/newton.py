@@ -1,13 +1,18 @@
-"""Newton-Raphson forward kinematics shared by the three parallel mechanisms.
+"""Newton-Raphson forward kinematics shared by the three parallel mechanisms, one lane at a time.
 
 Seed 000 (Stewart), seed 001 eqs (20)-(24) (3UPU_UP) and the 4-UPR all solve the leg equations
 l(x) = L for the state x; with more legs than unknowns (4-UPR) the step is Gauss-Newton's
-least-squares one. Each mechanism wraps this with its own checks and error messages.
+least-squares one. The step, its linear algebra and its stopping test are written once here
+(`newton_step_lane`), as lane functions (floats and small arrays; compiled by numba into the
+kernels and batch loops that call them, `twin.compiled`; plain Python without numba). Each
+mechanism's lane loops them over its own leg equations (`twin.mechanisms.platforms.
+platform_newton`, `twin.mechanisms.stewart.stewart_newton`), which the engine and the objects'
+`forward` both run; the objects wrap the loop's outcome (`NewtonResult`) with their own checks
+and error messages.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,15 +22,22 @@ from twin.compiled import register_jitable
 from twin.errors import TwinError
 from twin.validation import as_array
 
+#: `newton_step_lane`'s outcomes: a step taken (not yet converged), converged (the step taken
+#: too), stopped on a non-finite residual, stopped on a singular J (no step exists)
+STEPPED, CONVERGED, NOT_FINITE, SINGULAR = 0, 1, 2, 3
+
 
 @dataclass(frozen=True)
 class NewtonResult:
-    """Attributes:
-    x: (..., n) the last iterate (after the final step when converged).
-    residual: (..., m) l(x) − L at the last evaluation.
-    step: (..., n) the last step (inf before the first).
-    iterations: steps taken.
-    converged: whether every batch entry met the tolerances.
+    """A batch of Newton-Raphson solves, lane by lane.
+
+    Attributes:
+        x: (..., n) each lane's last iterate (after its final step when it converged).
+        residual: (..., m) l(x) − L at each lane's last evaluation.
+        step: (..., n) each lane's last step.
+        iterations: the most steps a lane took.
+        converged: whether every lane met the tolerances.
+        solved: (...) bool, which lanes met them.
     """
 
     x: np.ndarray
@@ -33,11 +45,22 @@ class NewtonResult:
     step: np.ndarray
     iterations: int
     converged: bool
+    solved: np.ndarray
 
     @property
     def worst(self) -> float:
         """Largest |residual| (inf for NaN)."""
         return float(np.max(np.abs(np.nan_to_num(self.residual, nan=np.inf))))
+
+    @classmethod
+    def of(
+        cls, x: np.ndarray, residual: np.ndarray, step: np.ndarray, outcome: np.ndarray
+    ) -> NewtonResult:
+        """The result of a batch loop's outputs: outcome (..., 2) holds each lane's
+        `newton_step_lane` outcome and its number of steps (floats, as `LaneBatch` gives)."""
+        solved = outcome[..., 0] == CONVERGED
+        iterations = int(np.max(outcome[..., 1], initial=0))
+        return cls(x, residual, step, iterations, bool(np.all(solved)), solved)
 
 
 def start(guess: ArrayLike | None, default: np.ndarray, batch: tuple[int, ...]) -> np.ndarray:
@@ -51,106 +74,100 @@ def start(guess: ArrayLike | None, default: np.ndarray, batch: tuple[int, ...]) 
         raise TwinError(f"guess of shape {guess.shape} does not broadcast to {batch}") from exc
 
 
-def newton(
-    equations: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-    x: np.ndarray,
-    *,
-    tol: float,
-    max_iter: int,
-    step_tol: float | None = None,
-) -> NewtonResult:
-    """Iterate x ← x − Δ with J Δ = r (square) or JᵀJ Δ = Jᵀ r (more equations than unknowns).
-
-    Args:
-        equations: x (..., n) → (residual r = l(x) − L (..., m), Jacobian ∂l/∂x (..., m, n)).
-        x: (..., n) starting iterate (not modified).
-        tol: every |r| must be at most this.
-        max_iter: steps before giving up.
-        step_tol: if set, every |Δ| must be at most this too — where ∂l/∂x is small a tiny
-            residual can hide a larger state error.
-
-    Returns:
-        The result; `converged` False on running out of steps, NaN, or a singular J.
-    """
+def check_tolerances(tol: float, max_iter: int) -> None:
+    """TwinError unless tol > 0 and max_iter ≥ 0 (a `forward`'s arguments)."""
     if not (tol > 0 and max_iter >= 0):
         raise TwinError(f"forward needs tol > 0 and max_iter >= 0, got {tol}, {max_iter}")
-    x = np.array(x, dtype=float)
-    step = np.full(x.shape, np.inf)
-    residual = np.full(x.shape, np.nan)
-    for iteration in range(max_iter + 1):
-        residual, J = equations(x)
-        if not np.all(np.isfinite(residual)):
-            break
-        try:
-            if J.shape[-2] == J.shape[-1]:
-                step = np.linalg.solve(J, residual[..., None])[..., 0]
-            else:
-                Jt = np.swapaxes(J, -1, -2)
-                step = np.linalg.solve(Jt @ J, Jt @ residual[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            break  # singular configuration: no Newton step exists
-        if np.all(np.abs(residual) <= tol) and (
-            step_tol is None or np.all(np.abs(step) <= step_tol)
-        ):
-            return NewtonResult(x - step, residual, step, iteration, True)
-        if iteration == max_iter:
-            break
-        x = x - step
-    return NewtonResult(x, residual, step, iteration, False)
-
-
-# One lane (floats and small arrays; compiled by numba into the kernels and batch loops that
-# call them, `twin.compiled`; plain Python without numba): the Newton step's linear algebra.
 
 
 @register_jitable
-def solve3_lane(M: np.ndarray, x: np.ndarray) -> bool:
-    """Solve the 3 × 3 system of the augmented M (3, 4) = [A | b] into x (3,), destroying M.
+def solve_lane(M: np.ndarray, x: np.ndarray) -> bool:
+    """Solve the n × n system of the augmented M (n, n + 1) = [A | b] into x (n,), destroying M.
 
     Gaussian elimination with partial pivoting (`np.linalg.solve` to rounding); False (x
     untouched) on an exactly zero pivot, where `np.linalg.solve` raises LinAlgError.
     """
-    for c in range(3):
+    n = x.shape[0]
+    for c in range(n):
         pivot = c
-        for r in range(c + 1, 3):
+        for r in range(c + 1, n):
             if abs(M[r, c]) > abs(M[pivot, c]):
                 pivot = r
         if M[pivot, c] == 0.0:
             return False
         if pivot != c:
-            for j in range(4):
+            for j in range(n + 1):
                 M[c, j], M[pivot, j] = M[pivot, j], M[c, j]
-        for r in range(c + 1, 3):
+        for r in range(c + 1, n):
             f = M[r, c] / M[c, c]
-            for j in range(c, 4):
+            for j in range(c, n + 1):
                 M[r, j] = M[r, j] - f * M[c, j]
-    x2 = M[2, 3] / M[2, 2]
-    x1 = (M[1, 3] - M[1, 2] * x2) / M[1, 1]
-    x0 = (M[0, 3] - M[0, 1] * x1 - M[0, 2] * x2) / M[0, 0]
-    x[0], x[1], x[2] = x0, x1, x2
+    for i in range(n - 1, -1, -1):  # back substitution, left to right within a row
+        s = M[i, n]
+        for j in range(i + 1, n):
+            s = s - M[i, j] * M[j, n]
+        M[i, n] = s / M[i, i]
+    for i in range(n):
+        x[i] = M[i, n]
     return True
 
 
 @register_jitable
-def least_squares_lane(J: np.ndarray, r: np.ndarray, n: int, M: np.ndarray, x: np.ndarray) -> bool:
-    """x (3,) minimising |J x − r| for the first n rows of J (≥ n, 3) and r: the solve itself
-    for n = 3, the normal equations JᵀJ x = Jᵀr for n > 3 (`newton`'s Gauss-Newton step;
+def least_squares_lane(J: np.ndarray, r: np.ndarray, m: int, M: np.ndarray, x: np.ndarray) -> bool:
+    """x (n,) minimising |J x − r| for the first m rows of J (≥ m, n) and r: the solve itself
+    for m = n, the normal equations JᵀJ x = Jᵀr for m > n (the Gauss-Newton step;
     `np.linalg.lstsq` to rounding where J has full column rank, a failure where it has not);
-    M (3, 4) scratch. False where the system is singular."""
-    if n == 3:
-        for i in range(3):
-            for j in range(3):
+    M (n, n + 1) scratch. False where the system is singular."""
+    n = x.shape[0]
+    if m == n:
+        for i in range(n):
+            for j in range(n):
                 M[i, j] = J[i, j]
-            M[i, 3] = r[i]
+            M[i, n] = r[i]
     else:
-        for i in range(3):
-            for j in range(3):
+        for i in range(n):
+            for j in range(n):
                 s = 0.0
-                for k in range(n):
+                for k in range(m):
                     s += J[k, i] * J[k, j]
                 M[i, j] = s
             s = 0.0
-            for k in range(n):
+            for k in range(m):
                 s += J[k, i] * r[k]
-            M[i, 3] = s
-    return solve3_lane(M, x)
+            M[i, n] = s
+    return solve_lane(M, x)
+
+
+@register_jitable
+def newton_step_lane(
+    residual: np.ndarray,
+    J: np.ndarray,
+    m: int,
+    tol: float,
+    step_tol: float,
+    M: np.ndarray,
+    step: np.ndarray,
+    x: np.ndarray,
+) -> int:
+    """One Newton-Raphson step x ← x − Δ with J Δ = r (m = n) or JᵀJ Δ = Jᵀr (m > n, Gauss-
+    Newton), and its stopping test; returns the outcome (`STEPPED`, `CONVERGED`, ...).
+
+    Args:
+        residual: (≥ m,) r = l(x) − L at x; J: (≥ m, n) ∂l/∂x there (m equations).
+        tol: every |r_i| must be at most this to converge (inf: no test on r).
+        step_tol: every |Δ_j| must be at most this too (inf: no test on Δ): where ∂l/∂x is
+            small a tiny residual can hide a larger state error.
+        M: (n, n + 1) scratch; step: (n,) Δ written; x: (n,) the iterate, stepped in place
+            unless r is not finite or J singular (then NOT_FINITE, SINGULAR, x untouched).
+    """
+    small = True
+    for i in range(m):
+        if not np.isfinite(residual[i]):
+            return NOT_FINITE
+        small = small and abs(residual[i]) <= tol
+    if not least_squares_lane(J, residual, m, M, step):
+        return SINGULAR
+    for j in range(x.shape[0]):
+        small = small and abs(step[j]) <= step_tol
+        x[j] = x[j] - step[j]
+    return CONVERGED if small else STEPPED

@@ -17,9 +17,10 @@ from functools import cache
 
 import numpy as np
 
+from twin.batch import LaneBatch
 from twin.compiled import compile_runner, register_jitable
-from twin.mechanisms.legs import leg_component
-from twin.mechanisms.newton import least_squares_lane
+from twin.mechanisms.legs import leg_arm_lane, leg_component, leg_twist_row_lane
+from twin.mechanisms.newton import CONVERGED, STEPPED, NewtonResult, newton_step_lane
 from twin.spatial import rpy_to_matrix_lane
 
 #: [mm | rad] a Newton-Raphson solution on a state limit may land this far outside it.
@@ -110,9 +111,9 @@ def platform_kinematics(
     ∂l/∂state into J (n, 3) [native/native, native/rad]; R (3, 3), o (3,) scratch.
 
     l_i = |ᴮR_P ᴾP_i + ᴮO_P − ᴮB_i| (`leg_component`; seed 001 eqs (16)-(18), seed 002 eqs
-    (15)-(18)). The Jacobian is the leg twist rows [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ] (`twist_jacobian`)
-    composed with the state-rate map: the Upu3Up's coupled twist (seed 001 eq (24):
-    the top turns about O with ω = α̇ e_x + β̇ Rx(α) e_y), the Upr4's
+    (15)-(18)). The Jacobian is the leg twist rows [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ]
+    (`leg_twist_row_lane`) composed with the state-rate map: the Upu3Up's coupled twist
+    (seed 001 eq (24): the top turns about O with ω = α̇ e_x + β̇ Rx(α) e_y), the Upr4's
     v = ż e_z, ω = E(roll, pitch, 0) (roll̇, pitcḣ, 0) (`Upr4.jacobian`).
     """
     platform_frame(state, g, R, o)
@@ -128,12 +129,8 @@ def platform_kinematics(
         lengths[i] = length
         if not jacobian:
             continue
-        px, py, pz = top[3 * i], top[3 * i + 1], top[3 * i + 2]
-        a0 = R[0, 0] * px + R[0, 1] * py + R[0, 2] * pz  # arm ᴮR_P ᴾP_i
-        a1 = R[1, 0] * px + R[1, 1] * py + R[1, 2] * pz
-        a2 = R[2, 0] * px + R[2, 1] * py + R[2, 2] * pz
-        n0, n1, n2 = v0 / length, v1 / length, v2 / length
-        m0, m1, m2 = a1 * n2 - a2 * n1, a2 * n0 - a0 * n2, a0 * n1 - a1 * n0  # arm × n_i
+        a0, a1, a2 = leg_arm_lane(R, top, i)
+        n0, n1, n2, m0, m1, m2 = leg_twist_row_lane(a0, a1, a2, v0, v1, v2, length)
         if upu:
             c0, c1, c2 = o[0], o[1], o[2]  # O1
             J[i, 0] = n0 * R[0, 2] + n1 * R[1, 2] + n2 * R[2, 2]
@@ -143,6 +140,42 @@ def platform_kinematics(
             J[i, 0] = n2
             J[i, 1] = m0 * ct - m2 * st
             J[i, 2] = m1
+
+
+@register_jitable
+def platform_newton(
+    lengths: np.ndarray,
+    g: np.void,
+    tol: float,
+    max_iter: int,
+    step_tol: float,
+    x: np.ndarray,
+    R: np.ndarray,
+    o: np.ndarray,
+    residual: np.ndarray,
+    J: np.ndarray,
+    M: np.ndarray,
+    step: np.ndarray,
+) -> tuple[int, int]:
+    """Newton-Raphson on l(x) − L from the start x (3,), in place (seed 001 eqs (20)-(24); the
+    Upr4's four limbs a Gauss-Newton least-squares step): at most max_iter + 1 evaluations of
+    `platform_kinematics`, each followed by `newton_step_lane` with tol [native] on the
+    residual and step_tol [native | rad] on the step. Returns (the last step's outcome,
+    `twin.mechanisms.newton.STEPPED` if max_iter ran out; the steps taken before it).
+
+    lengths (n,) [native]; g: a `PLATFORM_GEOMETRY` record; R, o, J (≥ n, 3), M (3, 4):
+    scratch; residual (≥ n,) and step (3,): the last evaluation's, written; x: after the last
+    step taken (the root where converged).
+    """
+    n = g["n_legs"]
+    for iteration in range(max_iter + 1):
+        platform_kinematics(x, g, R, o, residual, J, True)
+        for i in range(n):
+            residual[i] = residual[i] - lengths[i]  # seed 001 eq (20), in lengths
+        outcome = newton_step_lane(residual, J, n, tol, step_tol, M, step, x)
+        if outcome != STEPPED:
+            return outcome, iteration
+    return STEPPED, max_iter
 
 
 @register_jitable
@@ -157,33 +190,17 @@ def upu3up_forward(
     M: np.ndarray,
     step: np.ndarray,
 ) -> bool:
-    """`Upu3Up.forward` on the geometry's envelope, from the start x (3,), in place: Newton-
-    Raphson on l(x) − L (seed 001 eqs (20)-(24)) with `FORWARD_TOL`, `FORWARD_MAX_ITER`;
-    False where `forward` raises: lengths outside the stroke, a non-finite residual, a
-    singular J, no convergence, or a root outside the envelope (± `STATE_SLACK`)."""
+    """`Upu3Up.forward` on the geometry's envelope, from the start x (3,), in place:
+    `platform_newton` with `FORWARD_TOL`, `FORWARD_MAX_ITER`; False where `forward` raises:
+    lengths outside the stroke, a non-finite residual, a singular J, no convergence, or a
+    root outside the envelope (± `STATE_SLACK`)."""
     n = g["n_legs"]
     for i in range(n):  # check_range in Upu3Up.forward
         if not (g["stroke_low"] <= lengths[i] <= g["stroke_high"]):
             return False
-    converged = False
-    for iteration in range(FORWARD_MAX_ITER + 1):  # twin.mechanisms.newton.newton
-        platform_kinematics(x, g, R, o, residual, J, True)
-        small = True
-        for i in range(n):
-            residual[i] = residual[i] - lengths[i]
-            if not np.isfinite(residual[i]):
-                return False
-            small = small and abs(residual[i]) <= FORWARD_TOL
-        if not least_squares_lane(J, residual, n, M, step):
-            return False
-        for j in range(3):
-            x[j] = x[j] - step[j]
-        if small:
-            converged = True
-            break
-        if iteration == FORWARD_MAX_ITER:
-            break
-    if not converged:
+    outcome, _ = platform_newton(lengths, g, FORWARD_TOL, FORWARD_MAX_ITER, np.inf, x, R, o,
+                                 residual, J, M, step)  # fmt: skip
+    if outcome != CONVERGED:
         return False
     for j in range(3):  # Upu3Up._check_state on the envelope
         if x[j] < g["envelope_low"][j] - STATE_SLACK:
@@ -211,30 +228,17 @@ def platform_fit(
     residual (≥ n,), J (≥ n, 3), M (3, 4), step (3,): scratch.
 
     Upu3Up: `upu3up_forward`. Upr4: four limbs for three DOFs, so the least-squares pose,
-    Gauss-Newton on l(x) − L, stopping once every |step| ≤ FIT_TOL, failing on a singular or
-    non-finite step or after FIT_MAX_ITER steps.
+    Gauss-Newton on l(x) − L (`platform_newton` with no residual test), stopping once every
+    |step| ≤ FIT_TOL, failing on a singular J, a non-finite residual or after FIT_MAX_ITER
+    steps.
     """
     for j in range(3):
         x[j] = guess[j]
     if g["mechanism"] == MECHANISM_UPU3UP:
         return upu3up_forward(lengths, g, x, R, o, residual, J, M, step)
-    n = g["n_legs"]
-    for _ in range(FIT_MAX_ITER):
-        platform_kinematics(x, g, R, o, residual, J, True)
-        for i in range(n):
-            residual[i] = residual[i] - lengths[i]
-        if not least_squares_lane(J, residual, n, M, step):
-            return False
-        done = True
-        for j in range(3):
-            if not np.isfinite(step[j]):
-                return False
-        for j in range(3):
-            x[j] = x[j] - step[j]
-            done = done and abs(step[j]) <= FIT_TOL
-        if done:
-            return True
-    return False
+    outcome, _ = platform_newton(lengths, g, np.inf, FIT_MAX_ITER - 1, FIT_TOL, x, R, o,
+                                 residual, J, M, step)  # fmt: skip
+    return outcome == CONVERGED
 
 
 # Batch loops: the objects' vectorised API over the same lane functions, compiled lazily on first
@@ -300,3 +304,61 @@ def fit(
     batch(fit_lanes)(flat, start, geometry, x, ok)
     batch_shape = np.shape(lengths)[:-1]
     return x.reshape(*batch_shape, 3), ok.reshape(batch_shape)
+
+
+def _forward_batch(
+    lengths: np.ndarray,
+    guesses: np.ndarray,
+    geometry: np.ndarray,
+    tol: float,
+    max_iter: int,
+    step_tol: float,
+    x: np.ndarray,
+    residual: np.ndarray,
+    step: np.ndarray,
+    outcome: np.ndarray,
+) -> None:
+    """`platform_newton` of lengths (N, n) from guesses (N, 3) into x (N, 3), the last
+    residual (N, MAX_LEGS) and step (N, 3), and (outcome, steps) (N, 2); geometry (1,)
+    `PLATFORM_GEOMETRY`."""
+    R, o = np.zeros((3, 3)), np.zeros(3)
+    J, M = np.zeros((MAX_LEGS, 3)), np.zeros((3, 4))
+    for k in range(lengths.shape[0]):
+        for j in range(3):
+            x[k, j] = guesses[k, j]
+        for i in range(MAX_LEGS):
+            residual[k, i] = 0.0
+        for j in range(3):
+            step[k, j] = np.inf  # no step taken yet
+        result = platform_newton(lengths[k], geometry[0], tol, max_iter, step_tol, x[k], R, o,
+                                 residual[k], J, M, step[k])  # fmt: skip
+        outcome[k, 0], outcome[k, 1] = result[0], result[1]
+
+
+#: the lane over a batch of lengths: what `Upu3Up.forward` and `Upr4.forward` call
+FORWARD = LaneBatch(_forward_batch, cores=(1, 1))
+
+
+def forward(
+    geometry: np.ndarray,
+    lengths: np.ndarray,
+    guesses: np.ndarray,
+    tol: float,
+    max_iter: int,
+    step_tol: float,
+) -> NewtonResult:
+    """`platform_newton` of actuator lengths (..., n) [native] from guesses (..., 3) (broadcast
+    together), lane by lane, as a `NewtonResult` (residual (..., n)).
+
+    Args:
+        geometry: (1,) `PLATFORM_GEOMETRY`.
+        tol: [native] every |l_i(x) − L_i| at most this; step_tol: [native | rad] every
+            |Δ_j| too (inf: no test on the step).
+        max_iter: Newton steps before giving up.
+    """
+    n = int(geometry[0]["n_legs"])
+    x, residual, step, outcome = FORWARD(
+        [lengths, guesses], [geometry, float(tol), int(max_iter), float(step_tol)],
+        [(3,), (MAX_LEGS,), (3,), (2,)],
+    )  # fmt: skip
+    return NewtonResult.of(x, residual[..., :n], step, outcome)

@@ -12,10 +12,26 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from twin.batch import LaneBatch
+from twin.compiled import register_jitable
 from twin.errors import ConvergenceError, UnreachableError
-from twin.mechanisms.legs import LegLayout, LegState, legs, twist_jacobian
-from twin.mechanisms.newton import newton, start
-from twin.spatial import pose_to_transform, rpy_rate_matrix
+from twin.mechanisms.legs import (
+    LegLayout,
+    LegState,
+    leg_arm_lane,
+    leg_twist_row_lane,
+    leg_vectors_lane,
+    legs,
+    twist_jacobian,
+)
+from twin.mechanisms.newton import (
+    STEPPED,
+    NewtonResult,
+    check_tolerances,
+    newton_step_lane,
+    start,
+)
+from twin.spatial import pose_to_transform, rpy_to_matrix_lane
 from twin.validation import as_array
 
 # [m] Table 1 prints the stroke to the millimetre; the retracted legs of its own geometry are
@@ -29,6 +45,116 @@ def hinge_angles(
     """ϑ_i = offset_i ± asin(d / 2r) (seed 000 eqs (1)-(2)); pairs of hinges a chord d apart."""
     half = np.arcsin(d / (2.0 * r))
     return np.asarray(offsets) + np.asarray(sign) * half
+
+
+# One lane (a single pose; floats and small arrays, compiled by numba into the loops that call
+# them, `twin.compiled`; plain Python without numba): the legs, ∂l/∂pose, forward kinematics.
+
+
+@register_jitable
+def stewart_kinematics_lane(
+    pose: np.ndarray,
+    base: np.ndarray,
+    platform: np.ndarray,
+    R: np.ndarray,
+    vectors: np.ndarray,
+    lengths: np.ndarray,
+    J: np.ndarray,
+) -> None:
+    """Leg lengths l_i [m] of a pose (6,) [m, rad] into lengths (6,) and ∂l/∂pose into J (6, 6)
+    [m/m, m/rad] (`StewartPlatform.pose_jacobian`); R (3, 3) and vectors (6, 3) written (ᴮR_P
+    and the legs, scratch).
+
+    l_i = |ᴮR_P ᴾP_i + ᴮp − ᴮB_i| (seed 000 eqs (3)-(5), `leg_vectors_lane`); the rows
+    [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ] of seed 000 eq (8) (`leg_twist_row_lane`) with the angular part
+    turned to Euler rates, ω = E(rpy) d(rpy)/dt (`twin.spatial.rpy_rate_matrix`).
+
+    Args:
+        base, platform: (18,) ᴮB_i and ᴾP_i row-major [m].
+    """
+    rpy_to_matrix_lane(pose[3], pose[4], pose[5], R)  # seed 000 eq (3)
+    leg_vectors_lane(R, pose, base, platform, vectors, lengths)
+    ct, st = np.cos(pose[4]), np.sin(pose[4])
+    cp, sp = np.cos(pose[5]), np.sin(pose[5])
+    for i in range(6):
+        a0, a1, a2 = leg_arm_lane(R, platform, i)
+        v0, v1, v2 = vectors[i, 0], vectors[i, 1], vectors[i, 2]
+        n0, n1, n2, m0, m1, m2 = leg_twist_row_lane(a0, a1, a2, v0, v1, v2, lengths[i])
+        J[i, 0], J[i, 1], J[i, 2] = n0, n1, n2
+        # (arm × n_i)ᵀ E: E's columns (cψ cθ, sψ cθ, −sθ), (−sψ, cψ, 0), (0, 0, 1)
+        J[i, 3] = m0 * cp * ct + m1 * sp * ct - m2 * st
+        J[i, 4] = -m0 * sp + m1 * cp
+        J[i, 5] = m2
+
+
+@register_jitable
+def stewart_newton(
+    lengths: np.ndarray,
+    base: np.ndarray,
+    platform: np.ndarray,
+    tol: float,
+    max_iter: int,
+    x: np.ndarray,
+    R: np.ndarray,
+    vectors: np.ndarray,
+    residual: np.ndarray,
+    J: np.ndarray,
+    M: np.ndarray,
+    step: np.ndarray,
+) -> tuple[int, int]:
+    """`StewartPlatform.forward` from the start pose x (6,), in place: Newton-Raphson on
+    l(x) − L (lengths (6,) [m]) with `stewart_kinematics_lane` and `newton_step_lane`, at most
+    max_iter + 1 evaluations, tol [m] on the residual. Returns (the last step's outcome,
+    STEPPED if max_iter ran out; the steps taken before it). R, vectors, J (6, 6), M (6, 7):
+    scratch; residual (6,), step (6,): the last evaluation's, written."""
+    for iteration in range(max_iter + 1):
+        stewart_kinematics_lane(x, base, platform, R, vectors, residual, J)
+        for i in range(6):
+            residual[i] = residual[i] - lengths[i]
+        outcome = newton_step_lane(residual, J, 6, tol, np.inf, M, step, x)
+        if outcome != STEPPED:
+            return outcome, iteration
+    return STEPPED, max_iter
+
+
+def _kinematics_batch(
+    poses: np.ndarray, base: np.ndarray, platform: np.ndarray, lengths: np.ndarray, J: np.ndarray
+) -> None:
+    """`stewart_kinematics_lane` of poses (N, 6) into lengths (N, 6) and J (N, 6, 6)."""
+    R, vectors = np.zeros((3, 3)), np.zeros((6, 3))
+    for k in range(poses.shape[0]):
+        stewart_kinematics_lane(poses[k], base, platform, R, vectors, lengths[k], J[k])
+
+
+def _forward_batch(
+    lengths: np.ndarray,
+    guesses: np.ndarray,
+    base: np.ndarray,
+    platform: np.ndarray,
+    tol: float,
+    max_iter: int,
+    x: np.ndarray,
+    residual: np.ndarray,
+    step: np.ndarray,
+    outcome: np.ndarray,
+) -> None:
+    """`stewart_newton` of lengths (N, 6) from guesses (N, 6) into x (N, 6), the last residual
+    and step (N, 6), and (outcome, steps) (N, 2)."""
+    R, vectors = np.zeros((3, 3)), np.zeros((6, 3))
+    J, M = np.zeros((6, 6)), np.zeros((6, 7))
+    for k in range(lengths.shape[0]):
+        for j in range(6):
+            x[k, j] = guesses[k, j]
+            residual[k, j] = 0.0
+            step[k, j] = np.inf  # no step taken yet
+        result = stewart_newton(lengths[k], base, platform, tol, max_iter, x[k], R, vectors,
+                                residual[k], J, M, step[k])  # fmt: skip
+        outcome[k, 0], outcome[k, 1] = result[0], result[1]
+
+
+#: the lanes over a batch: what `pose_jacobian` and `forward` call
+KINEMATICS = LaneBatch(_kinematics_batch, cores=(1,))
+FORWARD = LaneBatch(_forward_batch, cores=(1, 1))
 
 
 @dataclass(frozen=True)
@@ -114,10 +240,10 @@ class StewartPlatform:
         return np.sqrt(np.abs(np.linalg.det(J @ np.swapaxes(J, -1, -2))))
 
     def pose_jacobian(self, pose: ArrayLike) -> np.ndarray:
-        """∂l/∂pose (..., 6, 6) with respect to `[x, y, z, roll, pitch, yaw]` (Euler rates)."""
+        """∂l/∂pose (..., 6, 6) with respect to `[x, y, z, roll, pitch, yaw]` (Euler rates), by
+        `stewart_kinematics_lane` lane by lane."""
         pose = as_array(pose, "pose", (6,))
-        J = self.jacobian(pose)
-        return np.concatenate([J[..., :3], J[..., 3:] @ rpy_rate_matrix(pose[..., 3:])], -1)
+        return KINEMATICS([pose], self._hinges(), [(6,), (6, 6)])[1]
 
     def within_limits(self, lengths: ArrayLike) -> np.ndarray:
         """True where every leg of (..., 6) lengths [m] lies in [leg_min, leg_max]."""
@@ -147,19 +273,28 @@ class StewartPlatform:
         """
         lengths = as_array(lengths, "lengths", (6,))
         self.check_lengths(lengths, "lengths")
+        check_tolerances(tol, max_iter)
         level = np.zeros(lengths.shape)
         level[..., 2] = self.height_for_length(lengths.mean(axis=-1))
-
-        def equations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return self.leg_lengths(x) - lengths, self.pose_jacobian(x)
-
-        result = newton(equations, start(guess, level, lengths.shape), tol=tol, max_iter=max_iter)
+        x, residual, step, outcome = FORWARD(
+            [lengths, start(guess, level, lengths.shape)],
+            [*self._hinges(), float(tol), int(max_iter)],
+            [(6,), (6,), (6,), (2,)],
+        )  # fmt: skip
+        result = NewtonResult.of(x, residual, step, outcome)
         if not result.converged:
             raise ConvergenceError(
                 f"Stewart forward kinematics did not converge in {max_iter} Newton steps "
                 f"(worst leg residual {result.worst:.3g} m > tol {tol:g} m); give a closer `guess`"
             )
         return result.x
+
+    def _hinges(self) -> list[np.ndarray]:
+        """[ᴮB_i (18,), ᴾP_i (18,)] row-major [m], as the lanes take them."""
+        layout = self.layout
+        return [
+            np.array(hinges).reshape(-1) for hinges in (layout.base_hinges, layout.platform_hinges)
+        ]
 
     def height_for_length(self, length: ArrayLike) -> np.ndarray:
         """Height z [m] of the level, centred platform whose six legs all have `length` [m]."""

@@ -23,12 +23,12 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
+from twin.batch import LaneBatch
 from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms import platforms
 from twin.mechanisms.legs import LegLayout, LegState, legs
-from twin.mechanisms.newton import newton, start
-from twin.mechanisms.platforms import MECHANISM_UPR4, PLATFORM_GEOMETRY
-from twin.spatial import pose_to_transform, rpy_rate_matrix
+from twin.mechanisms.newton import check_tolerances, start
+from twin.mechanisms.platforms import MECHANISM_UPR4, PLATFORM_GEOMETRY, upr4_frame_lane
 from twin.validation import as_array, check_range
 
 LIMIT_NAMES = ("stroke_min", "stroke_max", "u_joint", "collision")
@@ -49,9 +49,21 @@ def square(side: float) -> np.ndarray:
 
 
 def platform_transform(z: np.ndarray, roll: np.ndarray, pitch: np.ndarray) -> np.ndarray:
-    """ᴼT_p (..., 4, 4): P = (0, 0, z) (eq (16)), R = Ry(pitch)·Rx(roll) (eq (15))."""
-    o = np.zeros_like(z)
-    return pose_to_transform(np.stack([o, o, z, roll, pitch, o], -1))
+    """ᴼT_p (..., 4, 4) [m]: P = (0, 0, z) (eq (16)), R = Ry(pitch)·Rx(roll) (eq (15)), by
+    `platforms.upr4_frame_lane` lane by lane (`FRAME`); z, roll, pitch (...) [m, rad, rad]
+    broadcast together."""
+    return FRAME([z, roll, pitch], [], [(4, 4)])[0]
+
+
+def _frame_batch(z: np.ndarray, roll: np.ndarray, pitch: np.ndarray, T: np.ndarray) -> None:
+    """`upr4_frame_lane` over states z, roll, pitch (N,) into T (N, 4, 4)."""
+    for k in range(z.shape[0]):
+        upr4_frame_lane(z[k], roll[k], pitch[k], T[k, :3, :3], T[k, :3, 3])
+        T[k, 3, 0], T[k, 3, 1], T[k, 3, 2], T[k, 3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+#: the lane over a batch of states: what `platform_transform` calls
+FRAME = LaneBatch(_frame_batch, cores=(0, 0, 0))
 
 
 def joint_frames(base_hinges: np.ndarray, platform_hinges: np.ndarray, z0: float) -> np.ndarray:
@@ -298,7 +310,9 @@ class Upr4:
 
         Ṡ_i = ω × R ᵖa_i + Ṗ with the rotated offset R ᵖa_i (SPEC erratum 10; the print has
         a_i) and ω = E·(roll̇, pitcḣ, 0), the angular velocity of R = Ry·Rx: eq (21)'s θ̇ is
-        exact only at pitch 0 (docs/mechanisms/upr4.md). l̇_i = s_i · Ṡ_i (eq (22)).
+        exact only at pitch 0 (docs/mechanisms/upr4.md). l̇_i = s_i · Ṡ_i (eq (22)), which is
+        the row i of ∂l/∂(z, roll, pitch) (`jacobian`, `platforms.platform_kinematics`, the
+        engine's lane) times the state rates.
 
         Args:
             z, roll, pitch: (...) state [m, rad, rad].
@@ -312,13 +326,9 @@ class Upr4:
             ("roll_dot", roll_dot),
             ("pitch_dot", pitch_dot),
         )
-        o = np.zeros_like(z)
-        state = legs(self.layout, platform_transform(z, roll, pitch))
-        E = rpy_rate_matrix(np.stack([roll, pitch, o], -1))
-        omega = (E @ np.stack([roll_dot, pitch_dot, o], -1)[..., None])[..., 0]
-        P_dot = np.stack([o, o, z_dot], -1)
-        S_dot = np.cross(omega[..., None, :], state.arms) + P_dot[..., None, :]  # eq (21)
-        return np.sum(state.units * S_dot, axis=-1)  # eq (22)
+        J = platforms.jacobian(self._geometry, np.stack([z, roll, pitch], -1))
+        rates = np.stack([z_dot, roll_dot, pitch_dot], -1)
+        return (J @ rates[..., None])[..., 0]  # eqs (21)-(22)
 
     def joint_angles(self, z: ArrayLike, roll: ArrayLike, pitch: ArrayLike) -> JointAngles:
         """U-joint and R-joint angles of the four limbs; seed 002 eqs (23)-(27).
@@ -406,14 +416,12 @@ class Upr4:
         lengths = as_array(lengths, "lengths", (4,))
         check_range(lengths, "lengths [m]", self.stroke_min, self.stroke_max)
 
-        def equations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            J = platforms.jacobian(self._geometry, x)
-            return platforms.leg_lengths(self._geometry, x) - lengths, J
-
+        check_tolerances(tol, max_iter)
         x0 = start(guess, np.array([self.z0, 0.0, 0.0]), (*lengths.shape[:-1], 3))
         # A small residual alone is not enough: ∂l/∂roll is only ~0.06 m/rad (small top
         # square), so a 1e-10 m residual can hide a 2e-9 rad error; the step must be small too.
-        result = newton(equations, x0, tol=tol, max_iter=max_iter, step_tol=tol)
+        # Gauss-Newton on l(x) − L: `platforms.platform_newton`, the engine's lane.
+        result = platforms.forward(self._geometry, lengths, x0, tol, max_iter, tol)
         if result.converged:
             return result.x
         residual = result.residual

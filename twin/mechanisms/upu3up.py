@@ -27,7 +27,7 @@ from twin.batch import LaneBatch
 from twin.errors import ConvergenceError, TwinError, UnreachableError
 from twin.mechanisms import platforms
 from twin.mechanisms.legs import LegLayout, LegState, legs
-from twin.mechanisms.newton import newton, start
+from twin.mechanisms.newton import check_tolerances, start
 from twin.mechanisms.platforms import (
     FORWARD_MAX_ITER,
     FORWARD_TOL,
@@ -262,13 +262,10 @@ class Upu3Up:
         """
         lengths = as_array(lengths, "lengths", (3,))
         check_range(lengths, "lengths [mm]", self.leg_min, self.leg_max)
-
-        def equations(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            J = platforms.jacobian(self._geometry, x)  # seed 001 eq (24)
-            return platforms.leg_lengths(self._geometry, x) - lengths, J  # eq (20), in lengths
-
+        check_tolerances(tol, max_iter)
         x0 = start(guess, np.zeros(3), lengths.shape)
-        result = newton(equations, x0, tol=tol, max_iter=max_iter)  # seed 001 eq (22)
+        # seed 001 eqs (20)-(24): `platforms.platform_newton`, the engine's lane
+        result = platforms.forward(self._geometry, lengths, x0, tol, max_iter, np.inf)
         if result.converged:
             self._check_state(result.x, "forward solution", slack=STATE_SLACK)
             return result.x

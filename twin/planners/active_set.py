@@ -26,9 +26,11 @@ feasible (no constraint active), and keeps it dual feasible while it adds violat
    the problem infeasible (§3, step 2(c)(i)).
 
 The equalities are added first, each with the sign that makes it violated and without sign
-conditions on its multiplier. A strictly convex QP has one solution, so this method and DAQP
-(Arnström et al. 2022) agree on it to rounding (tests/planners/test_active_set.py on the `qp`
-planner's recorded problems).
+conditions on its multiplier. Where that point, the minimum on the equalities alone, meets
+every other constraint it is the solution: `equality_minimum` computes it without J and the
+rotations (most of the `qp` planner's steps; issue 29 item 7), else the method runs as above.
+A strictly convex QP has one solution, so this method and DAQP (Arnström et al. 2022) agree on
+it to rounding (tests/planners/test_active_set.py on the `qp` planner's recorded problems).
 """
 
 from __future__ import annotations
@@ -48,6 +50,9 @@ PRIMAL_TOL = 1e-10
 #: a step direction this small against the normal's (relative) is no step: the new normal is
 #: a combination of the active ones
 DEPENDENT_TOL = 1e-12
+#: `equality_minimum` leaves a row whose part outside the others' span is below this fraction
+#: (squared, as DEPENDENT_TOL) to the method itself: far from DEPENDENT_TOL, so both agree
+SHORTCUT_TOL = 1e-8
 
 
 @register_jitable
@@ -167,9 +172,9 @@ def drop_constraint(
 
 
 @register_inline
-def factor_hessian(H: np.ndarray, n: int, J: np.ndarray, R: np.ndarray) -> bool:
-    """H = L Lᵀ (Cholesky; L in R's lower triangle: R is free until a constraint is active) and
-    J = L⁻ᵀ (module doc, step 2); False where H is not positive definite."""
+def cholesky(H: np.ndarray, n: int, R: np.ndarray, inverse: np.ndarray) -> bool:
+    """H = L Lᵀ (Cholesky; L in R's lower triangle: R is free until a constraint is active),
+    inverse (n,) = 1 / L's diagonal; False where H is not positive definite."""
     for j in range(n):
         s = H[j, j]
         for k in range(j):
@@ -177,13 +182,19 @@ def factor_hessian(H: np.ndarray, n: int, J: np.ndarray, R: np.ndarray) -> bool:
         if not s > 0.0:
             return False
         R[j, j] = math.sqrt(s)
+        inverse[j] = 1.0 / R[j, j]
         for i in range(j + 1, n):
             s = H[i, j]
             for k in range(j):
                 s -= R[i, k] * R[j, k]
-            R[i, j] = s / R[j, j]
-    # J = L⁻ᵀ: row j of J is L⁻¹ e_j
-    for j in range(n):
+            R[i, j] = s * inverse[j]
+    return True
+
+
+@register_inline
+def invert_factor(n: int, J: np.ndarray, R: np.ndarray, inverse: np.ndarray) -> None:
+    """J = L⁻ᵀ (module doc, step 2) from L in R's lower triangle and `inverse` (`cholesky`)."""
+    for j in range(n):  # row j of J is L⁻¹ e_j
         for i in range(n):
             if i < j:
                 J[j, i] = 0.0
@@ -191,8 +202,7 @@ def factor_hessian(H: np.ndarray, n: int, J: np.ndarray, R: np.ndarray) -> bool:
             s = 1.0 if i == j else 0.0
             for k in range(j, i):
                 s -= R[i, k] * J[j, k]
-            J[j, i] = s / R[i, i]
-    return True
+            J[j, i] = s * inverse[i]
 
 
 @register_inline
@@ -271,11 +281,13 @@ def most_violated(
         else:
             low, high = row_lower[c - n], row_upper[c - n]
         value = normal_times(A, n, c, x)
-        if high < INF / 2:
+        # the division only where the constraint may be violated (half the tolerance: the
+        # same constraints as dividing always, which costs more than the rest of the scan)
+        if high < INF / 2 and value - high > 0.5 * PRIMAL_TOL * (1.0 + abs(high)):
             over = (value - high) / (1.0 + abs(high))
             if over > PRIMAL_TOL and over > worst:
                 p, p_sign, worst = c, -1.0, over
-        if low > -INF / 2:
+        if low > -INF / 2 and low - value > 0.5 * PRIMAL_TOL * (1.0 + abs(low)):
             under = (low - value) / (1.0 + abs(low))
             if under > PRIMAL_TOL and under > worst:
                 p, p_sign, worst = c, 1.0, under
@@ -310,6 +322,82 @@ def step_lengths(n: int, q_equal: int, q: int, free: float, slack: float, d: np.
     return t1, k, t2
 
 
+@register_inline
+def forward_solve(R: np.ndarray, inverse: np.ndarray, n: int, b: np.ndarray,
+                  y: np.ndarray) -> None:  # fmt: skip
+    """y = L⁻¹ b, L in R's lower triangle (`cholesky`), `inverse` (n,) its diagonal's
+    reciprocals; b (n,) may be a row of A."""
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= R[i, k] * y[k]
+        y[i] = s * inverse[i]
+
+
+@register_inline
+def equality_minimum(
+    A: np.ndarray, f: np.ndarray, row_upper: np.ndarray, n: int, n_equal: int, work: tuple,
+    x: np.ndarray,
+) -> bool:  # fmt: skip
+    """x = the minimum of the cost on the first n_equal rows alone, the point the method
+    reaches once the equalities are active (`add_equalities`), computed without J: in
+    y = Lᵀx the cost is ½|y|² + wᵀy (w = L⁻¹f), the rows Yᵀy = b (Y = L⁻¹A_eᵀ = J₁R
+    of module doc step 2, here Q Rq by Gram-Schmidt twice), so y = −w + Q(Qᵀw + Rq⁻ᵀb).
+    L from `cholesky` in R's lower triangle; Q in J's first n_equal columns, Rq in R's upper
+    triangle and r. False where a row is (nearly, `SHORTCUT_TOL`) a combination of the others
+    or not finite: the method itself decides those (`solve_dense_qp`)."""
+    J, R, d, z, r, u, _, signs, _ = work
+    if n_equal > n:
+        return False
+    inverse = signs  # L's diagonal's reciprocals (`cholesky`; signs is written later)
+    for e in range(n_equal):
+        forward_solve(R, inverse, n, A[e], u)
+        total = 0.0
+        for k in range(n):
+            J[k, e] = u[k]
+            total += u[k] * u[k]
+        for i in range(e):
+            R[i, e] = 0.0
+        for _ in range(2):  # Gram-Schmidt twice: Q's columns orthonormal to rounding
+            for i in range(e):
+                c = 0.0
+                for k in range(n):
+                    c += J[k, i] * J[k, e]
+                for k in range(n):
+                    J[k, e] -= c * J[k, i]
+                R[i, e] += c
+        free = 0.0
+        for k in range(n):
+            free += J[k, e] * J[k, e]
+        if not free > SHORTCUT_TOL * total:  # the fraction GI's DEPENDENT_TOL tests, or NaN
+            return False
+        r[e] = math.sqrt(free)
+        for k in range(n):
+            J[k, e] /= r[e]
+    forward_solve(R, inverse, n, f, d)  # w
+    for e in range(n_equal):  # z = Rq⁻ᵀ b + Qᵀw
+        s = row_upper[e]
+        for i in range(e):
+            s -= R[i, e] * u[i]
+        u[e] = s / r[e]  # (Rq⁻ᵀ b)_e
+    for e in range(n_equal):
+        s = u[e]
+        for k in range(n):
+            s += J[k, e] * d[k]
+        z[e] = s
+    for k in range(n):  # y = −w + Q z, then x = L⁻ᵀ y
+        s = -d[k]
+        for e in range(n_equal):
+            s += J[k, e] * z[e]
+        d[k] = s
+    for i in range(n - 1, -1, -1):
+        s = d[i]
+        for k in range(i + 1, n):
+            s -= R[k, i] * x[k]
+        x[i] = s * inverse[i]
+    return True
+
+
 @register_borrowing
 def solve_dense_qp(
     H: np.ndarray, f: np.ndarray, A: np.ndarray, box_lower: np.ndarray, box_upper: np.ndarray,
@@ -321,11 +409,18 @@ def solve_dense_qp(
     definite) or ITERATION_LIMIT. `work` from `qp_work`."""
     n, m = f.shape[0], A.shape[0]
     J, R, d, z, r, u, active, signs, flags = work
-    if not factor_hessian(H, n, J, R):
+    if not cholesky(H, n, R, signs):  # 1 / L's diagonal in signs, until `add_equalities`
         return NOT_CONVEX
-    unconstrained_minimum(f, n, J, d, x)
     for c in range(n + m):
         flags[c] = 0.0
+    # most steps activate the equalities only: their minimum, if it meets every other
+    # constraint, is the solution (strictly convex: one), with no J and no rotation
+    if equality_minimum(A, f, row_upper, n, n_equal, work, x):
+        p = most_violated(A, n, box_lower, box_upper, row_lower, row_upper, n_equal, flags, x)[0]
+        if p < 0:
+            return OPTIMAL
+    invert_factor(n, J, R, signs)
+    unconstrained_minimum(f, n, J, d, x)
     q = add_equalities(A, row_upper, n, n_equal, work, x)
     if q < 0:
         return INFEASIBLE  # an equality is a combination of the others, which it contradicts

@@ -11,7 +11,9 @@ gangway's analytic inverse (seed 004 eqs (7)-(8)) for the tip position:
   the slew joint takes the yaw (SPEC.md, seed 004 §3.2).
 
 The result is returned as the velocity that reaches the new state in one dt, so the
-simulation integrates every planner the same way.
+simulation integrates every planner the same way. The step is written once, on one lane, in
+`twin.planners.allocation_step` (`allocation_velocity`), which the engine's runner and
+`AllocationPlanner.step` both run.
 """
 
 from __future__ import annotations
@@ -27,22 +29,13 @@ from twin.compiled import register_borrowing
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners.parameters import (
     KIND_ALLOCATION,
+    ROW_SIZE,
     family_dtype,
-    parameter_record,
     parameter_row,
     refuse,
 )
 from twin.planners.target import PlannerOutput, TipTarget
-from twin.spatial import (
-    invert_transform,
-    matrix_to_rpy,
-    pose_error,
-    pose_to_transform,
-    rpy_to_matrix,
-    se3_log,
-    so3_exp,
-    transform_to_pose,
-)
+from twin.spatial import invert_transform, matrix_to_rpy, pose_to_transform
 
 
 def reachable_range(mechanism: HybridBoardingSystem, pose: np.ndarray) -> np.ndarray:
@@ -144,18 +137,29 @@ class AllocationPlanner:
         """
         if self._start is None or np.shape(self._start.T_P0) != (4, 4):
             raise refuse("an AllocationPlanner that is not reset for one lane")
-        start = self._start
+        return self.rows(hold), np.array(self._share, dtype=float)
+
+    def rows(self, hold: bool) -> np.ndarray:
+        """The planner after its `reset` as parameter rows (..., ROW_SIZE), one per lane of
+        the state it was reset on (`ALLOCATION_PARAMETERS`, written by name); `pack` is one.
+
+        Raises:
+            TwinError: not reset, or an unknown method.
+        """
+        start = self.start
         if self.method not in METHODS:
             raise refuse(f"the method {self.method!r}; allowed: {list(METHODS)}")
-        row = parameter_row(KIND_ALLOCATION, hold)
-        record = parameter_record(row, ALLOCATION_PARAMETERS)
+        lanes = np.shape(start.T_P0)[:-2]
+        rows = np.empty((*lanes, ROW_SIZE))
+        rows[...] = parameter_row(KIND_ALLOCATION, hold)
+        record = rows.view(ALLOCATION_PARAMETERS)[..., 0]  # (...) records, each a row by name
         record["method"] = METHODS[self.method]
         record["manip_mid"], record["range_mid"] = start.manip_mid, start.range_mid
-        record["T_P0"] = start.T_P0[:3, :].ravel()
-        record["T_E0_inv"] = start.T_E0_inv[:3, :].ravel()
-        record["yaw0"] = matrix_to_rpy(start.T_P0[:3, :3])[2]
+        record["T_P0"] = start.T_P0[..., :3, :].reshape(*lanes, 12)
+        record["T_E0_inv"] = start.T_E0_inv[..., :3, :].reshape(*lanes, 12)
+        record["yaw0"] = matrix_to_rpy(start.T_P0[..., :3, :3])[..., 2]
         record["q0"] = start.q0
-        return row, np.array(self._share, dtype=float)
+        return rows
 
     def shares(self, pose: np.ndarray) -> np.ndarray:
         """[λ_p w_i]³ per position axis (..., 3), clipped to [0, 1] (docs/planners.md)."""
@@ -165,46 +169,32 @@ class AllocationPlanner:
         return np.clip(lam[..., None] * w, 0.0, 1.0) ** 3
 
     def step(self, xi: np.ndarray, target: TipTarget, dt: float) -> PlannerOutput:
-        """The state that holds the tip at the predicted target one dt ahead, as a velocity.
+        """The state that holds the tip at the predicted target one dt ahead, as a velocity,
+        by the engine's own step (`twin.planners.allocation_step.allocation_step`: this
+        planner's rows and DWA's shares, its lane step run over the batch); DWA keeps the
+        shares of the state reached for the next step.
 
         Seed 004 plans on a predicted trajectory (its §1: short-term wave-motion prediction);
         we predict one step with the target twist, T_d(t + dt) ≈ [exp(ω dt) R_d, p_d + v dt].
+
+        Returns:
+            velocity (..., 9) [m/s, rad/s] and the diagnostics `task_error` (..., 6) [m, rad]
+            (the predicted target against the tip of the state reached) and `position_share`
+            (..., 3) [-] (the shares used: dwa's, 1 for conv1, 0 for conv2).
+
+        Raises:
+            TwinError: not reset, an unknown method, xi not (..., 9) or not finite, or a
+                target that is not finite.
         """
-        ahead = np.array(target.transform)
-        ahead[..., :3, :3] = so3_exp(target.twist[..., 3:] * dt) @ target.transform[..., :3, :3]
-        ahead[..., :3, 3] += target.twist[..., :3] * dt
-        start = self.start
-        C = ahead @ start.T_E0_inv  # compensating motion in B
-        T_full = C @ start.T_P0  # the platform pose that alone would hold the tip (conv1)
-        p0 = start.T_P0[..., :3, 3]
-        if self.method == "conv1":
-            T_P = T_full
-        else:
-            T_P = np.array(T_full)
-            if self.method == "conv2":
-                T_P[..., :3, 3] = p0
-            else:
-                rpy = matrix_to_rpy(T_full[..., :3, :3])
-                rpy[..., 2] = matrix_to_rpy(start.T_P0[..., :3, :3])[..., 2]  # slew takes yaw
-                T_P[..., :3, :3] = rpy_to_matrix(rpy)
-                T_P[..., :3, 3] = p0 + self._share * (T_full[..., :3, 3] - p0)
-        if self.method == "conv1":
-            q = start.q0
-        else:
-            tip_in_P = invert_transform(T_P) @ ahead
-            q = self.mechanism.gangway.inverse(tip_in_P[..., :3, 3], check=False)
-        new = np.concatenate([transform_to_pose(T_P), q], -1)
-        diagnostics = {
-            "task_error": pose_error(ahead, self.mechanism.end_effector(new)),
-            "position_share": np.broadcast_to(
-                self._share if self.method == "dwa" else float(self.method == "conv1"),
-                (*xi.shape[:-1], 3),
-            ).copy(),
-        }
+        # imported here: the step module imports this one (its parameter record)
+        from twin.planners.allocation_step import allocation_step
+
+        rows = self.rows(False)
+        velocity, diagnostics, following = allocation_step(
+            self.mechanism, rows, self._share, xi, target, dt
+        )
         if self.method == "dwa":
-            self._share = self.shares(new[..., :6])  # used at the next step: t − 1 in seed 004
-        twist = se3_log(invert_transform(pose_to_transform(xi[..., :6])) @ T_P) / dt
-        velocity = np.concatenate([twist, (q - xi[..., 6:]) / dt], -1)
+            self._share = following  # used at the next step: t − 1 in seed 004
         return PlannerOutput(velocity=velocity, diagnostics=diagnostics)
 
 

@@ -1,11 +1,12 @@
 r"""The position-level planners of seed 004 (conv1, conv2, dwa) on one lane, as the engine runs
 them.
 
-`allocation_velocity` is `twin.planners.allocation.AllocationPlanner.step` written on one lane
+`allocation_velocity` is the step of `twin.planners.allocation.AllocationPlanner` on one lane
 (floats and small arrays, in a style numba compiles and plain Python runs unchanged): the
 runner `twin.sim.kernels.hybrid_runner.run_hybrid` calls it, guards and integrates its
-velocity. The planner object stays the readable statement and the tests' oracle (to 1e-9,
-step after step).
+velocity, and `AllocationPlanner.step` runs it over its batch (`allocation_step`, through
+`ALLOCATION_STEP`): the math is written here once. Tests hold it to seed 004's split typed in
+numpy (tests/planners/test_allocation.py).
 
 Each step splits the compensating motion C = ᴮT_E,d(t + dt) · ᴮT_E(0)⁻¹ (seed 000 §5.1)
 between the Stewart platform and the gangway and solves the gangway's analytic inverse
@@ -26,26 +27,37 @@ import math
 
 import numpy as np
 
+from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.gangway import gangway_inverse_lane
-from twin.mechanisms.hybrid import HYBRID_CONSTANTS
+from twin.mechanisms.hybrid import HYBRID_CONSTANTS, HybridBoardingSystem
 from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
-from twin.planners.allocation import METHODS, AllocationPlanner, reachable_range_lane
+from twin.planners.allocation import (
+    ALLOCATION_PARAMETERS,
+    METHODS,
+    AllocationPlanner,
+    reachable_range_lane,
+)
 from twin.planners.lane_rows import (
     D_POSITION_SHARE,
     FAULT_PLANNER,
+    N_HYBRID_DIAGNOSTICS,
+    N_TARGET,
     TARGET_P,
     TARGET_R,
     TARGET_V,
     TARGET_W,
 )
 from twin.planners.parameters import MEMORY_SIZE, refuse
+from twin.planners.target import TipTarget
+from twin.planners.tasks import target_rows, tip_error_lane
 from twin.spatial import (
     matrix_to_rpy_lane,
     rpy_to_matrix_lane,
     se3_log_lane,
     so3_exp_lane,
 )
+from twin.validation import as_array
 
 #: Methods (a row's `method`), as `twin.planners.allocation.METHODS` numbers them.
 METHOD_CONV1, METHOD_CONV2, METHOD_DWA = METHODS["conv1"], METHODS["conv2"], METHODS["dwa"]
@@ -273,3 +285,92 @@ def pack_allocation(planner: AllocationPlanner, hold: bool) -> tuple[np.ndarray,
     memory = np.zeros(MEMORY_SIZE)
     memory[M_SHARE : M_SHARE + 3] = shares
     return prm, memory
+
+
+# ---------------------------------------------------------------------------------------------
+# The step over a batch of lanes: what `AllocationPlanner.step` runs
+# ---------------------------------------------------------------------------------------------
+
+
+def _allocation_batch(
+    x: np.ndarray,
+    target: np.ndarray,
+    rows: np.ndarray,
+    shares: np.ndarray,
+    const: np.ndarray,
+    dt: float,
+    v_out: np.ndarray,
+    share_out: np.ndarray,
+    following: np.ndarray,
+    error_out: np.ndarray,
+) -> None:
+    """The engine's step (`allocation_velocity`) over states x (N, 9), target rows (N, 18),
+    parameter rows (N, ROW_SIZE) and DWA's shares (N, 3) carried in: the velocity v_out
+    (N, 9), the shares used (N, 3; `D_POSITION_SHARE`), the shares carried to the next step
+    (N, 3; the lane's memory after the step) and the pose error e (N, 6) [m, rad] in B of the
+    tip of the state the step plans (its platform pose and gangway joints, from the work)
+    against the predicted target it planned for (`tip_error_lane`)."""
+    R, memory, diag = np.empty((3, 3)), np.zeros(MEMORY_SIZE), np.empty(N_HYBRID_DIAGNOSTICS)
+    work = allocation_work()
+    rotations, points = work[0], work[1]
+    ahead, planned = np.zeros(N_TARGET), np.zeros(9)  # the predicted target, the state planned
+    frames, M = np.empty((2, 4, 4)), np.empty((3, 3))
+    c = const.view(HYBRID_CONSTANTS)[0]
+    for k in range(x.shape[0]):
+        rpy_to_matrix_lane(x[k, 3], x[k, 4], x[k, 5], R)
+        for i in range(3):
+            memory[M_SHARE + i] = shares[k, i]
+        prm = rows[k].view(ALLOCATION_PARAMETERS)[0]  # the row by name, as the runner reads it
+        allocation_velocity(x[k], R, target[k], prm, memory, const, dt, work, v_out[k], diag)
+        for i in range(3):
+            share_out[k, i] = diag[D_POSITION_SHARE + i]
+            following[k, i] = memory[M_SHARE + i]
+            # the work's predicted target [Ra, pa] and planned platform [RP, pP], joints q
+            for j in range(3):
+                ahead[TARGET_R + 3 * i + j] = rotations[1, i, j]
+            ahead[TARGET_P + i] = points[0, i]
+            planned[i], planned[6 + i] = points[2, i], points[4, i]
+        tip_error_lane(planned, rotations[3], ahead, c.d1, c.a1, frames, M, error_out[k])
+
+
+#: the step over a batch (compiled on first use, `twin.batch`): what `AllocationPlanner.step`
+#: calls
+ALLOCATION_STEP = LaneBatch(_allocation_batch, cores=(1, 1, 1, 1))
+
+
+def allocation_step(
+    mechanism: HybridBoardingSystem,
+    rows: np.ndarray,
+    shares: np.ndarray,
+    xi: np.ndarray,
+    target: TipTarget,
+    dt: float,
+) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """`AllocationPlanner.step`: its rows and shares stepped lane by lane by the engine's own
+    step (`ALLOCATION_STEP`).
+
+    Args:
+        mechanism: the hybrid system.
+        rows: (..., ROW_SIZE) the planner's parameter rows (`AllocationPlanner.rows`).
+        shares: (..., 3) DWA's position shares for this step (`M_SHARE`).
+        xi: (..., 9) [m, rad] the states; target: the desired tip motion in B; the leading
+            axes of these four broadcast.
+        dt: [s] the control period.
+
+    Returns:
+        (velocity (..., 9), diagnostics {`task_error` (..., 6) [m, rad], `position_share`
+        (..., 3) [-]}, the shares for the next step (..., 3): DWA's, the given ones for conv1
+        and conv2).
+
+    Raises:
+        TwinError: xi not (..., 9) or not finite, or a target that is not finite.
+    """
+    xi = as_array(xi, "xi", (9,))
+    targets = as_array(target_rows(target), "target", (N_TARGET,))
+    # the constants' rate limits are the runner's guard's: the planner's step reads only the
+    # geometry (gangway d1, a1; hinges and leg stroke for DWA's shares)
+    const = mechanism.pack(np.full(9, np.inf))
+    velocity, share, following, error = ALLOCATION_STEP(
+        [xi, targets, rows, shares], [const, float(dt)], [(9,), (3,), (3,), (6,)]
+    )
+    return velocity, {"task_error": error, "position_share": share}, following

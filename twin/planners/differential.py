@@ -2,7 +2,9 @@ r"""Velocity-level planners of seed 000: PI, WPI and MTMP are one solve with dif
 
     ξ̇ = J_W⁺ (ẋ_d + k_e e) + λ (I − J_W⁺ J) Σ J_a⁺ (ζ̇_a + k_a e_a)      seed 000 eq (34)
 
-then Algorithm 1 (`SlewPriority`) and a rate limit. PI is `weights=None` (eq (26)), WPI adds
+then Algorithm 1 (`SlewPriority`) and a rate limit, written once on one lane in
+`twin.planners.differential_step` (`differential_velocity`), which the engine's runner and
+`DifferentialPlanner.step` both run. PI is `weights=None` (eq (26)), WPI adds
 `BetaSplit` (eqs (27)-(32)), MTMP adds `JointLimitWeights` with k_c (eqs (35)-(37)), the q2
 posture task (eqs (39)-(40)) and Algorithm 1.
 """
@@ -15,7 +17,6 @@ from typing import Any
 import numpy as np
 
 from twin.planners.limits import SlewPriority, VelocityLimit
-from twin.planners.linalg import weighted_pinv
 from twin.planners.parameters import (
     KIND_DIFFERENTIAL,
     family_dtype,
@@ -75,38 +76,23 @@ class DifferentialPlanner:
         del xi, target  # Unused.
 
     def step(self, xi: np.ndarray, target: TipTarget, dt: float) -> PlannerOutput:
-        """Joint velocities (..., 9) for the state xi (..., 9) and the desired tip motion."""
+        """Joint velocities (..., 9) for the state xi (..., 9) and the desired tip motion, by
+        the engine's own step (`twin.planners.differential_step.differential_step`: this
+        planner packed, its lane step run over the batch).
+
+        Returns:
+            velocity (..., 9) and the diagnostics `weights` diag(W⁻¹) (..., 9), `task_error`
+            (..., 6) [m, rad], `null_space_share`, `damping` λ, `velocity_scale` (...).
+
+        Raises:
+            TwinError: xi not (..., 9) or not finite; a part without `pack`, or one the
+                compiled kernel cannot run (`pack`).
+        """
         del dt  # Unused: the solve is instantaneous; integration is the simulation's.
-        J = self.tip.jacobian(xi)
-        demand, error = self.tip.demand(xi, target)
-        w = np.ones(xi.shape) if self.weights is None else self.weights(xi)
-        J_pinv, damping = weighted_pinv(J, w, epsilon=self.epsilon, damping_max=self.damping_max)
-        primary = (J_pinv @ demand[..., None])[..., 0]
-        null_motion = np.zeros_like(primary)
-        if self.secondary:
-            projector = np.eye(xi.shape[-1]) - J_pinv @ J  # (I − J_W⁺ J), eq (33)
-            wanted = sum(
-                (np.swapaxes(task.jacobian(xi), -1, -2) @ task.demand(xi)[..., None])[..., 0]
-                for task in self.secondary
-            )  # J_a⁺ = J_aᵀ for a one-joint selector row
-            null_motion = self.secondary_weight * (projector @ wanted[..., None])[..., 0]
-        v = primary + null_motion
-        if self.slew_priority is not None:
-            v = self.slew_priority(xi, v)
-        scale = np.ones(xi.shape[:-1])
-        if self.velocity_limit is not None:
-            v, scale = self.velocity_limit(v)
-        norm = np.linalg.norm(v, axis=-1)
-        return PlannerOutput(
-            velocity=v,
-            diagnostics={
-                "weights": w,
-                "task_error": error,
-                "null_space_share": np.linalg.norm(null_motion, axis=-1) / np.maximum(norm, 1e-12),
-                "damping": damping,
-                "velocity_scale": scale,
-            },
-        )
+        # imported here: the step module imports this one (its parameter record)
+        from twin.planners.differential_step import differential_step
+
+        return differential_step(self, xi, target)
 
     def pack(self, hold: bool) -> np.ndarray:
         """The planner as its lane's parameter row (`DIFFERENTIAL_PARAMETERS`): each part

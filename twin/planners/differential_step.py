@@ -1,6 +1,6 @@
 r"""The differential planners' step on one lane: PI, WPI and MTMP as the engine runs them.
 
-`differential_velocity` is `twin.planners.differential.DifferentialPlanner.step` (seed 000
+`differential_velocity` is the step of `twin.planners.differential.DifferentialPlanner` (seed 000
 eqs (26)-(40), Algorithm 1, the rate limit) written on one lane (floats and small arrays, in
 a style numba compiles and plain Python runs unchanged), on the lane's
 `DIFFERENTIAL_PARAMETERS` record (written by `DifferentialPlanner.pack`) and the hybrid
@@ -8,7 +8,9 @@ system's constants (`HybridBoardingSystem.pack`, read by name). It composes the 
 functions of the layers they belong to: `twin.planners.tasks` (the tip task's error and
 Jacobian), `.weights` (joint-limit weights), `.limits` (Algorithm 1, the rate limit) and
 `.linalg` (the damped weighted pseudo-inverse). The engine's runner
-(`twin.sim.kernels.hybrid_runner.run_hybrid`) calls it, guards and integrates its velocity.
+(`twin.sim.kernels.hybrid_runner.run_hybrid`) calls it, guards and integrates its velocity;
+`DifferentialPlanner.step` runs it over its batch (`differential_step`, through
+`DIFFERENTIAL_STEP`): the math is written here once.
 
 Per step nothing is allocated: the runner allocates the lane's scratch once
 (`differential_work`); the step is `register_borrowing` (no reference counting of its array
@@ -40,10 +42,18 @@ import math
 
 import numpy as np
 
+from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.planners.differential import DIFFERENTIAL_PARAMETERS, DifferentialPlanner
-from twin.planners.lane_rows import D_DAMPING, D_SCALE, D_SHARE, D_WEIGHTS, FAULT_SINGULAR
+from twin.planners.lane_rows import (
+    D_DAMPING,
+    D_SCALE,
+    D_SHARE,
+    D_WEIGHTS,
+    FAULT_SINGULAR,
+    N_HYBRID_DIAGNOSTICS,
+)
 from twin.planners.limits import held_yaw_rate_lane, slew_priority_lane, velocity_limit_lane
 from twin.planners.linalg import (
     cholesky_lane,
@@ -54,8 +64,11 @@ from twin.planners.linalg import (
     weighted_gram_lane,
 )
 from twin.planners.parameters import KIND_DIFFERENTIAL, parameter_record, refuse
-from twin.planners.tasks import tip_task_lane
+from twin.planners.target import PlannerOutput, TipTarget
+from twin.planners.tasks import target_rows, tip_task_lane
 from twin.planners.weights import joint_limit_weight_lane
+from twin.spatial import rpy_to_matrix_lane
+from twin.validation import as_array
 
 
 def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
@@ -150,7 +163,7 @@ def differential_velocity(
             posture column in P, which `damped_differential_velocity` goes on from; the tip
             ᴮT_E (frames[1]) and its error (row W_ERROR), which the runner hands to the record.
         v_out: (9,) written: the velocity [ᴾṖ [m/s]; ω_P [rad/s] in P; q̇1, q̇2 [rad/s];
-            ḋ3 [m/s]], exactly `DifferentialPlanner.step(...).velocity` (to rounding).
+            ḋ3 [m/s]]: `DifferentialPlanner.step(...).velocity`.
         diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written (weights, null-space
             share, damping λ, rate scale); the other families' rows are left alone.
 
@@ -295,3 +308,81 @@ def differential_finish(
     diag_out[D_DAMPING] = damping
     diag_out[D_SCALE] = scale
     return FAULT_SINGULAR if damping > 0.0 else 0
+
+
+# ---------------------------------------------------------------------------------------------
+# The step over a batch of lanes: what `DifferentialPlanner.step` runs
+# ---------------------------------------------------------------------------------------------
+
+
+def _differential_batch(
+    x: np.ndarray,
+    target: np.ndarray,
+    row: np.ndarray,
+    const: np.ndarray,
+    v_out: np.ndarray,
+    diag_out: np.ndarray,
+    error_out: np.ndarray,
+) -> None:
+    """The engine's step of one planner row over states x (N, 9) and target rows (N, 18):
+    `differential_velocity`, finished by `damped_differential_velocity` where it returns
+    NEEDS_SVD (as `twin.sim.kernels.hybrid_runner.run_hybrid` takes it), into v_out (N, 9),
+    diag_out (N, N_HYBRID_DIAGNOSTICS) (rows D_WEIGHTS … D_SCALE written) and the tip's pose
+    error e (N, 6) [m, rad] in B that the tip task planned on (row W_ERROR of the work).
+    row: the planner's (ROW_SIZE,) (`DifferentialPlanner.pack`); const: the hybrid constants."""
+    R = np.empty((3, 3))
+    work = differential_work()
+    p = row.view(DIFFERENTIAL_PARAMETERS)[0]  # the row by name, as the runner reads it
+    error = work[5]
+    for k in range(x.shape[0]):
+        rpy_to_matrix_lane(x[k, 3], x[k, 4], x[k, 5], R)
+        bits = differential_velocity(x[k], R, target[k], p, const, work, v_out[k], diag_out[k])
+        if bits == NEEDS_SVD:
+            damped_differential_velocity(x[k], p, work, v_out[k], diag_out[k])
+        for i in range(6):
+            error_out[k, i] = error[W_ERROR, i]
+
+
+#: the step over a batch (compiled on first use, `twin.batch`): what `DifferentialPlanner.step`
+#: calls
+DIFFERENTIAL_STEP = LaneBatch(_differential_batch, cores=(1, 1))
+
+
+def differential_step(
+    planner: DifferentialPlanner, xi: np.ndarray, target: TipTarget
+) -> PlannerOutput:
+    """`DifferentialPlanner.step`: the planner packed (`pack`; `hold` is the runner's guard's,
+    not the velocity's) and stepped lane by lane by the engine's own step (`DIFFERENTIAL_STEP`).
+
+    Args:
+        planner: the planner; every part must `pack`.
+        xi: (..., 9) [m, rad] the states; target: the desired tip motion in B, its leading
+            axes broadcast against xi's.
+
+    Returns:
+        velocity (..., 9) and the diagnostics `weights` (..., 9) diag(W⁻¹), `task_error`
+        (..., 6) [m, rad] e in B, `null_space_share` (...) [-], `damping` (...) λ [-],
+        `velocity_scale` (...) [-] (numpy floats for one lane).
+
+    Raises:
+        TwinError: xi not (..., 9) or not finite; a part without `pack`, or one the kernel
+            cannot run (`DifferentialPlanner.pack`).
+    """
+    xi = as_array(xi, "xi", (9,))
+    row = pack_differential(planner, False)
+    # the constants' rate limits are the runner's guard's: the planner's step reads only the
+    # gangway's d1, a1 (its own rate limit is its row's, `VelocityLimit.pack`)
+    const = planner.tip.mechanism.pack(np.full(9, np.inf))
+    v, diag, error = DIFFERENTIAL_STEP(
+        [xi, target_rows(target)], [row, const], [(9,), (N_HYBRID_DIAGNOSTICS,), (6,)]
+    )
+    return PlannerOutput(
+        velocity=v,
+        diagnostics={
+            "weights": diag[..., D_WEIGHTS : D_WEIGHTS + 9],
+            "task_error": error,
+            "null_space_share": diag[..., D_SHARE][()],
+            "damping": diag[..., D_DAMPING][()],
+            "velocity_scale": diag[..., D_SCALE][()],
+        },
+    )

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
+from twin.batch import LaneBatch
 from twin.compiled import register_jitable
 from twin.errors import ConvergenceError, TwinError
 from twin.mechanisms import platforms
@@ -53,7 +54,7 @@ from twin.planners.parameters import (
     parameter_row,
 )
 from twin.planners.target import PlannerOutput, TipTarget
-from twin.spatial import pose_to_transform, so3_exp, so3_exp_lane
+from twin.spatial import pose_to_transform, so3_exp_lane
 from twin.validation import as_array, check_range
 
 LAWS = ("ik", "pid")
@@ -185,7 +186,8 @@ class PlatformModel:
           R = Ry(pitch)·Rx(roll) (seed 002 eq (15)), so roll = −asin n_y,
           pitch = atan2(n_x, n_z); z = `z_hold`.
 
-        The result is not clipped to the limits (`clip` does that); `desired_state_lane`.
+        The result is not clipped to the limits (`desired_batch` with `clip` does that);
+        `desired_state_lane`.
         """
         T = as_array(transform, "transform", (4, 4))
         return self.desired_batch(T, clip=False)[0]
@@ -204,12 +206,6 @@ class PlatformModel:
                              clipped, clip)  # fmt: skip
         n = self.n_legs
         return states.reshape(*shape, 3), lengths[:, :n].reshape(*shape, n), clipped.reshape(shape)
-
-    def clip(self, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(state clipped to `state_limits`, (...) bool whether any value was clipped)."""
-        low, high = self.mechanism.state_limits
-        clipped = np.clip(state, low, high)
-        return clipped, np.any(clipped != state, axis=-1)
 
     def fit(self, lengths: np.ndarray, guess: np.ndarray) -> np.ndarray:
         """Actual state (3,) of actuator lengths (n,) [native], warm-started at `guess` (3,)
@@ -314,12 +310,10 @@ def advance_target(target: TipTarget, dt: float) -> np.ndarray:
     The twist's ω is the desired frame's angular velocity expressed in B, Ṙ_d = [ω]× R_d, so
     R_d(t + dt) = exp(ω dt) R_d; p_d(t + dt) = p_d + ṗ_d dt. With the simulation's targets,
     whose twist is the mean rate to the next sample (`twin.sim.target.held_targets`), this is
-    that next sample exactly.
+    that next sample exactly. By `advance_target_lane` lane by lane (`ADVANCE`), the step the
+    engine's "ik" law takes.
     """
-    T = np.array(target.transform, dtype=float)
-    T[..., :3, :3] = so3_exp(target.twist[..., 3:] * dt) @ T[..., :3, :3]
-    T[..., :3, 3] += target.twist[..., :3] * dt
-    return T
+    return ADVANCE([target_rows(target)], [float(dt)], [(4, 4)])[0]
 
 
 #: A platform planner's knobs as the engine's kernel reads them (`PlatformPlanner.pack`): the
@@ -707,6 +701,24 @@ def actuate_lanes(
     for k in range(l_d.shape[0]):
         saturated[k] = actuate_lane(l_d[k], legs[k], mass, top, geometry[0], dt, integral[k],
                                     actuator_velocity[k], rates[k])  # fmt: skip
+
+
+def _advance_batch(rows: np.ndarray, dt: float, T: np.ndarray) -> None:
+    """`advance_target_lane` of target rows (N, 18) (`target_rows`) over dt [s] into T (N, 4, 4)."""
+    E = np.zeros((3, 3))
+    R, p = np.zeros(9), np.zeros(3)
+    for k in range(rows.shape[0]):
+        advance_target_lane(rows[k, 0:9], rows[k, 9:12], rows[k, 12:18], dt, R, p, E)
+        for i in range(3):
+            for j in range(3):
+                T[k, i, j] = R[3 * i + j]
+            T[k, i, 3] = p[i]
+            T[k, 3, i] = 0.0
+        T[k, 3, 3] = 1.0
+
+
+#: the lane over a batch of targets: what `advance_target` calls
+ADVANCE = LaneBatch(_advance_batch, cores=(1,))
 
 
 def target_rows(target: TipTarget) -> np.ndarray:

@@ -199,6 +199,11 @@ class LegStrokeLimit:
         the lane reads the stroke and hinges from the hybrid constants)."""
         pack_damper(self, record, "leg")
 
+    def on(self, mechanism: HybridBoardingSystem) -> bool:
+        """Whether these are `mechanism`'s legs and stroke (what the lane reads, from its
+        hybrid constants)."""
+        return bool(np.array_equal(self.mechanism.pack(np.ones(9)), mechanism.pack(np.ones(9))))
+
     def rows(self, xi: np.ndarray, dt: float) -> Rows:
         """(C (6, 9), lower (6,), upper (6,)) [m/s] at the state xi (9,)."""
         stewart = self.mechanism.stewart
@@ -247,6 +252,14 @@ class JointLimit:
         """Write the gain and margin into a `QP_PARAMETERS` record's `joint_*` (`pack_damper`;
         the lane reads the limits from the hybrid constants)."""
         pack_damper(self, record, "joint")
+
+    def on(self, mechanism: HybridBoardingSystem) -> bool:
+        """Whether these are `mechanism`'s Table 6 limits (what the lane reads, from its hybrid
+        constants)."""
+        return bool(
+            np.array_equal(self.lower, mechanism.lower)
+            and np.array_equal(self.upper, mechanism.upper)
+        )
 
     def rows(self, xi: np.ndarray, dt: float) -> Rows:
         """(C (9, 9), lower (9,), upper (9,)) [m/s, rad/s] at the state xi (9,)."""
@@ -377,9 +390,9 @@ class QPPlanner:
         Raises:
             TwinError: a planner the lane would assemble wrongly: a part without `pack` or one
                 it refuses; limits other than one `LegStrokeLimit` on the tip's system then one
-                `JointLimit` on its Table 6 limits; secondary tasks other than at most one
-                `JointPostureTask` then at most one `PlatformYawTask`; weights that are
-                negative or not finite; a solver other than the compiled one; μ ≤ 0.
+                `JointLimit` on its Table 6 limits (`_pack_limits`); secondary tasks after a
+                `PlatformYawTask` (each part's `pack` refuses a second of its kind); weights
+                that are negative or not finite; a solver other than the compiled one; μ ≤ 0.
         """
         row = parameter_row(KIND_QP, hold)
         record = parameter_record(row, QP_PARAMETERS)
@@ -396,12 +409,7 @@ class QPPlanner:
         for task in self.secondary:
             if record["yaw"] > 0.0:  # the lane adds the posture term first, then the yaw's
                 raise refuse(f"the secondary tasks {self.secondary!r:.120}")
-            if isinstance(task, PlatformYawTask):  # a term of this planner only: no pack
-                if task.n != 9 or not np.isfinite(task.yaw_hold):
-                    raise refuse(f"the secondary task {task!r:.80}")
-                record["yaw"], record["yaw_hold"] = 1.0, task.yaw_hold
-            else:
-                pack_part(task, record, "secondary task")
+            pack_part(task, record, "secondary task")
         self._pack_limits(record)
         if self.solver != SOLVERS[0]:  # a library is called from Python, not in a lane
             raise refuse(
@@ -415,26 +423,25 @@ class QPPlanner:
         return row
 
     def _pack_limits(self, record: np.record) -> None:
-        """The rate box and the two limits into `record` (`QPPlanner.pack`): the lane reads
-        the legs and Table 6 from the hybrid constants of the tip's system, so the limits must
-        be on those."""
+        """The rate box and the limits into `record` (`QPPlanner.pack`), each by its own `pack`:
+        the lane reads the legs and Table 6 from the hybrid constants of the tip's system, so
+        each limit must be on those (its `on`), and it assembles the leg rows before the
+        Table 6 rows, so the object's `problem` must stack them in that order: the legs' limit
+        first, then the joints' (each writes its own fields; `pack_damper` refuses a second)."""
         mechanism = self.tip.mechanism
-        limits = self.limits
-        if (
-            len(limits) != 2
-            or not isinstance(limits[0], LegStrokeLimit)
-            or not isinstance(limits[1], JointLimit)
-            or not np.array_equal(limits[0].mechanism.pack(np.ones(9)), mechanism.pack(np.ones(9)))
-            or not np.array_equal(limits[1].lower, mechanism.lower)
-            or not np.array_equal(limits[1].upper, mechanism.upper)
-        ):
+        pack_part(self.rate_limit, record, "rate limit")
+        for k, limit in enumerate(self.limits):
+            pack_part(limit, record, "limit")
+            on = getattr(limit, "on", None)
+            if on is None or not on(mechanism):
+                raise refuse(f"the limit {limit!r:.80}: not on the mechanism's own limits")
+            if k == 0 and not record["leg_gain"] > 0.0:
+                raise refuse(f"the limits {self.limits!r:.120}: the legs' limit first")
+        if not (record["leg_gain"] > 0.0 and record["joint_gain"] > 0.0):
             raise refuse(
-                f"the limits {limits!r:.120}: one LegStrokeLimit and one JointLimit on the "
+                f"the limits {self.limits!r:.120}: one LegStrokeLimit and one JointLimit on the "
                 "mechanism's own limits"
             )
-        pack_part(self.rate_limit, record, "rate limit")
-        for limit in limits:
-            pack_part(limit, record, "limit")
 
     def step(self, xi: np.ndarray, target: TipTarget, dt: float) -> PlannerOutput:
         """Joint rates (9,) for the state xi (9,): the QP's solution (`solve_levels`)."""

@@ -161,6 +161,22 @@ class PlatformYawTask:
         """(..., 1) [rad/s]: zero."""
         return np.zeros((*xi.shape[:-1], 1))
 
+    def pack(self, record: np.void) -> None:
+        """Write the yaw term into a qp parameter record's `yaw` (1: on) and `yaw_hold`
+        (`twin.planners.qp.QP_PARAMETERS`).
+
+        Raises:
+            TwinError: a record without a yaw term (a family other than qp), a yaw term there
+                already, not nine joints, or yaw_hold not finite.
+        """
+        if "yaw" not in (record.dtype.names or ()):
+            raise refuse(f"the secondary task {self!r:.80} (a term of the qp planner only)")
+        if record["yaw"] > 0.0:
+            raise refuse("more than one PlatformYawTask")
+        if self.n != 9 or not np.isfinite(self.yaw_hold):
+            raise refuse(f"the secondary task {self!r:.80}")
+        record["yaw"], record["yaw_hold"] = 1.0, self.yaw_hold
+
 
 # ---------------------------------------------------------------------------------------------
 # The tip task on one lane, as the engine's kernels compose it (floats and small arrays,

@@ -317,6 +317,12 @@ class Simulation:
         would count them)."""
         assert self._reduction is not None
         self._reduction.add(records, start)
+        self._count_limited(records, start)
+
+    def _count_limited(self, records: dict[str, np.ndarray], start: int) -> None:
+        """keep="metrics": add samples start … start + S − 1 of records (N, S, ...), each
+        lane's before its end, to its series' fault counts (`series_faults`)."""
+        assert self._reduction is not None
         size = records["t"].shape[1]
         for lane, end in enumerate(self._reduction.ends.tolist()):
             count = min(max(end - start, 0), size)
@@ -371,15 +377,20 @@ class Simulation:
         if self.k == 0:  # no step has been taken at t = 0: the first step's diagnostics repeat
             diag[:, 0] = diag[:, 1]
         poses = block.poses[:, local : local + m + 1]
-        records = self.lanes.records(poses, xs, diag, self.dt, first)
         faults |= np.where(
             block.bad[:, local : local + m] | block.bad[:, local + 1 : local + m + 1],
             layout.FAULT_BASE_MOTION,
             0,
         )
+        t = (self.k + np.arange(first, m + 1)) * self.dt  # exact multiples, chunk-independent
+        newest = self._reduce_as_recorded(poses, xs, diag, t)
+        if newest is not None:  # the history's one slot takes the newest sample (`latest`)
+            self.history.append(newest)
+            self._advance_to(xs, t, faults, m)
+            return
+        records = self.lanes.records(poses, xs, diag, self.dt, first)
         held = hold_nonfinite(records, self.history.newest())
         faults |= np.where(held[:, -m:], layout.FAULT_PLANNER, 0)  # not the start's
-        t = (self.k + np.arange(first, m + 1)) * self.dt  # exact multiples, chunk-independent
         if whole:  # "t" first, as the history's keys have been since sample 0
             self.history.adopt({"t": np.repeat(t[None], N, axis=0), **records})
         else:
@@ -394,10 +405,45 @@ class Simulation:
                     self._reduce(self.history.data, 0)
                 self._reduce(records, self.k + 1)
             self.history.append(records)
+        self._advance_to(xs, t, faults, m)
+
+    def _advance_to(self, xs: np.ndarray, t: np.ndarray, faults: np.ndarray, m: int) -> None:
+        """End a chunk of m steps: its last state xs[:, -1] the lanes' state, its faults (N,
+        m) at its samples' times t [s] into their logs."""
         self.x = xs[:, -1].copy()
         for lane in np.flatnonzero(faults.any(axis=1)):
             self.faults[lane].add_chunk(t[-m:], faults[lane])
         self.k += m
+
+    def _reduce_as_recorded(
+        self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, t: np.ndarray
+    ) -> dict[str, np.ndarray] | None:
+        """keep="metrics" on the hybrid system: the chunk's samples 1 … m (at times t [s]),
+        after sample 0 on the first chunk, added to the metrics as each is recorded
+        (`HybridLanes.reduce`: no record array of the chunk is made) and to the series' fault
+        counts. Returns the newest sample's records (N, 1, ...), for the history; None, with
+        nothing added, where the run keeps a series, or a state, diagnostic or record is not
+        finite (the chunk is then recorded whole and held, `hold_nonfinite`)."""
+        lanes = self.lanes
+        if not isinstance(self._reduction, HybridReduction) or not isinstance(lanes, HybridLanes):
+            return None
+        if not (np.isfinite(xs).all() and np.isfinite(diag).all() and np.isfinite(poses).all()):
+            return None
+        states = lanes.state_records(poses, xs, diag)
+        states["t"] = np.broadcast_to(t, (self.n_lanes, len(t)))
+        before = self._reduction.acc.copy()
+        if self.k == 0:  # sample 0 first, its step's diagnostics backfilled (as `_chunk`)
+            step_keys = {"limit_scale", "clipped", "saturated"}
+            self.history.backfill_first(states, lanes.diagnostics | step_keys)
+            self._reduction.add(self.history.data, 0)
+        newest = lanes.reduce(self._reduction, t, self.k + 1)
+        if newest is None:
+            self._reduction.acc[:] = before
+            return None
+        if self.k == 0:
+            self._count_limited(self.history.data, 0)
+        self._count_limited(states, self.k + 1)
+        return {key: values[:, -1:] for key, values in states.items()} | newest
 
     # -- changes -----------------------------------------------------------------------------
     def update(
@@ -646,7 +692,9 @@ def lane_parts(members: list[int], threads: int = 1) -> list[list[int]]:
 #: metrics, then the platforms' runner in parallel form; and the platforms' runner, then the
 #: hybrid system's qp runner. Each share's later lane sets load from numba's cache what the
 #: other has compiled meanwhile (the records and metrics for qp, the platforms' serial runner
-#: for its parallel form). A lane set of two compiles a runner's parallel form.
+#: for its parallel form). A lane set of two compiles a runner's parallel form; each lane set
+#: runs keeping its series and keeping its metrics alone (`KEEPS`: the runners that reduce as
+#: they record, `twin.sim.kernels.records.run_hybrid_reduce`, and the reductions' `run_*_add`).
 WARM_SHARES: tuple[tuple[tuple[dict[str, str], ...], ...], ...] = (
     (
         ({"planner": "mtmp"},),
@@ -706,9 +754,11 @@ def warm(
     start = time.perf_counter()
     for i in chosen:
         for lanes in WARM_SHARES[i]:
-            simulation = Simulation([{"duration": 0.1, **lane} for lane in lanes], engine=engine)
-            simulation.run()  # lane 0's result: the one-lane (serial) metrics runner
-            simulation.results()  # every lane's: the parallel one where there are several
+            for keep in KEEPS:  # "metrics": the runners that reduce as they step
+                simulation = Simulation([{"duration": 0.1, **lane} for lane in lanes],
+                                        engine=engine, keep=keep)  # fmt: skip
+                simulation.run()  # lane 0's result: the one-lane (serial) metrics runner
+                simulation.results()  # every lane's: the parallel one where there are several
             if progress is not None:
                 progress(warm_label(lanes))
     return time.perf_counter() - start

@@ -31,6 +31,7 @@ from twin.planners import (
 )
 from twin.sim.kernels import layout
 from twin.sim.metrics import (
+    HybridReduction,
     hybrid_metrics,
     hybrid_metrics_lanes,
     platform_metrics,
@@ -130,6 +131,7 @@ class HybridLanes:
         # kernel handed over (made by `run`, filled by `records`)
         self._recorded = record_arrays(len(self.x0), 0)
         self._handed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._xs = np.empty((len(self.x0), 0, 9))  # the chunk's states (`run`)
         self._rows: dict[tuple, np.ndarray] = {}  # packed differential planners (`pack`)
 
     def pack(
@@ -192,6 +194,7 @@ class HybridLanes:
         handed = np.where(kinds == layout.KIND_DIFFERENTIAL, S - 1, 0)
         run(xs, targets, prm, memory, self.const, dt, diag, faults, first, errors, tips)
         self._handed = (targets, handed, tips)
+        self._xs = xs  # what `reduce` records
 
     def records(
         self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, dt: float, first: int = 1
@@ -210,6 +213,49 @@ class HybridLanes:
         self._records(targets, xs, first, handed, self.held, self.landing, self.gangway0,
                       self.const, legs, errors, scalars, tips)  # fmt: skip
         return self._with_state(poses, xs, diag, record_views(*self._recorded, first), first)
+
+    def state_records(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray) -> dict:
+        """The records of the chunk `run` just stepped that are its own arrays (views, nothing
+        computed): base poses, states and diagnostics of samples 1 … S − 1, (N, S − 1, …)."""
+        return self._with_state(poses, xs, diag, {}, 1)
+
+    def reduce(self, reduction: HybridReduction, t: np.ndarray, start: int) -> dict | None:
+        """keep="metrics": samples 1 … S − 1 of the chunk `run` just stepped, each recorded and
+        added to `reduction` at once (`run_hybrid_reduce`), its records never kept.
+
+        Args:
+            reduction: the lanes' running metrics, samples up to `start` added.
+            t: (S − 1,) the samples' times [s]; start: the index of sample 1 in the run.
+
+        Returns:
+            Sample S − 1's computed records (N, 1, …) (`record_views`' keys), or None where
+            a state or record is not finite: then `reduction` is left as it was, and
+            `records` (still to be called) records the chunk, to be held as a series is.
+
+        Raises:
+            ValueError: samples that do not follow those already added.
+        """
+        from twin.sim.kernels.records import compiled_reduce, run_hybrid_reduce
+
+        if self._handed is None:  # each chunk is recorded once, after `run`
+            raise RuntimeError("HybridLanes.reduce: no chunk stepped since; call run first")
+        targets, handed, tips = self._handed
+        xs, S = self._xs, len(t) + 1
+        if np.any(reduction.seen != np.minimum(reduction.ends, start)):
+            raise ValueError(f"reduction: samples from {start} on, after {reduction.seen}")
+        runner = pick_runner(compiled_reduce, run_hybrid_reduce, self.compiled, len(xs))
+        before = reduction.acc.copy()
+        last = record_arrays(len(xs), 1)
+        finite = np.ones(len(xs), dtype=bool)
+        runner(targets, xs, np.clip(reduction.ends - start, 0, S - 1), handed, self.held,
+               self.landing, self.gangway0, self.const, self._recorded[1], tips,
+               np.ascontiguousarray(t), reduction.hold, reduction.acc,
+               tuple(a[:, 0] for a in last), finite)  # fmt: skip
+        if not finite.all():
+            reduction.acc[:] = before
+            return None
+        self._handed = None  # the scratch rows die with the chunk
+        return record_views(*last, 0)
 
     def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
         """Records (N, 1, …) at t = 0 (diagnostics zero: the engine repeats the first step's)."""

@@ -18,7 +18,10 @@ through the Dask scheduler and a worker (issue 30: a 60 s run's POST waited 26 m
 hand-off and 17 ms for the result, 16 ms for the run). One such run at a time: the next short
 run while one is in hand goes to the executor, so the front end never holds more than one
 run's Python work. Such a run reports no progress (it is over in milliseconds); its budget is
-`run_scenario`'s, as on a worker.
+`run_scenario`'s, as on a worker. A request that waits for its run (`run_here`) runs it on its
+own worker thread, the one that stored it, instead of handing it to another thread and back
+(each hand-off a wake-up and a wait for the GIL); a run queued again at start runs on the
+runner's own thread.
 
 Budget: a run has a wall-clock budget (`budget`) beside the step cap; past it the worker stops
 it (`BudgetExceeded`) and it is stored as failed with a message. A worker that does not answer
@@ -202,7 +205,7 @@ class JobRunner:
         done: Future[Run] = Future()
         with self._lock:  # before the run exists: a fast one may settle at once
             self._futures[run_id] = (None, done)
-        if self._inline is not None and steps(scenario) <= self.inline_max_steps:
+        if self._inline is not None and self._short(scenario):
             if self._inline_free.acquire(blocking=False):
                 try:
                     inline = self._inline.submit(self._run_inline, run_id, fields, done)
@@ -214,6 +217,38 @@ class JobRunner:
                     if run_id in self._futures:
                         self._futures[run_id] = (inline, done)
                 return done
+        return self._to_executor(run_id, fields, done)
+
+    def run_here(self, run_id: str) -> Future[Run]:
+        """`submit`, except that a short run (at most `inline_max_steps` steps) runs on the
+        calling thread when the in-process slot is free: a request's worker thread that waits
+        for the answer anyway (issue 30: no hand-off to the runner's thread and back). Blocks
+        for such a run (a few milliseconds; within its budget, as on a worker).
+
+        Returns:
+            The run's future as `submit`'s, already resolved when the run ran here (the stored
+            run, the refusal's `ValueError`, or cancelled if the server stopped or the run
+            was cancelled meanwhile).
+        """
+        if self._inline is None or self._writer is None or self._stopping.is_set():
+            return self.submit(run_id)  # not started (it says so), or stopping
+        scenario = self.store.scenario(run_id)
+        if not self._short(scenario) or not self._inline_free.acquire(blocking=False):
+            return self.submit(run_id)  # the slot is taken: to the executor
+        done: Future[Run] = Future()
+        with self._lock:
+            self._futures[run_id] = (done, done)  # a `Future`: not a Dask one to cancel
+        self._run_inline(run_id, scenario.model_dump(mode="json"), done)
+        return done
+
+    def _short(self, scenario: Scenario) -> bool:
+        """Whether a run of `scenario` may run in process (`inline_max_steps`)."""
+        return steps(scenario) <= self.inline_max_steps
+
+    def _to_executor(self, run_id: str, fields: dict[str, Any], done: Future[Run]) -> Future[Run]:
+        """The run as a task on the executor, settled by the store writer thread."""
+        if self.executor is None or self._writer is None:
+            raise RuntimeError("JobRunner.start(executor) first")
         dask = self.executor.run(fields, name=run_id, budget=self.budget)
         with self._lock:
             if run_id in self._futures:
@@ -223,9 +258,10 @@ class JobRunner:
         return done
 
     def _run_inline(self, run_id: str, fields: dict[str, Any], done: Future[Run]) -> None:
-        """A short run on the server's own thread: marked running, run (`run_scenario`, as a
-        worker runs it), its outcome stored (`_settle`, on this thread: no progress report
-        can come after it)."""
+        """A short run on a thread of the server (the runner's, or a request's: `run_here`),
+        which holds the in-process slot and gives it back: marked running, run
+        (`run_scenario`, as a worker runs it), its outcome stored (`_settle`, on this thread: no
+        progress report can come after it)."""
         outcome: Future[RunOutput] = Future()
         try:
             with self._lock:
@@ -294,8 +330,10 @@ class JobRunner:
             except Exception as exc:  # the worker died, or the run raised
                 self.store.fail(run_id, f"worker failed: {type(exc).__name__}: {exc}")
             else:
-                try:
-                    self.store.finish_packed(run_id, output.metrics, output.series)
+                try:  # the run as stored, read back once (`finish_packed` returns it)
+                    stored = self.store.finish_packed(run_id, output.metrics, output.series)
+                    done.set_result(stored)
+                    return
                 except ValueError as exc:  # metrics that are not finite JSON
                     self.store.fail(run_id, f"result not storable: {exc}")
             done.set_result(self.store.get(run_id))

@@ -32,7 +32,12 @@ from tests.sim.oracle import (
 )
 from twin import spatial
 from twin.errors import TwinError
-from twin.mechanisms.hybrid import HybridBoardingSystem, integrate_hybrid, tip_transform
+from twin.mechanisms.hybrid import (
+    HYBRID_CONSTANTS,
+    HybridBoardingSystem,
+    integrate_hybrid,
+    tip_transform,
+)
 from twin.mechanisms.legs import leg_lengths_lane
 from twin.planners import PlannerParameters, get_planner
 from twin.planners import differential_step as ds
@@ -426,10 +431,10 @@ def _primitives(
     spatial.so3_log_lane(R, w)
     spatial.matrix_to_rpy_lane(R, rpy)
     spatial.rpy_to_matrix_lane(x[3], x[4], x[5], R_out)  # x's ᴮR_P, which the others take
-    tip_transform(x, R_out, const[layout.C_D1], const[layout.C_A1], G, T)
+    c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
+    tip_transform(x, R_out, c.d1, c.a1, G, T)
     integrate_hybrid(x, R_out, v, dt, x_next)
-    base = const[layout.C_BASE_HINGES : layout.C_BASE_HINGES + 18]
-    leg_lengths_lane(R_out, x, base, const[layout.C_PLATFORM_HINGES :][:18], legs)
+    leg_lengths_lane(R_out, x, c.base_hinges, c.platform_hinges, legs)
     hk.limit_excess_lane(x, R_out, const, excess)
     scale = hk.limit_scale_lane(x, R_out, v, dt, const, hk.limit_work())
     return T, w, rpy, R_out, x_next, legs, excess, scale
@@ -480,18 +485,17 @@ def test_primitives_match_independent_statements(run: object, rng: np.random.Gen
 
 
 def test_constants_and_fault_bits() -> None:
-    """`hybrid_constants` rows (Tables 1 and 6, the registry's rate limits), the fault bits
-    equal `Fault`'s."""
+    """`hybrid_constants` fields, read by name (Tables 1 and 6, the registry's rate limits),
+    the fault bits equal `Fault`'s."""
     assert CONST.shape == (layout.N_HYBRID_CONSTANTS,)
-    np.testing.assert_array_equal(CONST[layout.C_LOWER : layout.C_LOWER + 9], H.lower)
-    np.testing.assert_array_equal(CONST[layout.C_UPPER : layout.C_UPPER + 9], H.upper)
-    np.testing.assert_array_equal(CONST[layout.C_RATE : layout.C_RATE + 9], HYBRID_RATE_LIMITS)
-    assert (CONST[layout.C_D1], CONST[layout.C_A1]) == (H.gangway.d1, H.gangway.a1)
-    hinges = CONST[layout.C_BASE_HINGES : layout.C_BASE_HINGES + 18].reshape(6, 3)
-    np.testing.assert_array_equal(hinges, H.layout.base_hinges)
-    hinges = CONST[layout.C_PLATFORM_HINGES : layout.C_PLATFORM_HINGES + 18].reshape(6, 3)
-    np.testing.assert_array_equal(hinges, H.layout.platform_hinges)
-    assert (CONST[layout.C_LEG_MIN], CONST[layout.C_LEG_MAX]) == (2.58, 4.18)
+    c = CONST.view(HYBRID_CONSTANTS)[0]
+    np.testing.assert_array_equal(c.lower, H.lower)
+    np.testing.assert_array_equal(c.upper, H.upper)
+    np.testing.assert_array_equal(c.rate, HYBRID_RATE_LIMITS)
+    assert (c.d1, c.a1) == (H.gangway.d1, H.gangway.a1)
+    np.testing.assert_array_equal(c.base_hinges.reshape(6, 3), H.layout.base_hinges)
+    np.testing.assert_array_equal(c.platform_hinges.reshape(6, 3), H.layout.platform_hinges)
+    assert (c.leg_min, c.leg_max) == (2.58, 4.18)
     assert layout.FAULT_BASE_MOTION == Fault.BASE_MOTION
     assert layout.FAULT_PLANNER == Fault.PLANNER
     assert layout.FAULT_KINEMATICS == Fault.KINEMATICS

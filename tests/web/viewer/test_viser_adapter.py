@@ -40,6 +40,8 @@ def test_the_handshake_stand_in_is_seen_by_viser_alone(viewer: Viewer) -> None:
     ("owner", "name", "named"),
     [
         (viser_infra, "websockets", "viser.infra._infra.websockets.asyncio.server.serve"),
+        (viser_infra, "_message_producer", "viser.infra._infra._message_producer"),
+        (viser_infra, "_append_aligned_buffers", "viser.infra._infra._append_aligned_buffers"),
         (viser._messages, "ShareUrlRequest", "viser._messages.ShareUrlRequest"),
         (viser._messages, "RunJavascriptMessage", "viser._messages.RunJavascriptMessage"),
         (viser._messages, "GuiUpdateMessage", "viser._messages.GuiUpdateMessage"),
@@ -65,6 +67,9 @@ def test_a_server_without_its_websocket_internals_fails_loudly(
     """A running server whose websocket server lacks the connection table is named too."""
     monkeypatch.delattr(viewer.server._websock_server, "_live_connections")
     with pytest.raises(ViserInternalsMissing, match=r"WebsockServer\._live_connections"):
+        check_internals(viewer.server)
+    monkeypatch.delattr(viewer.server._websock_server, "_broadcast_buffer")
+    with pytest.raises(ViserInternalsMissing, match=r"WebsockServer\._broadcast_buffer"):
         check_internals(viewer.server)
 
 

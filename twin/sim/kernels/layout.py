@@ -25,10 +25,9 @@ are defined where the planners' steps that read and write them are
 
 from __future__ import annotations
 
-# The hybrid constants' record, the target, diagnostics and fault rows of the planners' steps,
+# The hybrid constants' size, the target, diagnostics and fault rows of the planners' steps,
 # the planner families (prm[P_KIND]) and the row sizes: each defined once, where what reads and
 # writes them is (`twin.mechanisms.hybrid`, `twin.planners.lane_rows`, `.parameters`)
-from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.mechanisms.hybrid import N_HYBRID_CONSTANTS as N_HYBRID_CONSTANTS
 from twin.planners.lane_rows import D_DAMPING as D_DAMPING
 from twin.planners.lane_rows import D_LIMIT_SCALE as D_LIMIT_SCALE
@@ -61,19 +60,3 @@ N_MEMORY = MEMORY_SIZE
 #: Fault bits of the engine (the planners' are `twin.planners.lane_rows`'), the values of
 #: `twin.sim.faults.Fault` (tested equal), as plain ints for numba.
 FAULT_BASE_MOTION, FAULT_KINEMATICS, FAULT_JOINT_LIMIT = 1, 4, 8
-
-
-def _constant_row(name: str) -> int:
-    """The first row of field `name` of `HYBRID_CONSTANTS` in the constants' float row."""
-    fields = HYBRID_CONSTANTS.fields
-    assert fields is not None  # a structured dtype
-    return int(fields[name][1]) // 8
-
-
-#: Rows of the hybrid constants' fields, from their record (`HYBRID_CONSTANTS`), for what still
-#: reads the float row by offset (twin.sim.kernels.records, tests); lane functions read the
-#: record by name.
-C_LOWER, C_UPPER, C_RATE = _constant_row("lower"), _constant_row("upper"), _constant_row("rate")
-C_D1, C_A1 = _constant_row("d1"), _constant_row("a1")
-C_BASE_HINGES, C_PLATFORM_HINGES = _constant_row("base_hinges"), _constant_row("platform_hinges")
-C_LEG_MIN, C_LEG_MAX = _constant_row("leg_min"), _constant_row("leg_max")

@@ -23,14 +23,15 @@ Per lane, over samples k = 0 … T−1 (T = end), S = min(SETTLE, T − 1) the f
   (0 if the base never tilts); both as fractions, all samples.
 
 Every reduction is a running one: a lane's accumulator row (`A_*`, N_ACC floats) takes its
-samples in order, in as many chunks as come (`hybrid_add_lane`), and `hybrid_finish_lane`
-turns it into the row of results. A whole series is one chunk (`hybrid_reduction_lane`); a
-run that keeps no series (`twin.sim.engine.Simulation`'s keep="metrics") feeds each chunk as it
-is stepped, so its memory does not grow with its length, and it gets the same bits: the sums
-run sample by sample, in order, whatever the chunks (no fast-math), so the compiled and the
-interpreted runner give the same bits too, and numpy's pairwise sums agree to rounding. The
-records carry no NaN (the engine holds non-finite samples), so min, max and the extremes need
-not order NaN as numpy does.
+samples in order, one at a time (`hybrid_add_sample`), in as many chunks as come
+(`hybrid_add_lane`) or as each is recorded (`twin.sim.kernels.records.run_hybrid_reduce`), and
+`hybrid_finish_lane` turns it into the row of results. A whole series is one chunk
+(`hybrid_reduction_lane`); a run that keeps no series (`twin.sim.engine.Simulation`'s
+keep="metrics") feeds each chunk as it is stepped, so its memory does not grow with its
+length, and it gets the same bits: the sums run sample by sample, in order, whatever the chunks
+(no fast-math), so the compiled and the interpreted runner give the same bits too, and numpy's
+pairwise sums agree to rounding. The records carry no NaN (the engine holds non-finite
+samples), so min, max and the extremes need not order NaN as numpy does.
 
 The small platforms' reductions (`platform_add_lane`, below) run the same way, from the same
 running sums (`trend_add`, `efficacy_add`).
@@ -45,7 +46,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twin.compiled import compile_runner, prange, register_borrowing
+from twin.compiled import compile_runner, prange, register_borrowing, register_inline
 
 #: samples left out at the start of min/max and error statistics (seed 000 §5.3: "the first 10
 #: data points are removed")
@@ -201,91 +202,112 @@ def hybrid_begin_lane(acc: np.ndarray, end: int) -> None:
     acc[A_FIRST] = min(SETTLE, end - 1)
 
 
-@register_borrowing
-def hybrid_add_lane(
-    t: np.ndarray,
-    xi: np.ndarray,
-    legs: np.ndarray,
-    tip_error: np.ndarray,
-    manipulability: np.ndarray,
-    phi_e: np.ndarray,
-    theta_e: np.ndarray,
-    alpha_top: np.ndarray,
-    alpha_bottom: np.ndarray,
-    hold: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    leg_min: float,
-    leg_max: float,
+#: a lane's samples as the reductions read them, `REDUCED`'s arrays in order, each (S, ...):
+#: t [s]; xi (S, 9) [m, rad]; legs (S, 6) [m]; tip_error (S, 6) [m, rad] in B; manipulability,
+#: phi_e, theta_e, alpha_top, alpha_bottom (S,) [-, rad]
+HybridSamples = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                      np.ndarray, np.ndarray, np.ndarray]  # fmt: skip
+#: a lane's limits as the reductions judge them: hold (its `joint_limits` is "hold": only
+#: samples past a limit count), lower, upper (9,) Table 6's joint limits [m, rad], leg_min,
+#: leg_max the stroke [m]
+HybridLimits = tuple[bool, np.ndarray, np.ndarray, float, float]
+
+
+@register_inline
+def hybrid_settled_add(
     acc: np.ndarray,
+    opening: bool,
+    x: np.ndarray,
+    legs: np.ndarray,
+    e: np.ndarray,
+    manipulability: float,
+    phi_e: float,
+    theta_e: float,
 ) -> None:
-    """Add a lane's next samples, in order, to its accumulator row (module docstring).
+    """A settled sample's (k ≥ the first judged) min and max, tip errors and manipulability
+    into acc (N_ACC,) (module docstring); opening: it is the first judged sample, which
+    starts the min and max. x (9,) [m, rad], legs (6,) [m], e (6,) [m, rad] in B."""
+    p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+    r = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+    if opening:
+        for j in range(N_JOINTS):
+            acc[A_JOINT_MIN + j], acc[A_JOINT_MAX + j] = x[j], x[j]
+        acc[A_LEGS_MIN], acc[A_LEGS_MAX] = legs[0], legs[0]
+        acc[A_MANIPULABILITY_MIN] = manipulability
+        acc[A_PHI_E], acc[A_THETA_E] = phi_e, theta_e
+    for j in range(N_JOINTS):
+        acc[A_JOINT_MIN + j] = min(acc[A_JOINT_MIN + j], x[j])
+        acc[A_JOINT_MAX + j] = max(acc[A_JOINT_MAX + j], x[j])
+    for j in range(N_LEGS):
+        acc[A_LEGS_MIN] = min(acc[A_LEGS_MIN], legs[j])
+        acc[A_LEGS_MAX] = max(acc[A_LEGS_MAX], legs[j])
+    acc[A_POSITION] += p * p
+    acc[A_ORIENTATION] += r * r
+    acc[A_POSITION_MAX] = max(acc[A_POSITION_MAX], p)
+    acc[A_ORIENTATION_MAX] = max(acc[A_ORIENTATION_MAX], r)
+    acc[A_MANIPULABILITY_MIN] = min(acc[A_MANIPULABILITY_MIN], manipulability)
+    # the signed value of largest magnitude, the first on a tie (seed 004 reports φe, θe
+    # maxima with sign)
+    if abs(phi_e) > abs(acc[A_PHI_E]):
+        acc[A_PHI_E] = phi_e
+    if abs(theta_e) > abs(acc[A_THETA_E]):
+        acc[A_THETA_E] = theta_e
+
+
+@register_inline
+def hybrid_add_sample(
+    acc: np.ndarray,
+    t: float,
+    x: np.ndarray,
+    legs: np.ndarray,
+    e: np.ndarray,
+    scalars: tuple[float, float, float, float, float],
+    limits: HybridLimits,
+) -> None:
+    """Add a lane's next sample to its accumulator row acc (N_ACC,) (`hybrid_begin_lane`;
+    module docstring): what `hybrid_add_lane` does per sample, and the records' fused pass
+    (`twin.sim.kernels.records.run_hybrid_reduce`) as each sample is recorded.
 
     Args:
-        t: (S,) [s]; xi: (S, 9) [m, rad]; legs: (S, 6) [m]; tip_error: (S, 6) [m, rad] in B;
-            manipulability, phi_e, theta_e, alpha_top, alpha_bottom: (S,) [-, rad]: the samples
-            after those already added.
-        hold: the lane's `joint_limits` is "hold" (only samples past a limit count).
-        lower, upper: (9,) Table 6's joint limits [m, rad]; leg_min, leg_max: stroke [m].
-        acc: (N_ACC,) the lane's row (`hybrid_begin_lane`), updated.
+        t: [s]; x: (9,) xi [m, rad]; legs: (6,) [m]; e: (6,) the tip error [m, rad] in B.
+        scalars: manipulability, phi_e, theta_e, alpha_top, alpha_bottom [-, rad].
+        limits: the lane's (`HybridLimits`).
     """
-    first = int(acc[A_FIRST])
-    seen = int(acc[A_SEEN])
-    leg_low, leg_high = leg_min - LEG_TOL, leg_max + LEG_TOL
-    joint_bad, leg_bad, bad = 0, 0, 0
-    efficacy = acc[A_EFFICACY : A_EFFICACY + N_EFFICACY]
-    joint_trend = acc[A_JOINT_TREND:A_LEG_TREND]
-    leg_trend = acc[A_LEG_TREND:N_ACC]
-    e = tip_error
+    hold, lower, upper, leg_min, leg_max = limits
+    manipulability, phi_e, theta_e, alpha_top, alpha_bottom = scalars
+    k = int(acc[A_SEEN])
+    joint = False
+    for j in range(N_JOINTS):
+        if hold:
+            joint |= (x[j] < lower[j] - JOINT_TOL) | (x[j] > upper[j] + JOINT_TOL)
+        else:
+            joint |= (x[j] <= lower[j] + JOINT_TOL) | (x[j] >= upper[j] - JOINT_TOL)
+    leg = False
+    for j in range(N_LEGS):  # `|`, not `or`: no branch per comparison
+        leg |= (legs[j] < leg_min - LEG_TOL) | (legs[j] > leg_max + LEG_TOL)
+    # counts as floats: whole numbers, exact to 2^53
+    acc[A_JOINT_VIOLATIONS] += 1.0 if joint else 0.0
+    acc[A_LEG_VIOLATIONS] += 1.0 if leg else 0.0
+    acc[A_VIOLATIONS] += 1.0 if joint | leg else 0.0
+    if k >= int(acc[A_FIRST]):
+        hybrid_settled_add(acc, k == int(acc[A_FIRST]), x, legs, e, manipulability, phi_e,
+                           theta_e)  # fmt: skip
+    efficacy_add(acc[A_EFFICACY : A_EFFICACY + N_EFFICACY], alpha_top, alpha_bottom)
+    trend_add(acc[A_JOINT_TREND:A_LEG_TREND], k + 1, t, x)
+    trend_add(acc[A_LEG_TREND:N_ACC], k + 1, t, legs)
+    acc[A_SEEN] = k + 1
+
+
+@register_borrowing
+def hybrid_add_lane(samples: HybridSamples, limits: HybridLimits, acc: np.ndarray) -> None:
+    """Add a lane's next samples (`HybridSamples`, the samples after those already added), in
+    order, to its accumulator row acc (N_ACC,) (`hybrid_begin_lane`), updated, judged by its
+    limits (`HybridLimits`): `hybrid_add_sample` of each."""
+    t, xi, legs, e, manipulability, phi_e, theta_e, alpha_top, alpha_bottom = samples
     for i in range(t.shape[0]):
-        k = seen + i
-        joint = False
-        for j in range(N_JOINTS):
-            x = xi[i, j]
-            if hold:
-                joint |= (x < lower[j] - JOINT_TOL) | (x > upper[j] + JOINT_TOL)
-            else:
-                joint |= (x <= lower[j] + JOINT_TOL) | (x >= upper[j] - JOINT_TOL)
-        leg = False
-        for j in range(N_LEGS):
-            leg |= (legs[i, j] < leg_low) | (legs[i, j] > leg_high)
-        joint_bad += joint  # `|`, not `or`: no branch per comparison
-        leg_bad += leg
-        bad += joint | leg
-        # min and max, errors and the manipulability over the settled samples
-        if k >= first:
-            p = math.sqrt(e[i, 0] * e[i, 0] + e[i, 1] * e[i, 1] + e[i, 2] * e[i, 2])
-            r = math.sqrt(e[i, 3] * e[i, 3] + e[i, 4] * e[i, 4] + e[i, 5] * e[i, 5])
-            if k == first:
-                for j in range(N_JOINTS):
-                    acc[A_JOINT_MIN + j], acc[A_JOINT_MAX + j] = xi[i, j], xi[i, j]
-                acc[A_LEGS_MIN], acc[A_LEGS_MAX] = legs[i, 0], legs[i, 0]
-                acc[A_MANIPULABILITY_MIN] = manipulability[i]
-                acc[A_PHI_E], acc[A_THETA_E] = phi_e[i], theta_e[i]
-            for j in range(N_JOINTS):
-                acc[A_JOINT_MIN + j] = min(acc[A_JOINT_MIN + j], xi[i, j])
-                acc[A_JOINT_MAX + j] = max(acc[A_JOINT_MAX + j], xi[i, j])
-            for j in range(N_LEGS):
-                acc[A_LEGS_MIN] = min(acc[A_LEGS_MIN], legs[i, j])
-                acc[A_LEGS_MAX] = max(acc[A_LEGS_MAX], legs[i, j])
-            acc[A_POSITION] += p * p
-            acc[A_ORIENTATION] += r * r
-            acc[A_POSITION_MAX] = max(acc[A_POSITION_MAX], p)
-            acc[A_ORIENTATION_MAX] = max(acc[A_ORIENTATION_MAX], r)
-            acc[A_MANIPULABILITY_MIN] = min(acc[A_MANIPULABILITY_MIN], manipulability[i])
-            # the signed value of largest magnitude, the first on a tie (seed 004 reports φe,
-            # θe maxima with sign)
-            if abs(phi_e[i]) > abs(acc[A_PHI_E]):
-                acc[A_PHI_E] = phi_e[i]
-            if abs(theta_e[i]) > abs(acc[A_THETA_E]):
-                acc[A_THETA_E] = theta_e[i]
-        efficacy_add(efficacy, alpha_top[i], alpha_bottom[i])
-        trend_add(joint_trend, k + 1, t[i], xi[i])
-        trend_add(leg_trend, k + 1, t[i], legs[i])
-    acc[A_SEEN] = seen + t.shape[0]
-    acc[A_VIOLATIONS] += bad
-    acc[A_JOINT_VIOLATIONS] += joint_bad
-    acc[A_LEG_VIOLATIONS] += leg_bad
+        hybrid_add_sample(acc, t[i], xi[i], legs[i], e[i],
+                          (manipulability[i], phi_e[i], theta_e[i], alpha_top[i],
+                           alpha_bottom[i]), limits)  # fmt: skip
 
 
 @register_borrowing
@@ -311,33 +333,17 @@ def hybrid_finish_lane(acc: np.ndarray, out: np.ndarray) -> None:
 
 @register_borrowing
 def hybrid_reduction_lane(
-    t: np.ndarray,
-    xi: np.ndarray,
-    legs: np.ndarray,
-    tip_error: np.ndarray,
-    manipulability: np.ndarray,
-    phi_e: np.ndarray,
-    theta_e: np.ndarray,
-    alpha_top: np.ndarray,
-    alpha_bottom: np.ndarray,
-    hold: bool,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    leg_min: float,
-    leg_max: float,
-    out: np.ndarray,
-    acc: np.ndarray,
+    samples: HybridSamples, limits: HybridLimits, out: np.ndarray, acc: np.ndarray
 ) -> None:
     """One lane's reductions (module docstring) over all the samples it is given: its series as
     one chunk (`hybrid_begin_lane`, `hybrid_add_lane`, `hybrid_finish_lane`).
 
     Args:
-        t .. leg_max: as `hybrid_add_lane`'s, (T, ...) the whole series.
+        samples, limits: as `hybrid_add_lane`'s, (T, ...) the whole series.
         out: (N_ROW,) written; acc: (≥ N_ACC,) scratch, overwritten.
     """
-    hybrid_begin_lane(acc, t.shape[0])
-    hybrid_add_lane(t, xi, legs, tip_error, manipulability, phi_e, theta_e, alpha_top,
-                    alpha_bottom, hold, lower, upper, leg_min, leg_max, acc)  # fmt: skip
+    hybrid_begin_lane(acc, samples[0].shape[0])
+    hybrid_add_lane(samples, limits, acc)
     hybrid_finish_lane(acc, out)
 
 
@@ -363,17 +369,17 @@ def run_hybrid_reductions(
 
     Args:
         t .. alpha_bottom: (N, C, ...) the series (`REDUCED`; C ≥ every end), as
-            `hybrid_reduction_lane` takes them per lane.
+            `HybridSamples` per lane.
         ends: (N,) int, samples of each lane (≥ 1); hold: (N,) bool, each lane's mode.
-        lower, upper, leg_min, leg_max: as `hybrid_reduction_lane`'s.
+        lower, upper, leg_min, leg_max: the lanes' `HybridLimits` but hold.
         out: (N, N_ROW), written.
     """
     for n in prange(ends.shape[0]):
         e = ends[n]
-        hybrid_reduction_lane(t[n, :e], xi[n, :e], legs[n, :e], tip_error[n, :e],
-                              manipulability[n, :e], phi_e[n, :e], theta_e[n, :e],
-                              alpha_top[n, :e], alpha_bottom[n, :e], hold[n], lower, upper,
-                              leg_min, leg_max, out[n], np.empty(N_ACC))  # fmt: skip
+        samples = (t[n, :e], xi[n, :e], legs[n, :e], tip_error[n, :e], manipulability[n, :e],
+                   phi_e[n, :e], theta_e[n, :e], alpha_top[n, :e], alpha_bottom[n, :e])  # fmt: skip
+        hybrid_reduction_lane(samples, (hold[n], lower, upper, leg_min, leg_max), out[n],
+                              np.empty(N_ACC))  # fmt: skip
 
 
 def run_hybrid_add(
@@ -405,10 +411,10 @@ def run_hybrid_add(
     for n in prange(counts.shape[0]):
         c = counts[n]
         if c > 0:
-            hybrid_add_lane(t[n, :c], xi[n, :c], legs[n, :c], tip_error[n, :c],
-                            manipulability[n, :c], phi_e[n, :c], theta_e[n, :c],
-                            alpha_top[n, :c], alpha_bottom[n, :c], hold[n], lower, upper,
-                            leg_min, leg_max, acc[n])  # fmt: skip
+            samples = (t[n, :c], xi[n, :c], legs[n, :c], tip_error[n, :c],
+                       manipulability[n, :c], phi_e[n, :c], theta_e[n, :c], alpha_top[n, :c],
+                       alpha_bottom[n, :c])  # fmt: skip
+            hybrid_add_lane(samples, (hold[n], lower, upper, leg_min, leg_max), acc[n])
 
 
 @cache

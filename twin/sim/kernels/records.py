@@ -33,9 +33,10 @@ from twin.compiled import (
     register_inline,
     register_jitable,
 )
+from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
 from twin.planners.tasks import tip_error_lane
-from twin.sim.kernels.layout import C_A1, C_BASE_HINGES, C_D1, C_PLATFORM_HINGES
+from twin.sim.kernels.metrics import HybridLimits, hybrid_add_sample
 from twin.spatial import rpy_to_matrix_lane
 
 #: Scalar record rows (`run_hybrid_records`' `scalars`).
@@ -94,7 +95,7 @@ def record_from_tip(
     landing: np.ndarray,
     phi0: float,
     theta0: float,
-    const: np.ndarray,
+    c: np.record,
     legs_out: np.ndarray,
     scalars_out: np.ndarray,
     work: RecordWork,
@@ -110,7 +111,7 @@ def record_from_tip(
         held: (4, 4) ᴵT_E*.
         landing: (3, 3) inertial → landing frame; phi0, theta0: [rad] the gangway's azimuth
             and elevation in it at t = 0 (`gangway_angles`).
-        const: hybrid constants.
+        c: the hybrid constants, the `HYBRID_CONSTANTS` record (hinges read by name).
         legs_out: (6,) [m]; scalars_out: (N_SCALARS,) written.
         work: `record_work()`, overwritten (ᴵR_B, ᴮR_P, directions, legs, Jacobian).
     """
@@ -125,9 +126,8 @@ def record_from_tip(
                 + held[i, 2] * target[3 * j + 2]
             )  # fmt: skip
     # legs and manipulability
-    platform = const[C_PLATFORM_HINGES : C_PLATFORM_HINGES + 18]
-    leg_vectors_lane(R_BP, x, const[C_BASE_HINGES : C_BASE_HINGES + 18], platform, vectors,
-                     legs_out)  # fmt: skip
+    platform = c.platform_hinges
+    leg_vectors_lane(R_BP, x, c.base_hinges, platform, vectors, legs_out)
     scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, platform, J)
     # inertial directions of the tip's axes: ᴵR_B ᴮR_E e_x (up) and d3 ᴵR_B ᴮR_E e_z (gangway)
     for i in range(3):
@@ -151,18 +151,49 @@ def record_from_tip(
 
 @register_borrowing
 def sample_tip(
-    target: np.ndarray, x: np.ndarray, const: np.ndarray, error_out: np.ndarray, work: RecordWork
+    target: np.ndarray, x: np.ndarray, c: np.record, error_out: np.ndarray, work: RecordWork
 ) -> None:
     """One sample's tip from its state alone, where no differential step handed it over:
     ᴮR_P (`rpy_to_matrix_lane`), the tip and its error against ᴮT_d as the tip task computes
     them (`tip_error_lane`), put as the runner hands a step's over (`hand_over`) into work's
-    tip row; target, x, const as in `record_from_tip`, error_out (6,) [m, rad] in B written.
+    tip row; target, x, c as in `record_from_tip`, error_out (6,) [m, rad] in B written.
     """
     rotations, frames, tip = work[0], work[1], work[6]
     R_BP = rotations[1]
     rpy_to_matrix_lane(x[3], x[4], x[5], R_BP)
-    tip_error_lane(x, R_BP, target, const[C_D1], const[C_A1], frames, work[2], error_out)
+    tip_error_lane(x, R_BP, target, c.d1, c.a1, frames, work[2], error_out)
     hand_over(R_BP, frames[1], error_out, tip, error_out)
+
+
+@register_inline
+def record_sample(
+    targets: np.ndarray,
+    xs: np.ndarray,
+    k: int,
+    handed: int,
+    tips: np.ndarray,
+    held: np.ndarray,
+    landing: np.ndarray,
+    angles0: tuple[float, float],
+    c: np.record,
+    legs_out: np.ndarray,
+    error_out: np.ndarray,
+    scalars_out: np.ndarray,
+    work: RecordWork,
+) -> None:
+    """Sample k's record (module docstring) of a lane's targets (S, 18) and states xs (S, 9):
+    from the tip the kernel handed over (tips[k], `hand_over`) when k < handed, its error
+    already in error_out, else from its state alone (`sample_tip`, error_out written);
+    angles0: the gangway's (φ, θ) at t = 0 (`gangway_angles`); held, landing, c, work as in
+    `record_from_tip`; legs_out (6,), error_out (6,), scalars_out (N_SCALARS,)."""
+    if k < handed:
+        tip = tips[k]
+    else:
+        sample_tip(targets[k], xs[k], c, error_out, work)
+        tip = work[6]
+    # one call site: record_from_tip is inlined (`register_inline`)
+    record_from_tip(targets[k], xs[k], tip, held, landing, angles0[0], angles0[1], c, legs_out,
+                    scalars_out, work)  # fmt: skip
 
 
 @register_borrowing
@@ -181,9 +212,9 @@ def hybrid_record_lane(
     tips: np.ndarray,
     work: RecordWork,
 ) -> None:
-    """One lane's records, sample by sample: the loop is here, not in the runner, because a
-    borrowing function takes its per-sample views without reference counting (two atomic
-    operations per view and sample in the runner).
+    """One lane's records, sample by sample (`record_sample`): the loop is here, not in the
+    runner, because a borrowing function takes its per-sample views without reference
+    counting (two atomic operations per view and sample in the runner).
 
     Args:
         targets: (S, 18) each sample's target row; xs: (S, 9) xi per sample [m, rad].
@@ -191,20 +222,16 @@ def hybrid_record_lane(
         handed: samples before it have their tip in `tips` and their error in errors_out
             (`hand_over`, by the kernel); the others' are computed here (`sample_tip`).
         landing: (3, 3) inertial → landing frame; g0: (3,) the gangway vector at t = 0 in it.
-        held, const, work: as in `record_from_tip`.
+        const: (N_HYBRID_CONSTANTS,) the hybrid constants, read by name (`HYBRID_CONSTANTS`).
+        held, work: as in `record_from_tip`.
         legs_out: (S, 6) [m]; errors_out: (S, 6) [m, rad]; scalars_out: (S, N_SCALARS):
             rows first … S − 1 written. tips: (S, N_TIP) or (0, N_TIP) when handed ≤ first.
     """
-    phi0, theta0 = gangway_angles(g0)  # once per lane
+    angles0 = gangway_angles(g0)  # once per lane
+    c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
     for k in range(first, xs.shape[0]):
-        if k < handed:
-            tip = tips[k]
-        else:
-            sample_tip(targets[k], xs[k], const, errors_out[k], work)
-            tip = work[6]
-        # one call site: record_from_tip is inlined (`register_inline`)
-        record_from_tip(targets[k], xs[k], tip, held, landing, phi0, theta0, const, legs_out[k],
-                        scalars_out[k], work)  # fmt: skip
+        record_sample(targets, xs, k, handed, tips, held, landing, angles0, c, legs_out[k],
+                      errors_out[k], scalars_out[k], work)  # fmt: skip
 
 
 @register_jitable
@@ -296,3 +323,165 @@ def compiled_records(parallel: bool) -> Callable:
     if not parallel or serial_records is run_hybrid_records:
         return serial_records
     return compile_runner(run_hybrid_records_lanes, parallel=True)
+
+
+# ------------------------------------------------------------ records reduced as they are made
+# A run that keeps no series (`twin.sim.engine.Simulation`'s keep="metrics": a sweep's or a
+# workability lane) wants its records only to reduce them: the pass below records each sample
+# into a one-sample scratch (`record_sample`) and adds it to the lane's running metrics at once
+# (`twin.sim.kernels.metrics.hybrid_add_sample`), the very functions the records runner and the
+# reduction call, so the chunk's records are never kept and the metrics are the same bits.
+
+
+@register_borrowing
+def finite_record(x: np.ndarray, legs: np.ndarray, error: np.ndarray, scalars: np.ndarray) -> bool:
+    """Whether a sample's state x (9,) and its record (legs (6,), tip error (6,), scalars
+    (N_SCALARS,)) are all finite: a sample that is not is held as a kept series is
+    (`twin.sim.faults.hold_nonfinite`), which the fused pass leaves to the records runner."""
+    for j in range(9):
+        if not math.isfinite(x[j]):
+            return False
+    for j in range(6):
+        if not (math.isfinite(legs[j]) and math.isfinite(error[j])):
+            return False
+    for j in range(N_SCALARS):
+        if not math.isfinite(scalars[j]):
+            return False
+    return True
+
+
+@register_borrowing
+def hybrid_reduce_lane(
+    targets: np.ndarray,
+    xs: np.ndarray,
+    counted: tuple[int, int],
+    held: np.ndarray,
+    landing: np.ndarray,
+    g0: np.ndarray,
+    const: np.ndarray,
+    handover: tuple[np.ndarray, np.ndarray],
+    t: np.ndarray,
+    hold: bool,
+    acc: np.ndarray,
+    work: RecordWork,
+    last: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> bool:
+    """One lane's samples 1 … S − 1 recorded one at a time (`record_sample`) and added to its
+    running metrics as they are (`hybrid_add_sample`), none kept but the last.
+
+    Args:
+        targets, xs, held, landing, g0, const: as `hybrid_record_lane`'s.
+        counted: (count, handed): samples 1 … count are added (those up to the lane's end);
+            samples before `handed` have their tip and error from the kernel (`hand_over`).
+        handover: (errors (S, 6), tips (S, N_TIP)) the kernel's (`hybrid_record_lane`'s
+            errors_out and tips).
+        t: (S − 1,) samples 1 … S − 1's times [s]; hold: the lane's `joint_limits` is "hold".
+        acc: (N_ACC,) the lane's running metrics (`twin.sim.kernels.metrics`), updated.
+        work: `record_work()`; last: legs (6,), tip error (6,), scalars (N_SCALARS,): each
+            sample's record in turn, sample S − 1's at the end.
+
+    Returns:
+        Whether every sample's state and record were finite; acc is left part-way when not
+        (the caller restores it).
+    """
+    count, handed = counted
+    errors, tips = handover
+    legs, error, scalars = last
+    angles0 = gangway_angles(g0)  # once per lane
+    c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
+    limits: HybridLimits = (hold, c.lower, c.upper, c.leg_min, c.leg_max)
+    for k in range(1, xs.shape[0]):
+        e = errors[k] if k < handed else error  # the kernel's, or computed into the scratch
+        record_sample(targets, xs, k, handed, tips, held, landing, angles0, c, legs, e,
+                      scalars, work)  # fmt: skip
+        if not finite_record(xs[k], legs, e, scalars):
+            return False
+        if k <= count:
+            hybrid_add_sample(acc, t[k - 1], xs[k], legs, e,
+                              (scalars[S_MANIPULABILITY], scalars[S_PHI_E], scalars[S_THETA_E],
+                               scalars[S_ALPHA_TOP], scalars[S_ALPHA_BOTTOM]), limits)  # fmt: skip
+    if handed == xs.shape[0]:  # the last sample handed over too: its error into the scratch
+        for j in range(6):
+            error[j] = errors[xs.shape[0] - 1, j]
+    return True
+
+
+def run_hybrid_reduce(
+    targets: np.ndarray,
+    xs: np.ndarray,
+    counts: np.ndarray,
+    handed: np.ndarray,
+    held: np.ndarray,
+    landing: np.ndarray,
+    gangway0: np.ndarray,
+    const: np.ndarray,
+    errors: np.ndarray,
+    tips: np.ndarray,
+    t: np.ndarray,
+    hold: np.ndarray,
+    acc: np.ndarray,
+    last: tuple[np.ndarray, np.ndarray, np.ndarray],
+    finite: np.ndarray,
+) -> None:
+    """Samples 1 … S − 1 of N lanes (a chunk as the kernel stepped it, its start in row 0)
+    recorded and reduced at once (`hybrid_reduce_lane`), lane n adding its first counts[n]
+    (0 … S − 1: a lane past its end adds none).
+
+    Args:
+        targets, xs, handed, held, landing, gangway0, const, tips: as `run_hybrid_records`'.
+        counts: (N,) int; errors: (N, S, 6) the kernel's handed errors (other rows unused).
+        t: (S − 1,) [s]; hold: (N,) bool, each lane's mode; acc: (N, N_ACC), updated.
+        last: legs (N, 6), tip errors (N, 6), scalars (N, N_SCALARS): sample S − 1's record,
+            written; finite: (N,) bool, written where a lane's samples were all finite.
+
+    Raises:
+        ValueError: fewer target rows than samples (`require_target_rows`).
+    """
+    require_target_rows(targets, xs)
+    for n in prange(xs.shape[0]):
+        finite[n] = hybrid_reduce_lane(targets[n], xs[n], (counts[n], handed[n]), held[n],
+                                       landing[n], gangway0[n], const, (errors[n], tips[n]), t,
+                                       hold[n], acc[n], record_work(),
+                                       (last[0][n], last[1][n], last[2][n]))  # fmt: skip
+
+
+def run_hybrid_reduce_lanes(
+    targets: np.ndarray,
+    xs: np.ndarray,
+    counts: np.ndarray,
+    handed: np.ndarray,
+    held: np.ndarray,
+    landing: np.ndarray,
+    gangway0: np.ndarray,
+    const: np.ndarray,
+    errors: np.ndarray,
+    tips: np.ndarray,
+    t: np.ndarray,
+    hold: np.ndarray,
+    acc: np.ndarray,
+    last: tuple[np.ndarray, np.ndarray, np.ndarray],
+    finite: np.ndarray,
+) -> None:
+    """`run_hybrid_reduce` with its lanes in parallel, each a one-lane call of the compiled
+    serial runner `serial_reduce` (as `run_hybrid_records_lanes`). Arguments and errors as
+    `run_hybrid_reduce`'s."""
+    require_target_rows(targets, xs)
+    for n in prange(xs.shape[0]):
+        lane = slice(n, n + 1)
+        serial_reduce(targets[lane], xs[lane], counts[lane], handed[lane], held[lane],
+                      landing[lane], gangway0[lane], const, errors[lane], tips[lane], t,
+                      hold[lane], acc[lane], (last[0][lane], last[1][lane], last[2][lane]),
+                      finite[lane])  # fmt: skip
+
+
+#: `run_hybrid_reduce` compiled serial (lazily), or the plain function without numba
+serial_reduce = compile_runner(run_hybrid_reduce, parallel=False)
+
+
+@cache
+def compiled_reduce(parallel: bool) -> Callable:
+    """`run_hybrid_reduce` compiled, lanes in parallel (`run_hybrid_reduce_lanes`) or serial
+    (`serial_reduce`); plain Python without numba."""
+    if not parallel or serial_reduce is run_hybrid_reduce:
+        return serial_reduce
+    return compile_runner(run_hybrid_reduce_lanes, parallel=True)

@@ -67,6 +67,10 @@ class _Stopping(Exception):
 
 async def _outcome(done: Future[Run], timeout: float, stopping: threading.Event) -> Run | None:
     """The stored run once `done` resolves; None after `timeout` s (still running)."""
+    if done.done():  # run on the request's own thread (`JobRunner.run_here`): nothing to await
+        if done.cancelled():
+            raise _Stopping
+        return done.result()
     waiting = asyncio.wrap_future(done)
     loop = asyncio.get_running_loop()
     deadline = loop.time() + timeout
@@ -118,24 +122,23 @@ async def create_run(
     says `warming`) every run answers 202 at once and runs when it is ready.
     """
 
-    def admit_and_store() -> Run:
-        # one trip to the thread pool, not two: under load each trip waits for the GIL
-        # (issue 30: a 60 s run's POST p50)
+    def admit_store_and_run() -> tuple[Run, Future[Run] | None]:
+        # one trip to the thread pool, not two or three: under load each trip waits for the
+        # GIL (issue 30: a 60 s run's POST p50); a short run runs on this same thread
         admission.admit(request, "runs", store.pending())
-        return store.create(scenario, admission.caps["runs"])
+        run = store.create(scenario, admission.caps["runs"])
+        if services.warming:  # stored queued: `Services.attach` runs it once kernels are ready
+            return run, None
+        return run, jobs.run_here(run.id) if jobs.is_sync(scenario) else jobs.submit(run.id)
 
     try:
-        run = await run_in_threadpool(admit_and_store)
+        run, done = await run_in_threadpool(admit_store_and_run)
     except QueueFull as exc:  # the cap, checked with the insert: no race past it
         raise HTTPException(429, str(exc), headers={"Retry-After": "5"}) from None
     except StoreFull as exc:  # the quota (--max-store, --max-runs): nothing stored
         raise HTTPException(507, str(exc)) from None
     response.headers["Location"] = f"/api/runs/{run.id}"
-    if services.warming:  # stored queued: `Services.attach` runs it once the kernels are ready
-        response.status_code = 202
-        return run
-    done = jobs.submit(run.id)
-    if not jobs.is_sync(scenario):
+    if done is None or not jobs.is_sync(scenario):
         response.status_code = 202
         return run
     try:

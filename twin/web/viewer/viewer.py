@@ -322,6 +322,8 @@ def start_viewer(
     try:
         viser_adapter.check_internals(server)
         viser_adapter.drop_share_handlers(server)
+        # a frame is encoded once for all browsers, not once per browser (issue 30 item 7)
+        viser_adapter.share_broadcast_encoding(server)
         server.gui.configure_theme(control_width="large", show_share_button=False)
         configure_graphics(server.scene, graphics)
         viewer = Viewer(session, server, access, store=store, sweeps=sweeps, api_url=api_url,

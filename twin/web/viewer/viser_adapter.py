@@ -19,6 +19,14 @@ viser (1.1) has no public hook for these, so the viewer reaches in here and nowh
   viser itself sends plotly.js (`ClientHandle._websock_connection`).
 - what a browser sends (`browser_message`), for the tests' raw websocket client
   (tests/web/viser_client.py), which speaks viser's wire format without a browser.
+- one encoding of a broadcast window for every browser (`share_broadcast_encoding`): viser
+  runs one producer per connection (`viser.infra._infra._message_producer`), and each turned
+  the same window of the broadcast buffer (`WebsockServer._broadcast_buffer`) into the same
+  bytes again: msgpack, zstd and a copy of every array, 100 times a frame for 100 browsers.
+  The producer viser's connection handler calls is replaced by one that encodes a window of
+  a registered broadcast buffer once (`SharedWindows`) and sends those bytes to every
+  connection whose window holds the same messages; any other buffer (a browser's own
+  messages, another viser server's) goes to viser's producer unchanged.
 
 `check_internals()` names whatever a viser upgrade removed; `start_viewer` calls it before it
 starts anything and tests/web/viewer/test_viser_adapter.py runs it against the installed viser.
@@ -28,10 +36,14 @@ from __future__ import annotations
 
 import contextlib
 import threading
+import time
 import types
-from collections.abc import Callable, Iterator
+import weakref
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
+import msgspec
 import viser
 import viser.infra._infra as viser_infra
 
@@ -68,6 +80,9 @@ def check_internals(server: viser.ViserServer | None = None) -> None:
             missing.append(f"`viser._messages.{name}`")
     if not hasattr(WebsockServer, "unregister_handler"):
         missing.append("`WebsockServer.unregister_handler`")
+    for name in ("_message_producer", "_append_aligned_buffers"):
+        if not callable(getattr(viser_infra, name, None)):
+            missing.append(f"`viser.infra._infra.{name}`")
     if server is not None:
         # vars(): a missing attribute would go to viser's deprecation shim (`__getattr__`)
         if "_share_tunnel" not in vars(server):
@@ -75,7 +90,7 @@ def check_internals(server: viser.ViserServer | None = None) -> None:
         websock = getattr(server, "_websock_server", None)
         if websock is None:
             missing.append("`ViserServer._websock_server`")
-        for name in ("_incoming_handlers", "_live_connections"):
+        for name in ("_incoming_handlers", "_live_connections", "_broadcast_buffer"):
             if websock is not None and not hasattr(websock, name):
                 missing.append(f"`WebsockServer.{name}`")
     if missing:
@@ -176,3 +191,109 @@ def remote_address(server: viser.ViserServer, client: viser.ClientHandle) -> str
 def run_javascript(client: viser.ClientHandle, source: str) -> None:
     """Run `source` once in one browser (viser's `RunJavascriptMessage`)."""
     client._websock_connection.queue_message(viser._messages.RunJavascriptMessage(source=source))
+
+
+# -- one encoding of a broadcast window for every browser ----------------------------------------
+
+#: encoded broadcast windows kept per buffer: browsers in step share the newest; one that fell
+#: behind (its window spans more messages) gets its own, and may share it with another
+SHARED_WINDOWS = 4
+
+
+def encode_window(window: Sequence[Any], zstd: Any = None) -> bytes:
+    """One window of viser messages in viser's wire format, as `viser.infra._infra.
+    _message_producer` (1.1) encodes it: [8 bytes] the msgpack's size, [8 bytes] its zstd
+    size, the zstd-compressed msgpack (the messages, arrays replaced by placeholders, and a
+    timestamp [s, perf_counter] the browser paces batches by), then the arrays' raw bytes,
+    each 8-byte aligned. `zstd`: a `zstandard.ZstdCompressor` to reuse (one thread at a
+    time), default a new one of viser's level."""
+    import zstandard
+
+    binary_buffers: list[memoryview] = []
+    messages = tuple(message.as_serializable_dict(binary_buffers) for message in window)
+    inner = msgspec.msgpack.encode({
+        "messages": messages,
+        "timestampSec": time.perf_counter(),
+        "binaryBufferLengths": tuple(b.nbytes for b in binary_buffers),
+    })  # fmt: skip
+    compressed = (zstd or zstandard.ZstdCompressor(level=1)).compress(inner)
+    parts: list[bytes | memoryview] = [
+        len(inner).to_bytes(8, "little"), len(compressed).to_bytes(8, "little"), compressed,
+    ]  # fmt: skip
+    viser_infra._append_aligned_buffers(parts, binary_buffers, 16 + len(compressed))
+    return b"".join(parts)
+
+
+class SharedWindows:
+    """The windows of one broadcast buffer, each encoded once (`encode_window`) and sent as
+    the same bytes to every connection whose window holds the same message objects in the
+    same order (a window skips the messages meant for everyone but its own browser, so two
+    browsers' windows can differ; they then share nothing).
+
+    Used on viser's event loop only (every producer runs there): no lock.
+
+    Attributes:
+        encoded: windows encoded.
+        shared: windows sent as bytes encoded for another connection.
+    """
+
+    def __init__(self, kept: int = SHARED_WINDOWS) -> None:
+        import zstandard
+
+        self._zstd = zstandard.ZstdCompressor(level=1)
+        # (the window's messages: held, so their ids cannot be reused, and its bytes)
+        self._windows: deque[tuple[tuple[Any, ...], bytes]] = deque(maxlen=kept)
+        self.encoded = 0
+        self.shared = 0
+
+    def bytes_of(self, window: Sequence[Any]) -> bytes:
+        """The wire bytes of `window`: encoded before, or now."""
+        for messages, payload in reversed(self._windows):
+            if len(messages) == len(window) and all(
+                a is b for a, b in zip(messages, window, strict=True)
+            ):
+                self.shared += 1
+                return payload
+        payload = encode_window(window, self._zstd)
+        self._windows.append((tuple(window), payload))
+        self.encoded += 1
+        return payload
+
+
+#: id of a registered broadcast buffer → its shared windows (dropped with the buffer)
+_SHARED: dict[int, SharedWindows] = {}
+#: viser's own producer, for every buffer not registered
+_VISER_PRODUCER = viser_infra._message_producer
+
+
+async def _producer(
+    websocket: Any, buffer: Any, client_id: int, backlog_done_message: Any = None
+) -> None:
+    """viser's `_message_producer` (1.1), the window's bytes shared (`SharedWindows`) when
+    `buffer` is a registered broadcast buffer."""
+    shared = _SHARED.get(id(buffer))
+    if shared is None:
+        await _VISER_PRODUCER(websocket, buffer, client_id, backlog_done_message)
+        return
+    windows = buffer.window_generator(client_id, backlog_done_message=backlog_done_message)
+    try:
+        while not buffer.done:
+            try:
+                outgoing = await windows.__anext__()
+            except StopAsyncIteration:
+                break
+            await websocket.send(shared.bytes_of(outgoing))
+    finally:  # as viser's: the generator's own finally (its GC cursor) runs now
+        await windows.aclose()
+
+
+def share_broadcast_encoding(server: viser.ViserServer) -> SharedWindows:
+    """Have `server`'s broadcast windows encoded once for every browser (the module's
+    docstring); connections opened from now on use it. Returns its counters."""
+    buffer = server._websock_server._broadcast_buffer
+    shared = _SHARED.get(id(buffer))
+    if shared is None:
+        shared = _SHARED[id(buffer)] = SharedWindows()
+        weakref.finalize(buffer, _SHARED.pop, id(buffer), None)
+    viser_infra._message_producer = _producer
+    return shared
