@@ -1,13 +1,19 @@
-"""The `qp` planner's statement (twin.planners.qp): its rows are the limited coordinates' rates,
-its margins cover a step's second-order part, its objective is its terms, its solution meets
-what it promises at each level, and the QP libraries agree on it."""
+"""The `qp` planner's statement (twin.planners.qp), whose matrices the engine's qp lane writes
+(twin.planners.qp_step), judged by independent checks: its rows are the limited coordinates'
+rates (central differences along scipy's SE(3) exponential, tests/sim/oracle.py), its bounds
+are the velocity dampers its docstrings state, their margins cover a step's second-order part,
+its objective is its terms, its solution meets what it promises at each level, its step is
+the engine's, and the QP libraries agree on it."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from tests.conftest import random_hybrid_states
+from tests.sim.oracle import integrate, leg_lengths
 from twin.errors import TwinError
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import HYBRID_RATE_LIMITS, PlannerParameters, TipTarget, get_planner
@@ -20,7 +26,6 @@ from twin.planners.qp import (
     count_active,
     solve_levels,
     solve_qp,
-    step_bounds,
 )
 from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask
 from twin.spatial import rpy_rate_matrix, rpy_to_matrix, so3_exp
@@ -35,8 +40,31 @@ def qp(**parameters: float) -> QPPlanner:
 
 
 def coordinates(xi: np.ndarray) -> np.ndarray:
-    """What the limits hold: the six legs, then the nine virtual joints."""
-    return np.r_[H.leg_lengths(xi), xi]
+    """What the limits hold: the six legs (seed 000 eq (5) from Table 1's hinges, the oracle's),
+    then the nine virtual joints."""
+    return np.r_[leg_lengths(H, xi), xi]
+
+
+def margins(planner: QPPlanner, xi: np.ndarray, dt: float) -> np.ndarray:
+    """(2, 15) [m, rad] the room each leg then joint keeps from its (lower, upper) limit, read
+    back from the rows' bounds by the damper's form, lower = gain (low + margin_low − value) / dt,
+    upper = gain (high − margin_high − value) / dt."""
+    legs, joints = planner.limits
+    low = np.r_[np.full(6, H.stewart.leg_min), joints.lower]
+    high = np.r_[np.full(6, H.stewart.leg_max), joints.upper]
+    gain = np.r_[np.full(6, legs.gain), np.full(9, joints.gain)]
+    lower = np.concatenate([limit.rows(xi, dt).lower for limit in planner.limits])
+    upper = np.concatenate([limit.rows(xi, dt).upper for limit in planner.limits])
+    value = coordinates(xi)
+    return np.stack([lower * dt / gain - low + value, high - value - upper * dt / gain])
+
+
+def second_order(dt: float) -> tuple[float, float, float, float]:
+    """θ, s, e_rot, e_trans of the box RATE over dt, as `LegStrokeLimit`'s docstring states
+    them: θ = |ω_P| dt, s = |ᴾṖ| dt, e_rot = (1 − cos θ) + (θ − sin θ), e_trans = e_rot / θ."""
+    theta, s = dt * np.linalg.norm(RATE[3:6]), dt * np.linalg.norm(RATE[:3])
+    e_rot = (1 - np.cos(theta)) + (theta - np.sin(theta))
+    return theta, s, e_rot, e_rot / theta
 
 
 def rows(planner: QPPlanner, xi: np.ndarray, dt: float = DT) -> np.ndarray:
@@ -51,14 +79,44 @@ def near_target(xi: np.ndarray, rng: np.random.Generator, size: float = 0.02) ->
 
 
 def test_rows_are_the_rates_of_the_limited_coordinates(rng: np.random.Generator) -> None:
-    """C v is the rate of the legs (seed 000 eq (8)) and of the pose coordinates and gangway
-    joints along `HybridBoardingSystem.integrate`: a central difference over ±1e-6 s."""
+    """C v is the rate of the Stewart legs' lengths (seed 000 eq (8)), of Table 6's pose
+    coordinates (position and roll-pitch-yaw) and of the gangway joints, and the position rows
+    J_p v the tip's velocity, as central differences over ±1e-6 s of the platform's body twist
+    integrated by scipy's `expm` (the oracle's) say."""
     planner = qp()
     for xi in random_hybrid_states(rng, 20):
         v = rng.uniform(-RATE, RATE)
         h = 1e-6
-        rate = (coordinates(H.integrate(xi, v, h)) - coordinates(H.integrate(xi, v, -h))) / (2 * h)
-        np.testing.assert_allclose(rows(planner, xi) @ v, rate, rtol=0, atol=1e-7)
+        ahead, behind = integrate(xi, v, h), integrate(xi, v, -h)
+        rate = (coordinates(ahead) - coordinates(behind)) / (2 * h)
+        legs, joints = planner.limits
+        np.testing.assert_allclose(legs.rows(xi, DT).C @ v, rate[:6], rtol=0, atol=1e-7)
+        np.testing.assert_allclose(joints.rows(xi, DT).C @ v, rate[6:], rtol=0, atol=1e-7)
+        tip = (H.end_effector(ahead)[:3, 3] - H.end_effector(behind)[:3, 3]) / (2 * h)
+        target = near_target(xi, rng)
+        np.testing.assert_allclose(planner.problem(xi, target, DT).A[:3] @ v, tip, atol=1e-7)
+
+
+def test_bounds_are_the_dampers_the_docstrings_state(rng: np.random.Generator) -> None:
+    """The rows' room to each limit is `margin` plus the second-order bound of the limit's
+    docstring: for the legs e_rot |ᴾP_i|max + e_trans s below and that plus
+    (θ |ᴾP_i|max + (1 + e_trans) s)² / (2 l_min) above; e_trans s for the platform's position,
+    θ² for its roll, pitch and yaw, nothing for the gangway joints; in and out of the limits."""
+    states = np.concatenate([random_hybrid_states(rng, 10), random_hybrid_states(rng, 5, 1.3)])
+    arm = np.max(np.linalg.norm(H.layout.platform_hinges, axis=1))
+    for gain in (0.2, 1.0):
+        planner = qp(limit_gain=gain)
+        legs, joints = planner.limits
+        for dt in (0.005, 0.05, 0.2):
+            theta, s, e_rot, e_trans = second_order(dt)
+            shift = e_rot * arm + e_trans * s
+            stretch = (theta * arm + (1 + e_trans) * s) ** 2 / (2 * H.stewart.leg_min)
+            joint = np.r_[np.full(3, e_trans * s), np.full(3, theta**2), np.zeros(3)]
+            want = np.stack([np.r_[np.full(6, shift + legs.margin), joint + joints.margin],
+                             np.r_[np.full(6, shift + stretch + legs.margin),
+                                   joint + joints.margin]])  # fmt: skip
+            for xi in states:
+                np.testing.assert_allclose(margins(planner, xi, dt), want, rtol=0, atol=1e-10)
 
 
 def test_margins_cover_a_steps_second_order_part(rng: np.random.Generator) -> None:
@@ -69,22 +127,25 @@ def test_margins_cover_a_steps_second_order_part(rng: np.random.Generator) -> No
     planner = qp()
     legs, joints = planner.limits
     for dt in (0.005, 0.05, 0.2):
-        low, high = (m - legs.margin for m in legs.margins(dt))
-        margin = joints.margins(dt) - joints.margin
-        b = step_bounds(RATE, dt)
+        theta = second_order(dt)[0]
         worst_rpy = 0.0
         for xi in random_hybrid_states(rng, 200, shrink=1.0):
+            room = margins(planner, xi, dt)  # the bounds' room, read back from the rows
+            low, high = room[0, :6] - legs.margin, room[1, :6] - legs.margin
+            margin = room[0, 6:] - joints.margin
+            np.testing.assert_allclose(room[1, 6:], room[0, 6:], rtol=0, atol=1e-9)
             v = rng.uniform(-RATE, RATE) * rng.choice([1.0, rng.uniform()], size=9)
             v[rng.uniform(size=9) < 0.2] = np.sign(rng.normal()) * RATE[0]  # box corners too
             v = np.clip(v, -RATE, RATE)
-            off = coordinates(H.integrate(xi, v, dt)) - coordinates(xi) - dt * rows(planner, xi) @ v
+            off = coordinates(integrate(xi, v, dt)) - coordinates(xi) - dt * rows(planner, xi) @ v
             assert np.all(off[:6] >= -low - 1e-12) and np.all(off[:6] <= high + 1e-12)
             assert np.all(np.abs(off[6:9]) <= margin[:3] + 1e-12)
             assert np.all(np.abs(off[9:12]) <= margin[3:6])
             np.testing.assert_allclose(off[12:], 0.0, atol=1e-12)
-            worst_rpy = max(worst_rpy, float(np.max(np.abs(off[9:12]))) / b.theta**2)
+            worst_rpy = max(worst_rpy, float(np.max(np.abs(off[9:12]))) / theta**2)
         assert worst_rpy < 0.5
-    assert legs.margins(DT)[1] < 0.012  # about a centimetre of Table 1's 1.6 m stroke
+    # about a centimetre of Table 1's 1.6 m stroke
+    assert np.max(margins(planner, H.working_state, DT)[1, :6]) < 0.012
 
 
 def test_objective_is_its_terms(rng: np.random.Generator) -> None:
@@ -188,6 +249,52 @@ def test_a_nan_target_gives_nan_rates() -> None:
     v, level = solve_levels(planner.problem(H.working_state, target, DT))
     assert np.all(np.isnan(v)) and level == 0
     assert count_active(planner.problem(H.working_state, target, DT), v) == 0
+
+
+def test_step_is_the_engines_step(rng: np.random.Generator) -> None:
+    """`QPPlanner.step` with the compiled solver is the engine's qp step (`qp_velocity`): the
+    rates, level and active count `solve_levels` and `count_active` give on `problem` (the
+    rates to 1e-10: `solve_levels` runs the same solver interpreted, whose rounding differs by
+    1e-14, magnified by level 1's position weight); with DAQP, DAQP's level on the same
+    problem (the solver is the only difference)."""
+    planner = qp()
+    daqp = replace(planner, solver="daqp")
+    levels = set()
+    for xi in random_hybrid_states(rng, 10):
+        for size in (0.02, 0.5):
+            target = near_target(xi, rng, size)
+            problem = planner.problem(xi, target, DT)
+            want = solve_levels(problem)
+            got = planner.step(xi, target, DT)
+            np.testing.assert_allclose(got.velocity, want.velocity, rtol=0, atol=1e-10)
+            assert got.diagnostics["qp_level"] == want.level
+            assert got.diagnostics["qp_active"] == count_active(problem, want.velocity)
+            np.testing.assert_array_equal(got.diagnostics["task_error"],
+                                          planner.tip.error(xi, target))  # fmt: skip
+            other = daqp.step(xi, target, DT)
+            assert other.diagnostics["qp_level"] == solve_levels(problem, "daqp").level
+            levels.add(want.level)
+    assert levels == {0, 1}  # half a metre off the tip is more than one step's box
+
+
+def test_bad_input_is_refused() -> None:
+    """A step of dt ≤ 0 or NaN, a state that is not (9,) or not finite, or a limit whose gain
+    is outside (0, 1]: TwinError saying so, never NaN rows."""
+    planner = qp()
+    xi = H.working_state
+    target = TipTarget(H.end_effector(xi), np.zeros(6))
+    for dt in (0.0, -0.05, np.nan):
+        with pytest.raises(TwinError, match="dt"):
+            planner.problem(xi, target, dt)
+        with pytest.raises(TwinError, match="dt"):
+            planner.limits[0].rows(xi, dt)
+    for bad in (xi[:8], np.r_[xi[:8], np.nan]):
+        with pytest.raises(TwinError, match="xi"):
+            planner.step(bad, target, DT)
+        with pytest.raises(TwinError, match="xi"):
+            planner.limits[1].rows(bad, DT)
+    with pytest.raises(TwinError, match="gain"):
+        JointLimit(H.lower, H.upper, RATE, gain=0.0).rows(xi, DT)
 
 
 @pytest.mark.parametrize("solver", [s for s in SOLVERS if s not in ("active_set", "daqp")])

@@ -190,3 +190,19 @@ def test_a_non_finite_record_is_held_as_a_kept_series_holds_it() -> None:
         assert want[1].metrics["fault_counts"]["planner"] > 0  # the sample was held
         for g, w in zip(got, want, strict=True):
             assert g.metrics == w.metrics
+
+
+def test_keeping_and_reducing_share_one_compiled_records_runner() -> None:
+    """The records runner keeps a series or reduces it as it records (`hybrid_record_lane`)
+    with the same argument types: a run keeping its metrics adds no compiled signature to
+    those a run keeping its series made (one compile of the inlined record, not two)."""
+    pytest.importorskip("numba")
+    from twin.sim.kernels.records import compiled_records
+
+    runner = compiled_records(False)  # one lane: the serial runner, which every form calls
+    scenario = {"planner": "mtmp", "sea_state": 6, "duration": 0.5}
+    Simulation(scenario).run()
+    kept = set(runner.signatures)
+    assert kept  # the series run recorded through it
+    Simulation(scenario, keep="metrics").run()
+    assert set(runner.signatures) == kept

@@ -36,18 +36,21 @@ its limits that the rate limits cannot bring back in one step), the limit rows t
 s ≥ 0, lower − s ≤ C v ≤ upper + s, weighted `SLACK_WEIGHT` (level 2): the closest feasible
 rates; the engine flags the step `Fault.INFEASIBLE`. The rate limits are never relaxed.
 
-`QPPlanner.problem` states the matrices; `solve_levels` solves them, by default with
-`solve_levels_lane`: the three levels over the compiled dual active-set method of Goldfarb and
-Idnani (`twin.planners.active_set`), the very function the engine's qp lanes run
-(`twin.planners.qp_step`, which assembles the same matrices, tested equal to 1e-9). DAQP,
-ProxQP and quadprog stay selectable on the object for comparison (docs/decisions.md, "The qp
-planner's solver" and "The qp planner in the compiled lane").
+The matrices are written once, by the engine's qp lane (`twin.planners.qp_step`:
+`qp_problem_lane`, `leg_rows_lane`, `joint_rows_lane`, `count_active_lane`); the objects here
+say what they are, pack their knobs by name (`pack`), and run those lanes over a batch
+(`QPPlanner.problem`, `QPPlanner.step`, the limits' `rows`, `count_active`; `twin.batch`).
+`solve_levels` solves the matrices, by default with `solve_levels_lane`: the three levels over
+the compiled dual active-set method of Goldfarb and Idnani (`twin.planners.active_set`), the
+very function the engine's qp lanes run. DAQP, ProxQP and quadprog stay selectable on the
+object for comparison (docs/decisions.md, "The qp planner's solver" and "The qp planner in
+the compiled lane").
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import daqp
@@ -55,8 +58,9 @@ import numpy as np
 
 from twin.compiled import register_borrowing, register_jitable
 from twin.errors import TwinError
-from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.mechanisms.hybrid import HYBRID_CONSTANTS, N_HYBRID_CONSTANTS, HybridBoardingSystem
 from twin.planners.active_set import INF, OPTIMAL, qp_work, solve_dense_qp
+from twin.planners.lane_rows import D_QP_ACTIVE, D_QP_LEVEL, N_HYBRID_DIAGNOSTICS
 from twin.planners.parameters import (
     KIND_QP,
     family_dtype,
@@ -65,9 +69,9 @@ from twin.planners.parameters import (
     parameter_row,
 )
 from twin.planners.target import PlannerOutput, TipTarget
-from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask
+from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask, target_rows
 from twin.planners.weights import BetaSplit
-from twin.spatial import rpy_rate_matrix, rpy_to_matrix
+from twin.validation import as_array
 
 #: solvers `solve_levels` can call: the compiled Goldfarb-Idnani method the engine runs
 #: (`twin.planners.active_set`), DAQP directly, or a library through qpsolvers (for comparison)
@@ -125,37 +129,40 @@ class Rows(NamedTuple):
     upper: np.ndarray
 
 
-def damper(value: np.ndarray, low: np.ndarray | float, high: np.ndarray | float, gain: float,
-           margin_low: np.ndarray | float, margin_high: np.ndarray | float,
-           dt: float) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """Velocity-damper bounds on a rate (mink's `ConfigurationLimit` form): the coordinate
-    `value` may close a fraction `gain` of its room to [low + margin_low, high − margin_high]
-    in dt; beyond it, it must come back by that fraction. Returns (lower, upper) [unit/s]."""
-    return gain * (low + margin_low - value) / dt, gain * (high - margin_high - value) / dt
+def checked_dt(dt: float) -> float:
+    """dt [s] as a float, or TwinError unless finite and > 0 (the dampers divide by it)."""
+    value = float(dt)
+    if not (math.isfinite(value) and value > 0):
+        raise TwinError(f"qp planner: dt must be finite and > 0 [s], got {dt!r}")
+    return value
 
 
-class StepBounds(NamedTuple):
-    """How far one step of rates inside the box can stray from its linearisation.
+def lane_rows(
+    limit: LegStrokeLimit | JointLimit, xi: np.ndarray, dt: float, const: np.ndarray,
+    legs: bool,
+) -> Rows:  # fmt: skip
+    """A limit's rows by the qp lane's own (`twin.planners.qp_step.LIMIT_ROWS`: `leg_rows_lane`
+    when `legs`, else `joint_rows_lane`), cut from where the lane writes them in its A and
+    bounds: the limit packed by name (`pack`) with its rate box (`RateLimit.pack`), const the
+    `HYBRID_CONSTANTS` the rows read. xi (..., 9) gives C (..., m, 9), lower, upper (..., m).
 
-    With θ = |ω_P| dt and s = |ᴾṖ| dt at most (the box's corners), a step moves the platform
-    by ᴮT_P exp([ᴾṖ; ω_P] dt) (`HybridBoardingSystem.integrate`, Lynch & Park eq (3.88)):
-    |exp([θ]×) − I − [θ]×| ≤ (1 − cos θ) + (θ − sin θ) = e_rot and |V(θ) − I| ≤
-    ((1 − cos θ) + (θ − sin θ)) / θ = e_trans, the rotation's and translation's second-order
-    parts."""
+    Raises:
+        TwinError: xi not (..., 9) or not finite, dt not > 0, or a limit `pack` refuses.
+    """
+    # imported here: the step module imports this one (its parameter record)
+    from twin.planners.qp_step import LIMIT_ROWS, N_QP_ROWS
 
-    theta: float
-    s: float
-    e_rot: float
-    e_trans: float
-
-
-def step_bounds(rate: np.ndarray, dt: float) -> StepBounds:
-    """`StepBounds` of the rate box (9,) [m/s, rad/s] over dt [s]."""
-    theta = dt * float(np.sqrt(rate[3] ** 2 + rate[4] ** 2 + rate[5] ** 2))
-    s = dt * float(np.sqrt(rate[0] ** 2 + rate[1] ** 2 + rate[2] ** 2))
-    e_rot = (1.0 - np.cos(theta)) + (theta - np.sin(theta))
-    e_trans = e_rot / theta if theta > 0 else 0.0
-    return StepBounds(theta, s, float(e_rot), float(e_trans))
+    xi, dt = as_array(xi, "xi", (9,)), checked_dt(dt)
+    row = parameter_row(KIND_QP, False)
+    record = parameter_record(row, QP_PARAMETERS)
+    RateLimit(limit.rate).pack(record)
+    limit.pack(record)
+    A, lower, upper = LIMIT_ROWS(
+        [xi], [row, const, dt, legs], [(N_QP_ROWS, 9), (9 + N_QP_ROWS,), (9 + N_QP_ROWS,)]
+    )
+    first, stop = (N_POSITION, 9) if legs else (9, N_QP_ROWS)  # the lane's row layout
+    return Rows(A[..., first:stop, :], lower[..., 9 + first : 9 + stop],
+                upper[..., 9 + first : 9 + stop])  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -165,12 +172,14 @@ class LegStrokeLimit:
     platform's velocities in B, the planner's are in P).
 
     The legs are not linear in the step, so the stroke's ends are kept further than `margin`
-    by a bound on the step's second-order part (`StepBounds` of the rate box): a leg vector
+    by a bound on the step's second-order part (θ, s, e_rot, e_trans of the rate box:
+    `twin.planners.qp_step.step_bounds_lane`): a leg vector
     L = ᴮR_P ᴾP_i + ᴮp_P − ᴮB_i moves by ΔL = ᴮR_P[(exp([θ]×) − I) ᴾP_i + V(θ) ᴾṖ dt], whose
     part beyond the rows' linear one is at most e_rot |ᴾP_i| + e_trans s. A length only loses
     that much against its linear prediction (|L + ΔL| ≥ u·(L + ΔL)), and gains at most that
     plus |ΔL|² / (2 l_min) (|L + ΔL| ≤ l + u·ΔL + |ΔL|² / (2l)), with |ΔL| ≤ θ |ᴾP_i| +
     (1 + e_trans) s. So a step inside the box and the rows never carries a leg past its stroke.
+    The rows are the qp lane's (`twin.planners.qp_step.leg_rows_lane`).
 
     Attributes:
         mechanism: the hybrid system.
@@ -184,16 +193,6 @@ class LegStrokeLimit:
     gain: float = 0.5
     margin: float = 1e-3
 
-    def margins(self, dt: float) -> tuple[float, float]:
-        """[m] (kept from l_min, kept from l_max) at dt [s]."""
-        b = step_bounds(np.asarray(self.rate, dtype=float), dt)
-        arm = float(np.max(np.linalg.norm(self.mechanism.layout.platform_hinges, axis=1)))
-        shift = b.e_rot * arm + b.e_trans * b.s
-        stretch = (b.theta * arm + (1.0 + b.e_trans) * b.s) ** 2 / (
-            2.0 * self.mechanism.stewart.leg_min
-        )
-        return self.margin + shift, self.margin + shift + stretch
-
     def pack(self, record: np.record) -> None:
         """Write the gain and margin into a `QP_PARAMETERS` record's `leg_*` (`pack_damper`;
         the lane reads the stroke and hinges from the hybrid constants)."""
@@ -205,16 +204,15 @@ class LegStrokeLimit:
         return bool(np.array_equal(self.mechanism.pack(np.ones(9)), mechanism.pack(np.ones(9))))
 
     def rows(self, xi: np.ndarray, dt: float) -> Rows:
-        """(C (6, 9), lower (6,), upper (6,)) [m/s] at the state xi (9,)."""
-        stewart = self.mechanism.stewart
-        J_P = stewart.jacobian(xi[:6])
-        R = rpy_to_matrix(xi[3:6])
-        C = np.zeros((6, 9))
-        C[:, :3] = J_P[:, :3] @ R
-        C[:, 3:6] = J_P[:, 3:] @ R
-        low, high = damper(stewart.leg_lengths(xi[:6]), stewart.leg_min, stewart.leg_max,
-                           self.gain, *self.margins(dt), dt)  # fmt: skip
-        return Rows(C, low, high)
+        """(C (6, 9), lower (6,), upper (6,)) [m/s] at the state xi (9,) for a step of dt [s]
+        (xi (..., 9): those leading axes too), by the qp lane's `leg_rows_lane` (`lane_rows`).
+
+        Raises:
+            TwinError: xi not (..., 9) or not finite, dt not > 0, a gain outside (0, 1], a
+                margin < 0 or a rate box not finite and > 0.
+        """
+        const = self.mechanism.pack(np.full(9, np.inf))  # the rows read the legs' data only
+        return lane_rows(self, xi, dt, const, True)
 
 
 @dataclass(frozen=True)
@@ -224,10 +222,11 @@ class JointLimit:
     E(rpy)⁻¹ ᴮR_P ω_P (`twin.spatial.rpy_rate_matrix`), the gangway's q̇1, q̇2, ḋ3.
 
     Besides `margin`, the limits are kept further by the step's second-order part
-    (`StepBounds` of the rate box): e_trans s on the platform's position (its step is
-    ᴮR_P V(θ) ᴾṖ dt); θ² on its roll, pitch and yaw, a bound of their second-order part over
-    Table 6's box (|pitch| ≤ 30°: at most 0.45 θ² there, tests/planners/test_qp.py); none on
-    the gangway joints, which integrate linearly.
+    (`twin.planners.qp_step.step_bounds_lane` of the rate box): e_trans s on the platform's
+    position (its step is ᴮR_P V(θ) ᴾṖ dt); θ² on its roll, pitch and yaw, a bound of their
+    second-order part over Table 6's box (|pitch| ≤ 30°: at most 0.45 θ² there,
+    tests/planners/test_qp.py); none on the gangway joints, which integrate linearly. The rows
+    are the qp lane's (`twin.planners.qp_step.joint_rows_lane`).
 
     Attributes:
         lower, upper: (9,) [m, rad] the limits.
@@ -241,12 +240,6 @@ class JointLimit:
     rate: np.ndarray
     gain: float = 0.5
     margin: float = 1e-3
-
-    def margins(self, dt: float) -> np.ndarray:
-        """(9,) [m, rad] kept from either limit at dt [s]."""
-        b = step_bounds(np.asarray(self.rate, dtype=float), dt)
-        return self.margin + np.r_[np.full(3, b.e_trans * b.s), np.full(3, b.theta**2),
-                                   np.zeros(3)]  # fmt: skip
 
     def pack(self, record: np.record) -> None:
         """Write the gain and margin into a `QP_PARAMETERS` record's `joint_*` (`pack_damper`;
@@ -262,15 +255,18 @@ class JointLimit:
         )
 
     def rows(self, xi: np.ndarray, dt: float) -> Rows:
-        """(C (9, 9), lower (9,), upper (9,)) [m/s, rad/s] at the state xi (9,)."""
-        R = rpy_to_matrix(xi[3:6])
-        C = np.zeros((9, 9))
-        C[:3, :3] = R
-        C[3:6, 3:6] = np.linalg.solve(rpy_rate_matrix(xi[3:6]), R)
-        C[6:, 6:] = np.eye(3)
-        margin = self.margins(dt)
-        low, high = damper(xi, self.lower, self.upper, self.gain, margin, margin, dt)
-        return Rows(C, low, high)
+        """(C (9, 9), lower (9,), upper (9,)) [m/s, rad/s] at the state xi (9,) for a step of
+        dt [s] (xi (..., 9): those leading axes too), by the qp lane's `joint_rows_lane`
+        (`lane_rows`) on constants holding these limits.
+
+        Raises:
+            TwinError: as `LegStrokeLimit.rows`, or limits that are not finite.
+        """
+        const = np.zeros(N_HYBRID_CONSTANTS)
+        c = const.view(HYBRID_CONSTANTS)[0]  # the rows read the limits only
+        c["lower"] = as_array(self.lower, "JointLimit lower", (9,))
+        c["upper"] = as_array(self.upper, "JointLimit upper", (9,))
+        return lane_rows(self, xi, dt, const, False)
 
 
 @dataclass(frozen=True)
@@ -359,24 +355,36 @@ class QPPlanner:
         """A velocity-level planner keeps no state between steps."""
         del xi, target  # Unused.
 
+    def lane(self) -> tuple[np.ndarray, np.ndarray]:
+        """(row, const): the planner as its lane reads it, whatever its solver (`pack(False)`;
+        `hold` is the runner's guard's, not the QP's), and its mechanism's hybrid constants
+        (`HybridBoardingSystem.pack`; the QP reads their Table 6, legs and gangway, its rate
+        box is its row's).
+
+        Raises:
+            TwinError: a planner `pack` refuses (other than for its solver).
+        """
+        row = replace(self, solver=SOLVERS[0]).pack(False)  # a library solves the same QP
+        return row, self.tip.mechanism.pack(np.full(9, np.inf))
+
     def problem(self, xi: np.ndarray, target: TipTarget, dt: float) -> QPProblem:
-        """The step's QP at the state xi (9,) (module doc)."""
-        J = self.tip.jacobian(xi)
-        b, _ = self.tip.demand(xi, target)
-        w_o = self.orientation_weight
-        H = w_o * J[3:].T @ J[3:]
-        f = -w_o * J[3:].T @ b[3:]
-        for task in self.secondary:
-            J_a, b_a = task.jacobian(xi), task.demand(xi)
-            H = H + self.secondary_weight * J_a.T @ J_a
-            f = f - self.secondary_weight * J_a.T @ b_a
-        w = np.ones(9) if self.split is None else self.split(xi)
-        H = H + np.diag(self.damping / np.maximum(w, MIN_SPLIT))
-        rows = [limit.rows(xi, dt) for limit in self.limits]
-        rate = np.broadcast_to(np.asarray(self.rate_limit.maximum, dtype=float), (9,))
-        A = np.concatenate([J[:3], *(r.C for r in rows)])
-        lower = np.concatenate([-rate, b[:3], *(r.lower for r in rows)])
-        upper = np.concatenate([rate, b[:3], *(r.upper for r in rows)])
+        """The step's QP at the state xi (9,) (module doc), assembled by the engine's own
+        `twin.planners.qp_step.qp_problem_lane` (`QP_PROBLEM`; xi (..., 9) and a target
+        broadcasting against it give arrays with those leading axes).
+
+        Raises:
+            TwinError: xi not (..., 9) or not finite, dt not finite and > 0, or a planner
+                `pack` refuses (`lane`).
+        """
+        # imported here: the step module imports this one (its parameter record)
+        from twin.planners.qp_step import N_QP_ROWS, QP_PROBLEM
+
+        xi, dt = as_array(xi, "xi", (9,)), checked_dt(dt)
+        row, const = self.lane()
+        n = 9 + N_QP_ROWS
+        H, f, A, lower, upper = QP_PROBLEM(
+            [xi, target_rows(target)], [row, const, dt], [(9, 9), (9,), (N_QP_ROWS, 9), (n,), (n,)]
+        )
         return QPProblem(H, f, A, lower, upper, self.position_weight)
 
     def pack(self, hold: bool) -> np.ndarray:
@@ -426,7 +434,7 @@ class QPPlanner:
         """The rate box and the limits into `record` (`QPPlanner.pack`), each by its own `pack`:
         the lane reads the legs and Table 6 from the hybrid constants of the tip's system, so
         each limit must be on those (its `on`), and it assembles the leg rows before the
-        Table 6 rows, so the object's `problem` must stack them in that order: the legs' limit
+        Table 6 rows (`problem`'s A), so the limits are listed in that order: the legs' limit
         first, then the joints' (each writes its own fields; `pack_damper` refuses a second)."""
         mechanism = self.tip.mechanism
         pack_part(self.rate_limit, record, "rate limit")
@@ -444,15 +452,39 @@ class QPPlanner:
             )
 
     def step(self, xi: np.ndarray, target: TipTarget, dt: float) -> PlannerOutput:
-        """Joint rates (9,) for the state xi (9,): the QP's solution (`solve_levels`)."""
-        problem = self.problem(xi, target, dt)
-        solution = solve_levels(problem, self.solver)
+        """Joint rates (9,) for the state xi (9,): the QP's solution. With the compiled solver,
+        the engine's own step (`twin.planners.qp_step.qp_velocity` through `QP_STEP`); with a
+        library, `solve_levels` on `problem`.
+
+        Returns:
+            velocity (9,) [m/s, rad/s] (NaN when no level is solved) and the diagnostics
+            `task_error` (6,) [m, rad] e in B, `qp_level` (0, 1, 2) and `qp_active` (limit rows
+            and rate bounds at their bound, `count_active`).
+
+        Raises:
+            TwinError: as `problem`.
+        """
+        if self.solver != SOLVERS[0]:
+            problem = self.problem(xi, target, dt)
+            solution = solve_levels(problem, self.solver)
+            velocity, level = solution.velocity, float(solution.level)
+            active = float(count_active(problem, velocity))
+        else:
+            # imported here: the step module imports this one (its parameter record)
+            from twin.planners.qp_step import QP_STEP
+
+            row, const = self.lane()
+            velocity, diag = QP_STEP(
+                [as_array(xi, "xi", (9,)), target_rows(target)], [row, const, checked_dt(dt)],
+                [(9,), (N_HYBRID_DIAGNOSTICS,)],
+            )  # fmt: skip
+            level, active = float(diag[..., D_QP_LEVEL]), float(diag[..., D_QP_ACTIVE])
         return PlannerOutput(
-            velocity=solution.velocity,
+            velocity=velocity,
             diagnostics={
                 "task_error": self.tip.error(xi, target),
-                "qp_level": float(solution.level),
-                "qp_active": float(count_active(problem, solution.velocity)),
+                "qp_level": level,
+                "qp_active": active,
             },
         )
 
@@ -508,17 +540,17 @@ def solve_qp(
     return solve_qpsolvers(H, f, A, upper, lower, n_equal, solver)
 
 
-def count_active(problem: QPProblem, v: np.ndarray, tol: float = 1e-9) -> int:
-    """Limit rows and rate bounds at their bound at v (to tol, relative to the bound's size);
-    0 for a non-finite v."""
+def count_active(problem: QPProblem, v: np.ndarray) -> int:
+    """Limit rows and rate bounds of a `QPPlanner.problem` at their bound at v (9,) (to
+    `twin.planners.qp_step.ACTIVE_TOL`, relative to the bound's size): the engine's own count,
+    `count_active_lane` (through `COUNT_ACTIVE`); 0 for a non-finite v."""
+    # imported here: the step module imports this one (its parameter record)
+    from twin.planners.qp_step import COUNT_ACTIVE
+
     if not np.all(np.isfinite(v)):
         return 0
-    n = v.size
-    Cv = problem.A[3:] @ v
-    low, high = problem.lower[n + 3 :], problem.upper[n + 3 :]
-    rows = (Cv >= high - tol * (1 + np.abs(high))) | (Cv <= low + tol * (1 + np.abs(low)))
-    box = np.abs(v) >= problem.upper[:n] * (1 - tol)
-    return int(np.count_nonzero(rows) + np.count_nonzero(box))
+    A, lower, upper = problem.A, problem.lower, problem.upper
+    return int(COUNT_ACTIVE([v, A, lower, upper], [], [()])[0])
 
 
 #: the position rows of a `QPProblem` (its first rows, equalities at level 0)

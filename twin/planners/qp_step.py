@@ -2,10 +2,12 @@ r"""The `qp` planner's step on one lane, as the engine runs it: its QP assembled
 the compiled lane (issue 29 item 7).
 
 `twin.planners.qp.QPPlanner` states the step (tasks, limits, `solve_levels`); this module
-writes the same matrices for one lane from floats and small arrays (`qp_problem_lane`), tested
-equal to the planner object's to 1e-9 (tests/sim/kernels/test_qp_kernel.py), and solves them
-with the object's own default solver, `twin.planners.qp.solve_levels_lane` (Goldfarb-Idnani,
-`twin.planners.active_set`): one statement of the math and no library call. `qp_velocity` is
+writes its matrices for one lane from floats and small arrays (`qp_problem_lane`: the object's
+`problem`, `step` and limits' `rows` run these lanes over a batch, `QP_PROBLEM`, `QP_STEP`,
+`LIMIT_ROWS`, `COUNT_ACTIVE`; checked against finite differences and the terms' own
+definitions in tests/planners/test_qp.py), and solves them with the object's own default
+solver, `twin.planners.qp.solve_levels_lane` (Goldfarb-Idnani, `twin.planners.active_set`):
+one statement of the math and no library call. `qp_velocity` is
 the step of a qp lane in `twin.sim.kernels.hybrid_runner.run_hybrid_qp`, whose guard
 (`limit_scale_lane` in `hold` mode) and integration every hybrid family shares. Its scratch is
 allocated once per lane (`qp_lane_work`).
@@ -30,6 +32,7 @@ import math
 
 import numpy as np
 
+from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.planners.lane_rows import D_QP_ACTIVE, D_QP_LEVEL, FAULT_INFEASIBLE
@@ -48,7 +51,7 @@ from twin.spatial import rpy_to_matrix_lane
 
 #: rows of A: the position (3), the legs (6), Table 6 (9)
 N_QP_ROWS = 18
-#: relative tolerance of a limit row or rate bound counted active (`count_active`)
+#: relative tolerance of a limit row or rate bound counted active (`count_active_lane`)
 ACTIVE_TOL = 1e-9
 
 
@@ -56,15 +59,24 @@ ACTIVE_TOL = 1e-9
 def damper_lane(value: float, low: float, high: float, gain: float, margin_low: float,
                 margin_high: float, dt: float, lower: np.ndarray, upper: np.ndarray,
                 i: int) -> None:  # fmt: skip
-    """`twin.planners.qp.damper` on one coordinate: lower[i], upper[i] written [unit/s]."""
+    """Velocity-damper bounds on one coordinate's rate (mink's `ConfigurationLimit` form): the
+    coordinate `value` may close a fraction `gain` of its room to [low + margin_low,
+    high − margin_high] in dt; beyond it, it must come back by that fraction. lower[i],
+    upper[i] written [unit/s]."""
     lower[i] = gain * (low + margin_low - value) / dt
     upper[i] = gain * (high - margin_high - value) / dt
 
 
 @register_inline
 def step_bounds_lane(rate: np.ndarray, dt: float, out: np.ndarray) -> None:
-    """`twin.planners.qp.step_bounds` of the rate box rate (9,) [m/s, rad/s]: out (4,) = θ, s,
-    e_rot, e_trans."""
+    """How far one step of rates inside the box rate (9,) [m/s, rad/s] can stray from its
+    linearisation over dt [s]: out (4,) = θ, s, e_rot, e_trans.
+
+    With θ = |ω_P| dt and s = |ᴾṖ| dt at most (the box's corners), a step moves the platform
+    by ᴮT_P exp([ᴾṖ; ω_P] dt) (`HybridBoardingSystem.integrate`, Lynch & Park eq (3.88)):
+    |exp([θ]×) − I − [θ]×| ≤ (1 − cos θ) + (θ − sin θ) = e_rot and |V(θ) − I| ≤
+    ((1 − cos θ) + (θ − sin θ)) / θ = e_trans, the rotation's and translation's second-order
+    parts."""
     theta = dt * math.sqrt(rate[3] ** 2 + rate[4] ** 2 + rate[5] ** 2)
     s = dt * math.sqrt(rate[0] ** 2 + rate[1] ** 2 + rate[2] ** 2)
     e_rot = (1.0 - math.cos(theta)) + (theta - math.sin(theta))
@@ -127,8 +139,8 @@ def leg_rows_lane(
 ) -> None:  # fmt: skip
     """The leg rows 3 … 8 of A and their damper bounds (`LegStrokeLimit`): l̇_i =
     (ᴮR_Pᵀ u_i)·ᴾṖ + (ᴾP_i × ᴮR_Pᵀ u_i)·ω_P (seed 000 eqs (4)-(8)), kept from the stroke's ends
-    by the step's second-order part too (`LegStrokeLimit.margins`, bounds from
-    `step_bounds_lane`); p, c the lane's `QP_PARAMETERS` and `HYBRID_CONSTANTS` records."""
+    by the step's second-order part too (`LegStrokeLimit`'s bound, from `step_bounds_lane`);
+    p, c the lane's `QP_PARAMETERS` and `HYBRID_CONSTANTS` records."""
     theta, s_max, e_rot, e_trans = bounds[0], bounds[1], bounds[2], bounds[3]
     hinges, base = c.platform_hinges, c.base_hinges
     arm = 0.0
@@ -232,7 +244,7 @@ def qp_problem_lane(
 
 @register_inline
 def count_active_lane(v: np.ndarray, A: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> int:
-    """`twin.planners.qp.count_active` on one lane's arrays: limit rows and rate bounds at
+    """Limit rows and rate bounds of one lane's arrays (`QPProblem`'s layout) at
     their bound (to `ACTIVE_TOL`, relative to the bound's size); 0 for a non-finite v."""
     count = 0
     for row in range(3, N_QP_ROWS):
@@ -296,3 +308,76 @@ def pack_qp(planner: QPPlanner, hold: bool) -> np.ndarray:
     if not isinstance(row, np.ndarray) or parameter_record(row, QP_PARAMETERS).kind != KIND_QP:
         raise refuse(f"a {type(planner).__name__} as a QPPlanner")
     return row
+
+
+# ---------------------------------------------------------------------------------------------
+# The lanes over a batch: what the planner object's `problem`, `step` and limits run
+# ---------------------------------------------------------------------------------------------
+
+
+def _qp_problem_batch(
+    x: np.ndarray, target: np.ndarray, row: np.ndarray, const: np.ndarray, dt: float,
+    H: np.ndarray, f: np.ndarray, A: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+) -> None:  # fmt: skip
+    """`qp_problem_lane` over states x (N, 9) and target rows (N, 18) into H (N, 9, 9),
+    f (N, 9), A (N, N_QP_ROWS, 9), lower and upper (N, 9 + N_QP_ROWS); row the planner's
+    (`QPPlanner.pack`), const the hybrid constants, dt [s]."""
+    work = problem_work()
+    for k in range(x.shape[0]):
+        qp_problem_lane(x[k], target[k], row, const, dt, H[k], f[k], A[k], lower[k], upper[k],
+                        work)  # fmt: skip
+
+
+#: `QPPlanner.problem` (compiled on first use, `twin.batch`)
+QP_PROBLEM = LaneBatch(_qp_problem_batch, cores=(1, 1))
+
+
+def _qp_step_batch(
+    x: np.ndarray, target: np.ndarray, row: np.ndarray, const: np.ndarray, dt: float,
+    v_out: np.ndarray, diag_out: np.ndarray,
+) -> None:  # fmt: skip
+    """The engine's qp step (`qp_velocity`) over states x (N, 9) and target rows (N, 18) into
+    v_out (N, 9) and diag_out (N, N_HYBRID_DIAGNOSTICS) (D_QP_LEVEL, D_QP_ACTIVE written)."""
+    work = qp_lane_work()
+    for k in range(x.shape[0]):
+        qp_velocity(x[k], target[k], row, const, dt, work, v_out[k], diag_out[k])
+
+
+#: `QPPlanner.step` with the compiled solver (compiled on first use, `twin.batch`)
+QP_STEP = LaneBatch(_qp_step_batch, cores=(1, 1))
+
+
+def _limit_rows_batch(
+    x: np.ndarray, row: np.ndarray, const: np.ndarray, dt: float, legs: bool, A: np.ndarray,
+    lower: np.ndarray, upper: np.ndarray,
+) -> None:  # fmt: skip
+    """The leg rows (`leg_rows_lane`, legs true) or the Table 6 rows (`joint_rows_lane`) over
+    states x (N, 9), written where `qp_problem_lane` writes them in A (N, N_QP_ROWS, 9), lower
+    and upper (N, 9 + N_QP_ROWS) (the rest left as it was); row a `QP_PARAMETERS` row with the
+    limit's fields and the rate box, const the `HYBRID_CONSTANTS` the rows read."""
+    R, bounds = np.empty((3, 3)), np.empty(4)
+    p, c = row.view(QP_PARAMETERS)[0], const.view(HYBRID_CONSTANTS)[0]
+    step_bounds_lane(p.rate, dt, bounds)
+    for k in range(x.shape[0]):
+        rpy_to_matrix_lane(x[k, 3], x[k, 4], x[k, 5], R)
+        if legs:
+            leg_rows_lane(x[k], R, p, c, bounds, dt, A[k], lower[k], upper[k])
+        else:
+            joint_rows_lane(x[k], R, p, c, bounds, dt, A[k], lower[k], upper[k])
+
+
+#: `LegStrokeLimit.rows`, `JointLimit.rows` (compiled on first use, `twin.batch`)
+LIMIT_ROWS = LaneBatch(_limit_rows_batch, cores=(1,))
+
+
+def _count_active_batch(
+    v: np.ndarray, A: np.ndarray, lower: np.ndarray, upper: np.ndarray, out: np.ndarray
+) -> None:
+    """`count_active_lane` over rates v (N, 9) and problems A (N, N_QP_ROWS, 9), lower and
+    upper (N, 9 + N_QP_ROWS) into out (N,)."""
+    for k in range(v.shape[0]):
+        out[k] = count_active_lane(v[k], A[k], lower[k], upper[k])
+
+
+#: `twin.planners.qp.count_active` (compiled on first use, `twin.batch`)
+COUNT_ACTIVE = LaneBatch(_count_active_batch, cores=(1, 2, 1, 1))

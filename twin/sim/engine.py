@@ -689,20 +689,23 @@ def lane_parts(members: list[int], threads: int = 1) -> list[list[int]]:
 #: the lanes of the Simulations `warm` steps (0.1 s each), in two shares that compile
 #: different runners in about equal time (`warm_in_processes`; docs/performance.md): the
 #: hybrid system's differential and allocation runner, with the sea, targets, records and
-#: metrics, then the platforms' runner in parallel form; and the platforms' runner, then the
-#: hybrid system's qp runner. Each share's later lane sets load from numba's cache what the
-#: other has compiled meanwhile (the records and metrics for qp, the platforms' serial runner
-#: for its parallel form). A lane set of two compiles a runner's parallel form; each lane set
-#: runs keeping its series and keeping its metrics alone (`KEEPS`: the runners that reduce as
-#: they record, `twin.sim.kernels.records.run_hybrid_reduce`, and the reductions' `run_*_add`).
+#: metrics, serial then parallel, then the 3UPU_UP's own object-level loops (its frame, a
+#: `LaneBatch` its records call; the platforms' runner loads from the cache); and the
+#: platforms' runner, serial then parallel, then the hybrid system's qp runner, whose records
+#: and metrics then load from the cache share 0 has written meanwhile (compiled twice if the
+#: qp lane set came first). A lane set of two compiles a runner's parallel form; each lane set
+#: runs keeping its series and keeping its metrics alone (`KEEPS`: the one records runner
+#: keeps or reduces as it records, `twin.sim.kernels.records.run_hybrid_records`; the
+#: reductions' `run_*_add`).
 WARM_SHARES: tuple[tuple[tuple[dict[str, str], ...], ...], ...] = (
     (
         ({"planner": "mtmp"},),
         ({"planner": "mtmp"}, {"planner": "dwa"}),
-        ({"mechanism": "upr4"}, {"mechanism": "upr4", "planner": "ik"}),
+        ({"mechanism": "upu3up"},),
     ),
     (
         ({"mechanism": "upr4"},),
+        ({"mechanism": "upr4"}, {"mechanism": "upr4", "planner": "ik"}),
         ({"planner": "qp"},),
         ({"planner": "qp"}, {"planner": "qp"}),
     ),
@@ -822,10 +825,13 @@ def warm_in_processes(processes: int | None = None, progress: WarmProgress | Non
     relay.thread.start()
     rest = [share for group in groups[1:] for share in group]
     try:
-        warm("auto", groups[0], progress=relay.report)
+        own = warm("auto", groups[0], progress=relay.report)
         relay.first_done.set()
-        # what the processes have compiled meanwhile loads from the cache; the rest compiles
-        # here too, so the slower of two copies never holds the start-up
+        # what the processes compile loads from the cache once they are done: waited for (as
+        # long as share 0 took at most), as a runner still compiling there would compile here
+        # too, twice at once (measured: 137 s against 104 s); past that, or without processes,
+        # the rest compiles here too, so the slower of two copies never holds the start-up
+        relay.wait_spawned(own)
         warm("auto", rest, progress=relay.report)
     finally:
         relay.close()
@@ -875,6 +881,13 @@ class _WarmRelay:
             self.decided.set()
         while (label := done.get()) is not None:
             self.report(label)
+
+    def wait_spawned(self, timeout: float) -> None:
+        """Once this process's first group is done: wait up to `timeout` s for the processes'
+        shares, if processes were started."""
+        self.decided.wait()
+        if "result" in self.spawned:
+            self.spawned["result"].wait(timeout)
 
     def close(self) -> None:
         """Once this process's shares are done (or failed): end the processes, the relay

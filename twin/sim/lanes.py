@@ -204,6 +204,8 @@ class HybridLanes:
         base poses (N, S, 6) with the steps' diagnostics (N, S, N_HYBRID_DIAGNOSTICS), the start
         in row 0, samples first … S − 1 (first = 1: the start was recorded with the chunk
         before; 0: a run's first chunk recording its start too)."""
+        from twin.sim.kernels.records import keep_records
+
         del dt  # Unused: nothing recorded is a rate.
         if self._handed is None:  # each chunk is recorded once, after `run`
             raise RuntimeError("HybridLanes.records: no chunk stepped since; call run first")
@@ -211,7 +213,7 @@ class HybridLanes:
         self._handed = None  # the scratch rows die with the chunk
         legs, errors, scalars = self._recorded
         self._records(targets, xs, first, handed, self.held, self.landing, self.gangway0,
-                      self.const, legs, errors, scalars, tips)  # fmt: skip
+                      self.const, legs, errors, scalars, tips, *keep_records(len(xs)))  # fmt: skip
         return self._with_state(poses, xs, diag, record_views(*self._recorded, first), first)
 
     def state_records(self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray) -> dict:
@@ -221,7 +223,7 @@ class HybridLanes:
 
     def reduce(self, reduction: HybridReduction, t: np.ndarray, start: int) -> dict | None:
         """keep="metrics": samples 1 … S − 1 of the chunk `run` just stepped, each recorded and
-        added to `reduction` at once (`run_hybrid_reduce`), its records never kept.
+        added to `reduction` at once (`run_hybrid_records` reducing), its records never kept.
 
         Args:
             reduction: the lanes' running metrics, samples up to `start` added.
@@ -235,27 +237,28 @@ class HybridLanes:
         Raises:
             ValueError: samples that do not follow those already added.
         """
-        from twin.sim.kernels.records import compiled_reduce, run_hybrid_reduce
-
         if self._handed is None:  # each chunk is recorded once, after `run`
             raise RuntimeError("HybridLanes.reduce: no chunk stepped since; call run first")
         targets, handed, tips = self._handed
         xs, S = self._xs, len(t) + 1
         if np.any(reduction.seen != np.minimum(reduction.ends, start)):
             raise ValueError(f"reduction: samples from {start} on, after {reduction.seen}")
-        runner = pick_runner(compiled_reduce, run_hybrid_reduce, self.compiled, len(xs))
         before = reduction.acc.copy()
-        last = record_arrays(len(xs), 1)
+        # legs and scalars: one row each sample overwrites; the errors: the chunk's, where
+        # the kernel handed its differential lanes' over (kept for `records` if one is not
+        # finite)
+        legs, _, scalars = record_arrays(len(xs), 1)
+        errors = self._recorded[1]
         finite = np.ones(len(xs), dtype=bool)
-        runner(targets, xs, np.clip(reduction.ends - start, 0, S - 1), handed, self.held,
-               self.landing, self.gangway0, self.const, self._recorded[1], tips,
-               np.ascontiguousarray(t), reduction.hold, reduction.acc,
-               tuple(a[:, 0] for a in last), finite)  # fmt: skip
+        self._records(targets, xs, 1, handed, self.held, self.landing, self.gangway0,
+                      self.const, legs, errors, scalars, tips, reduction.acc,
+                      np.ascontiguousarray(t), reduction.hold,
+                      np.clip(reduction.ends - start, 0, S - 1), finite)  # fmt: skip
         if not finite.all():
             reduction.acc[:] = before
             return None
         self._handed = None  # the scratch rows die with the chunk
-        return record_views(*last, 0)
+        return record_views(legs, errors[:, -1:], scalars, 0)
 
     def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:
         """Records (N, 1, …) at t = 0 (diagnostics zero: the engine repeats the first step's)."""

@@ -103,7 +103,7 @@ def hybrid_records(
     Returns:
         xi and the keys of `record_views`, each (N, S − first, ...).
     """
-    from twin.sim.kernels.records import N_TIP
+    from twin.sim.kernels.records import N_TIP, keep_records
 
     N, S = xi.shape[:2]
     legs, errors, scalars = record_arrays(N, S)
@@ -111,7 +111,7 @@ def hybrid_records(
     runner(np.ascontiguousarray(targets), np.ascontiguousarray(xi), first, none,
            np.ascontiguousarray(held), np.ascontiguousarray(landing),
            np.ascontiguousarray(gangway0), const, legs, errors, scalars,
-           np.empty((N, 0, N_TIP)))  # fmt: skip
+           np.empty((N, 0, N_TIP)), *keep_records(N))  # fmt: skip
     return {"xi": xi[:, first:], **record_views(legs, errors, scalars, first)}
 
 

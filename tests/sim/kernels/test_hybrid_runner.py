@@ -9,7 +9,7 @@ import pytest
 
 from twin.sim import Simulation
 from twin.sim.kernels import hybrid_runner, layout
-from twin.sim.kernels.records import N_TIP, compiled_records, run_hybrid_records
+from twin.sim.kernels.records import N_TIP, compiled_records, keep_records, run_hybrid_records
 from twin.sim.records import record_arrays
 
 SCENARIOS = [
@@ -45,7 +45,8 @@ def test_handed_tips_give_the_records_computed_alone(first: int, engine: str) ->
     for label, given in (("handed", np.where(differential, m, 0)), ("alone", np.zeros(N, int))):
         legs, errs, scalars = record_arrays(N, m + 1)
         errs[:] = errors  # the rows handed over; the records fill the rest
-        records(targets, xs, first, given, *frames, lanes.const, legs, errs, scalars, tips)
+        records(targets, xs, first, given, *frames, lanes.const, legs, errs, scalars, tips,
+                *keep_records(N))  # fmt: skip
         out[label] = legs, errs, scalars
     for got, want in zip(out["handed"], out["alone"], strict=True):
         assert np.isfinite(got[:, first:]).all()

@@ -1,6 +1,7 @@
-"""The qp lane step (twin.planners.qp_step) assembles the planner object's QP to 1e-9, packs only
-what it assembles, and its lanes step in the hybrid runner as an independent solver (DAQP)
-of the same QP says, integrated on SE(3) by scipy's `expm`."""
+"""The qp lane step (twin.planners.qp_step), which the planner object runs (its matrices are
+judged against independent checks in tests/planners/test_qp.py): compiled and interpreted it
+writes the same QP, packs only what it assembles, and its lanes step in the hybrid runner as
+an independent solver (DAQP) of the same QP says, integrated on SE(3) by scipy's `expm`."""
 
 from __future__ import annotations
 
@@ -22,7 +23,6 @@ from twin.planners.qp import (
     LegStrokeLimit,
     QPPlanner,
     RateLimit,
-    solve_levels,
 )
 from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask
 from twin.sim.faults import Fault
@@ -68,9 +68,11 @@ def kernel_problem(
     return Hk, f, A, lower, upper
 
 
-def test_the_kernel_assembles_the_planners_qp(rng: np.random.Generator) -> None:
-    """H, f, A and the bounds equal `QPPlanner.problem`'s to 1e-9 (relative to their size) on
-    random states (in and out of the limits), targets, knobs and control periods."""
+def test_the_object_runs_the_lane_compiled_as_interpreted(rng: np.random.Generator) -> None:
+    """`QPPlanner.problem` (the compiled lane over a batch, `QP_PROBLEM`) gives the H, f, A and
+    bounds `qp_problem_lane` writes interpreted (the fallback without numba) to 1e-12 (relative
+    to their size) on random states (in and out of the limits), targets, knobs and control
+    periods; a batch of states gives each state's problem."""
     states = np.concatenate([random_hybrid_states(rng, 30), random_hybrid_states(rng, 10, 1.3)])
     for xi in states:
         p = random_parameters(rng)
@@ -82,8 +84,15 @@ def test_the_kernel_assembles_the_planners_qp(rng: np.random.Generator) -> None:
         got = kernel_problem(xi, pack_target(target), prm, dt)
         for name, a, b in zip(("H", "f", "A", "lower", "upper"), got, want[:5], strict=True):
             scale = max(1.0, float(np.max(np.abs(b))))
-            np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * scale, err_msg=name)
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * scale, err_msg=name)
         assert parameter_record(prm, QP_PARAMETERS).position == want.position_weight
+    planner = build(PlannerParameters(), H.working_state)
+    target = random_target(H.working_state, rng)
+    batch = planner.problem(states, target, 0.05)
+    for k in (0, len(states) - 1):
+        one = planner.problem(states[k], target, 0.05)
+        for a, b in zip(batch[:5], one[:5], strict=True):
+            np.testing.assert_array_equal(a[k], b)
 
 
 def run_lanes(
@@ -199,18 +208,15 @@ def test_packing_refuses_what_the_kernel_cannot_assemble() -> None:
     kq.pack_qp(QPPlanner(tip, (legs, joints), rate), True)
 
 
-def test_solve_levels_reads_the_kernels_arrays() -> None:
-    """The kernel's arrays are a `QPProblem` (those of one lane): `solve_levels` gives the same
-    level and rates as on the planner's own problem (to 1e-8: this target's step is level 1,
-    whose position weight 1e4 magnifies the arrays' 1e-14 differences; DAQP's rates move by
-    1.5e-10 between the two, ours by 1.0e-9)."""
-    planner = build(PlannerParameters(), H.working_state)
-    target = random_target(H.working_state, np.random.default_rng(3))
-    prm = kq.pack_qp(planner, False)
-    arrays = kernel_problem(H.working_state, pack_target(target), prm, 0.05)
-    from twin.planners.qp import QPProblem
-
-    got = solve_levels(QPProblem(*arrays, parameter_record(prm, QP_PARAMETERS).position))
-    want = solve_levels(planner.problem(H.working_state, target, 0.05))
-    assert got.level == want.level
-    np.testing.assert_allclose(got.velocity, want.velocity, rtol=0, atol=1e-8)
+def test_the_limits_rows_are_the_lanes() -> None:
+    """`LegStrokeLimit.rows` and `JointLimit.rows` are the rows `qp_problem_lane` writes for
+    the planner (its A's rows 3-8 and 9-17 and their bounds), exactly: one statement."""
+    planner = build(PlannerParameters(limit_gain=0.3), H.working_state)
+    xi = H.working_state + 0.05
+    target = random_target(xi, np.random.default_rng(3))
+    problem = planner.problem(xi, target, 0.05)
+    legs, joints = (limit.rows(xi, 0.05) for limit in planner.limits)
+    for got, rows in ((legs, slice(3, 9)), (joints, slice(9, N))):
+        np.testing.assert_array_equal(got.C, problem.A[rows])
+        np.testing.assert_array_equal(got.lower, problem.lower[9:][rows])
+        np.testing.assert_array_equal(got.upper, problem.upper[9:][rows])

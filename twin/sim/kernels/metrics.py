@@ -24,7 +24,7 @@ Per lane, over samples k = 0 … T−1 (T = end), S = min(SETTLE, T − 1) the f
 
 Every reduction is a running one: a lane's accumulator row (`A_*`, N_ACC floats) takes its
 samples in order, one at a time (`hybrid_add_sample`), in as many chunks as come
-(`hybrid_add_lane`) or as each is recorded (`twin.sim.kernels.records.run_hybrid_reduce`), and
+(`hybrid_add_lane`) or as each is recorded (`twin.sim.kernels.records.run_hybrid_records`), and
 `hybrid_finish_lane` turns it into the row of results. A whole series is one chunk
 (`hybrid_reduction_lane`); a run that keeps no series (`twin.sim.engine.Simulation`'s
 keep="metrics") feeds each chunk as it is stepped, so its memory does not grow with its
@@ -265,8 +265,8 @@ def hybrid_add_sample(
     limits: HybridLimits,
 ) -> None:
     """Add a lane's next sample to its accumulator row acc (N_ACC,) (`hybrid_begin_lane`;
-    module docstring): what `hybrid_add_lane` does per sample, and the records' fused pass
-    (`twin.sim.kernels.records.run_hybrid_reduce`) as each sample is recorded.
+    module docstring): what `hybrid_add_lane` does per sample, and the records runner
+    reducing (`twin.sim.kernels.records.hybrid_record_lane`) as each sample is recorded.
 
     Args:
         t: [s]; x: (9,) xi [m, rad]; legs: (6,) [m]; e: (6,) the tip error [m, rad] in B.

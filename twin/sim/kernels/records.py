@@ -6,6 +6,10 @@ the kernels' one-lane primitives (`twin.sim.kernels.hybrid`, `twin.planners.allo
 the tip, its error, the legs and the manipulability are computed as the planners see them. It
 reads the base from each sample's target row ᴮT_d = ᴵT_B⁻¹ ᴵT_E* (`twin.sim.target.held_targets`,
 which the chunk's kernel read too), not from its pose: no roll-pitch-yaw to turn into ᴵR_B again.
+The one runner keeps each sample's record (a series) or, for a run that keeps no series
+(keep="metrics"), adds it to the lane's running metrics as it is made
+(`twin.sim.kernels.metrics.hybrid_add_sample`, `twin.sim.lanes.HybridLanes.reduce`), the chunk's
+records never kept: the same functions in the same order, so the same bits.
 
 Per sample, with ᴵT_B the base, ᴮT_E the tip (seed 000 eq (14)) and ᴵT_E* the held tip pose:
 
@@ -196,6 +200,30 @@ def record_sample(
                     scalars_out, work)  # fmt: skip
 
 
+#: A lane's running metrics as `hybrid_record_lane` adds its samples to them: its accumulator
+#: row acc (N_ACC,) (`twin.sim.kernels.metrics`), or (0,) to keep the records instead; the
+#: samples' times t [s] from `first` on; whether its `joint_limits` is "hold"; how many samples
+#: from `first` on it adds (those up to its end)
+LaneReduction = tuple[np.ndarray, np.ndarray, bool, int]
+
+
+@register_borrowing
+def finite_record(x: np.ndarray, legs: np.ndarray, error: np.ndarray, scalars: np.ndarray) -> bool:
+    """Whether a sample's state x (9,) and its record (legs (6,), tip error (6,), scalars
+    (N_SCALARS,)) are all finite: a reduced sample that is not stops its lane, whose chunk is
+    then recorded and held as a kept series is (`twin.sim.faults.hold_nonfinite`)."""
+    for j in range(9):
+        if not math.isfinite(x[j]):
+            return False
+    for j in range(6):
+        if not (math.isfinite(legs[j]) and math.isfinite(error[j])):
+            return False
+    for j in range(N_SCALARS):
+        if not math.isfinite(scalars[j]):
+            return False
+    return True
+
+
 @register_borrowing
 def hybrid_record_lane(
     targets: np.ndarray,
@@ -206,32 +234,57 @@ def hybrid_record_lane(
     landing: np.ndarray,
     g0: np.ndarray,
     const: np.ndarray,
-    legs_out: np.ndarray,
-    errors_out: np.ndarray,
-    scalars_out: np.ndarray,
+    out: tuple[np.ndarray, np.ndarray, np.ndarray],
     tips: np.ndarray,
     work: RecordWork,
-) -> None:
-    """One lane's records, sample by sample (`record_sample`): the loop is here, not in the
+    reduction: LaneReduction,
+) -> bool:
+    """One lane's records, sample by sample (`record_sample`), kept or reduced: each in its
+    own row of the output arrays, or each added to the lane's running metrics as it is
+    recorded (`hybrid_add_sample`, when acc has a row: keep="metrics") in one row the next
+    sample overwrites, so a run that keeps no series never holds its chunk's records. One
+    function for both, so the inlined record is compiled once. The loop is here, not in the
     runner, because a borrowing function takes its per-sample views without reference
     counting (two atomic operations per view and sample in the runner).
 
     Args:
         targets: (S, 18) each sample's target row; xs: (S, 9) xi per sample [m, rad].
         first: the first sample recorded: samples first … S − 1 are.
-        handed: samples before it have their tip in `tips` and their error in errors_out
+        handed: samples before it have their tip in `tips` and their error in the errors
             (`hand_over`, by the kernel); the others' are computed here (`sample_tip`).
         landing: (3, 3) inertial → landing frame; g0: (3,) the gangway vector at t = 0 in it.
         const: (N_HYBRID_CONSTANTS,) the hybrid constants, read by name (`HYBRID_CONSTANTS`).
         held, work: as in `record_from_tip`.
-        legs_out: (S, 6) [m]; errors_out: (S, 6) [m, rad]; scalars_out: (S, N_SCALARS):
-            rows first … S − 1 written. tips: (S, N_TIP) or (0, N_TIP) when handed ≤ first.
+        out: legs (S, 6) [m], tip errors (S, 6) [m, rad], scalars (S, N_SCALARS): rows
+            first … S − 1 written (errors: those at or after `handed`); reducing, legs and
+            scalars (1, …): each sample's record in turn, sample S − 1's at the end.
+        tips: (S, N_TIP), or (0, N_TIP) when handed ≤ first.
+        reduction: the lane's running metrics (`LaneReduction`), acc updated.
+
+    Returns:
+        Whether every sample's state and record were finite, reducing (True keeping): the
+        lane stops at the first that is not, its acc left part-way (the caller restores it).
     """
+    legs_out, errors_out, scalars_out = out
+    acc, t, hold, count = reduction
+    reduce = acc.shape[0] > 0
     angles0 = gangway_angles(g0)  # once per lane
     c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
+    limits: HybridLimits = (hold, c.lower, c.upper, c.leg_min, c.leg_max)
     for k in range(first, xs.shape[0]):
-        record_sample(targets, xs, k, handed, tips, held, landing, angles0, c, legs_out[k],
-                      errors_out[k], scalars_out[k], work)  # fmt: skip
+        row = 0 if reduce else k
+        legs, error, scalars = legs_out[row], errors_out[k], scalars_out[row]
+        record_sample(targets, xs, k, handed, tips, held, landing, angles0, c, legs, error,
+                      scalars, work)  # fmt: skip
+        if reduce:
+            if not finite_record(xs[k], legs, error, scalars):
+                return False
+            if k - first < count:
+                hybrid_add_sample(acc, t[k - first], xs[k], legs, error,
+                                  (scalars[S_MANIPULABILITY], scalars[S_PHI_E], scalars[S_THETA_E],
+                                   scalars[S_ALPHA_TOP], scalars[S_ALPHA_BOTTOM]),
+                                  limits)  # fmt: skip
+    return True
 
 
 @register_jitable
@@ -259,9 +312,15 @@ def run_hybrid_records(
     errors: np.ndarray,
     scalars: np.ndarray,
     tips: np.ndarray,
+    acc: np.ndarray,
+    t: np.ndarray,
+    hold: np.ndarray,
+    counts: np.ndarray,
+    finite: np.ndarray,
 ) -> None:
     """Records of N lanes × samples first … S − 1 of S (a chunk's states as the kernel wrote
-    them, its start in row 0, need no copy without it).
+    them, its start in row 0, need no copy without it), kept or reduced as they are made
+    (`hybrid_record_lane`).
 
     Args:
         targets: (N, S, 18) each sample's target row (`held_targets`; ᴮR_d and ᴮp_d read);
@@ -270,8 +329,14 @@ def run_hybrid_records(
             the kernel (`tips`, `errors`; `hybrid_record_lane`); 0 for none.
         held: (N, 4, 4); landing: (N, 3, 3); gangway0: (N, 3); const: hybrid constants.
         legs: (N, S, 6), errors: (N, S, 6), scalars: (N, S, N_SCALARS): rows first … S − 1
-            written (errors: those at or after handed[n]).
+            written (errors: those at or after handed[n]); reducing, legs and scalars
+            (N, 1, …), sample S − 1's record at the end.
         tips: (N, S, N_TIP) the handed tips (any rows when no lane has one).
+        acc: (N, N_ACC) the lanes' running metrics (`twin.sim.kernels.metrics`), each sample
+            added as it is recorded; (N, 0) to keep the records (`keep_records`).
+        t: (S − first,) the samples' times [s]; hold: (N,) bool, each lane's joint_limits is
+            "hold"; counts: (N,) int64, lane n adds its first counts[n] samples (0 past its
+            end); finite: (N,) bool, written: lane n's samples and records all finite.
 
     Raises:
         ValueError: fewer target rows than samples (a chunk's targets without its end row),
@@ -279,9 +344,10 @@ def run_hybrid_records(
     """
     require_target_rows(targets, xs)
     for n in prange(xs.shape[0]):
-        hybrid_record_lane(targets[n], xs[n], first, handed[n], held[n], landing[n],
-                           gangway0[n], const, legs[n], errors[n], scalars[n], tips[n],
-                           record_work())  # fmt: skip
+        finite[n] = hybrid_record_lane(targets[n], xs[n], first, handed[n], held[n], landing[n],
+                                       gangway0[n], const, (legs[n], errors[n], scalars[n]),
+                                       tips[n], record_work(),
+                                       (acc[n], t, hold[n], counts[n]))  # fmt: skip
 
 
 def run_hybrid_records_lanes(
@@ -297,6 +363,11 @@ def run_hybrid_records_lanes(
     errors: np.ndarray,
     scalars: np.ndarray,
     tips: np.ndarray,
+    acc: np.ndarray,
+    t: np.ndarray,
+    hold: np.ndarray,
+    counts: np.ndarray,
+    finite: np.ndarray,
 ) -> None:
     """`run_hybrid_records` with its lanes in parallel, each a one-lane call of the compiled
     serial runner `serial_records`, so the inlined
@@ -308,7 +379,8 @@ def run_hybrid_records_lanes(
         lane = slice(n, n + 1)
         serial_records(targets[lane], xs[lane], first, handed[lane], held[lane], landing[lane],
                        gangway0[lane], const, legs[lane], errors[lane], scalars[lane],
-                       tips[lane])  # fmt: skip
+                       tips[lane], acc[lane], t, hold[lane], counts[lane],
+                       finite[lane])  # fmt: skip
 
 
 #: `run_hybrid_records` compiled serial (lazily, on its first call; `twin.compiled`), or the
@@ -325,163 +397,9 @@ def compiled_records(parallel: bool) -> Callable:
     return compile_runner(run_hybrid_records_lanes, parallel=True)
 
 
-# ------------------------------------------------------------ records reduced as they are made
-# A run that keeps no series (`twin.sim.engine.Simulation`'s keep="metrics": a sweep's or a
-# workability lane) wants its records only to reduce them: the pass below records each sample
-# into a one-sample scratch (`record_sample`) and adds it to the lane's running metrics at once
-# (`twin.sim.kernels.metrics.hybrid_add_sample`), the very functions the records runner and the
-# reduction call, so the chunk's records are never kept and the metrics are the same bits.
-
-
-@register_borrowing
-def finite_record(x: np.ndarray, legs: np.ndarray, error: np.ndarray, scalars: np.ndarray) -> bool:
-    """Whether a sample's state x (9,) and its record (legs (6,), tip error (6,), scalars
-    (N_SCALARS,)) are all finite: a sample that is not is held as a kept series is
-    (`twin.sim.faults.hold_nonfinite`), which the fused pass leaves to the records runner."""
-    for j in range(9):
-        if not math.isfinite(x[j]):
-            return False
-    for j in range(6):
-        if not (math.isfinite(legs[j]) and math.isfinite(error[j])):
-            return False
-    for j in range(N_SCALARS):
-        if not math.isfinite(scalars[j]):
-            return False
-    return True
-
-
-@register_borrowing
-def hybrid_reduce_lane(
-    targets: np.ndarray,
-    xs: np.ndarray,
-    counted: tuple[int, int],
-    held: np.ndarray,
-    landing: np.ndarray,
-    g0: np.ndarray,
-    const: np.ndarray,
-    handover: tuple[np.ndarray, np.ndarray],
-    t: np.ndarray,
-    hold: bool,
-    acc: np.ndarray,
-    work: RecordWork,
-    last: tuple[np.ndarray, np.ndarray, np.ndarray],
-) -> bool:
-    """One lane's samples 1 … S − 1 recorded one at a time (`record_sample`) and added to its
-    running metrics as they are (`hybrid_add_sample`), none kept but the last.
-
-    Args:
-        targets, xs, held, landing, g0, const: as `hybrid_record_lane`'s.
-        counted: (count, handed): samples 1 … count are added (those up to the lane's end);
-            samples before `handed` have their tip and error from the kernel (`hand_over`).
-        handover: (errors (S, 6), tips (S, N_TIP)) the kernel's (`hybrid_record_lane`'s
-            errors_out and tips).
-        t: (S − 1,) samples 1 … S − 1's times [s]; hold: the lane's `joint_limits` is "hold".
-        acc: (N_ACC,) the lane's running metrics (`twin.sim.kernels.metrics`), updated.
-        work: `record_work()`; last: legs (6,), tip error (6,), scalars (N_SCALARS,): each
-            sample's record in turn, sample S − 1's at the end.
-
-    Returns:
-        Whether every sample's state and record were finite; acc is left part-way when not
-        (the caller restores it).
-    """
-    count, handed = counted
-    errors, tips = handover
-    legs, error, scalars = last
-    angles0 = gangway_angles(g0)  # once per lane
-    c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
-    limits: HybridLimits = (hold, c.lower, c.upper, c.leg_min, c.leg_max)
-    for k in range(1, xs.shape[0]):
-        e = errors[k] if k < handed else error  # the kernel's, or computed into the scratch
-        record_sample(targets, xs, k, handed, tips, held, landing, angles0, c, legs, e,
-                      scalars, work)  # fmt: skip
-        if not finite_record(xs[k], legs, e, scalars):
-            return False
-        if k <= count:
-            hybrid_add_sample(acc, t[k - 1], xs[k], legs, e,
-                              (scalars[S_MANIPULABILITY], scalars[S_PHI_E], scalars[S_THETA_E],
-                               scalars[S_ALPHA_TOP], scalars[S_ALPHA_BOTTOM]), limits)  # fmt: skip
-    if handed == xs.shape[0]:  # the last sample handed over too: its error into the scratch
-        for j in range(6):
-            error[j] = errors[xs.shape[0] - 1, j]
-    return True
-
-
-def run_hybrid_reduce(
-    targets: np.ndarray,
-    xs: np.ndarray,
-    counts: np.ndarray,
-    handed: np.ndarray,
-    held: np.ndarray,
-    landing: np.ndarray,
-    gangway0: np.ndarray,
-    const: np.ndarray,
-    errors: np.ndarray,
-    tips: np.ndarray,
-    t: np.ndarray,
-    hold: np.ndarray,
-    acc: np.ndarray,
-    last: tuple[np.ndarray, np.ndarray, np.ndarray],
-    finite: np.ndarray,
-) -> None:
-    """Samples 1 … S − 1 of N lanes (a chunk as the kernel stepped it, its start in row 0)
-    recorded and reduced at once (`hybrid_reduce_lane`), lane n adding its first counts[n]
-    (0 … S − 1: a lane past its end adds none).
-
-    Args:
-        targets, xs, handed, held, landing, gangway0, const, tips: as `run_hybrid_records`'.
-        counts: (N,) int; errors: (N, S, 6) the kernel's handed errors (other rows unused).
-        t: (S − 1,) [s]; hold: (N,) bool, each lane's mode; acc: (N, N_ACC), updated.
-        last: legs (N, 6), tip errors (N, 6), scalars (N, N_SCALARS): sample S − 1's record,
-            written; finite: (N,) bool, written where a lane's samples were all finite.
-
-    Raises:
-        ValueError: fewer target rows than samples (`require_target_rows`).
-    """
-    require_target_rows(targets, xs)
-    for n in prange(xs.shape[0]):
-        finite[n] = hybrid_reduce_lane(targets[n], xs[n], (counts[n], handed[n]), held[n],
-                                       landing[n], gangway0[n], const, (errors[n], tips[n]), t,
-                                       hold[n], acc[n], record_work(),
-                                       (last[0][n], last[1][n], last[2][n]))  # fmt: skip
-
-
-def run_hybrid_reduce_lanes(
-    targets: np.ndarray,
-    xs: np.ndarray,
-    counts: np.ndarray,
-    handed: np.ndarray,
-    held: np.ndarray,
-    landing: np.ndarray,
-    gangway0: np.ndarray,
-    const: np.ndarray,
-    errors: np.ndarray,
-    tips: np.ndarray,
-    t: np.ndarray,
-    hold: np.ndarray,
-    acc: np.ndarray,
-    last: tuple[np.ndarray, np.ndarray, np.ndarray],
-    finite: np.ndarray,
-) -> None:
-    """`run_hybrid_reduce` with its lanes in parallel, each a one-lane call of the compiled
-    serial runner `serial_reduce` (as `run_hybrid_records_lanes`). Arguments and errors as
-    `run_hybrid_reduce`'s."""
-    require_target_rows(targets, xs)
-    for n in prange(xs.shape[0]):
-        lane = slice(n, n + 1)
-        serial_reduce(targets[lane], xs[lane], counts[lane], handed[lane], held[lane],
-                      landing[lane], gangway0[lane], const, errors[lane], tips[lane], t,
-                      hold[lane], acc[lane], (last[0][lane], last[1][lane], last[2][lane]),
-                      finite[lane])  # fmt: skip
-
-
-#: `run_hybrid_reduce` compiled serial (lazily), or the plain function without numba
-serial_reduce = compile_runner(run_hybrid_reduce, parallel=False)
-
-
-@cache
-def compiled_reduce(parallel: bool) -> Callable:
-    """`run_hybrid_reduce` compiled, lanes in parallel (`run_hybrid_reduce_lanes`) or serial
-    (`serial_reduce`); plain Python without numba."""
-    if not parallel or serial_reduce is run_hybrid_reduce:
-        return serial_reduce
-    return compile_runner(run_hybrid_reduce_lanes, parallel=True)
+def keep_records(N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """`run_hybrid_records`' last arguments (acc, t, hold, counts, finite) for N lanes that
+    keep their records and reduce none: acc (N, 0), of the types a reduction passes, so the
+    runner has one compiled signature for both."""
+    return (np.empty((N, 0)), np.empty(0), np.zeros(N, dtype=bool),
+            np.zeros(N, dtype=np.int64), np.ones(N, dtype=bool))  # fmt: skip
