@@ -458,13 +458,13 @@ def main(quick: bool = False) -> None:
         limit = QP_TARGET if scenario.planner == "qp" else OTHER_TARGET
         if label in failed:
             row(f"simulate(), {label}, {duration:g} s", f"failed: {failed[label]}",
-                f"≤ {limit:.1f}× peer", False)  # fmt: skip
+                f"≤ {limit:g}× peer", False)  # fmt: skip
             continue
         t = best(lambda s=scenario: simulate(s), 5)
         row(
             f"simulate(), {label}, {duration:g} s",
             f"{t * 1e3:.1f} ms = {t / t_peer:.2f}× peer",
-            f"≤ {limit:.1f}× peer",
+            f"≤ {limit:g}× peer",
             t <= limit * t_peer,
         )
 
