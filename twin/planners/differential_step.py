@@ -304,7 +304,9 @@ def differential_finish(
         diag_out[D_WEIGHTS + j] = w[j]
     norm = math.sqrt(norm2)
     diag_out[D_SHARE] = math.sqrt(null2) / (1e-12 if norm < 1e-12 else norm)
-    damping = math.sqrt(lam2)
+    # λ ≤ λ_max by its definition; for a λ_max under 1e-154, λ_max² is subnormal and its
+    # square root can come back above λ_max (`weighted_pinv_lane`)
+    damping = min(math.sqrt(lam2), p.damping)
     diag_out[D_DAMPING] = damping
     diag_out[D_SCALE] = scale
     return FAULT_SINGULAR if damping > 0.0 else 0
