@@ -12,8 +12,7 @@ from typing import Any
 
 import pytest
 
-import twin.web.jobs
-from tests.web.support import wait_for
+from tests.web.support import HeldRuns, record_run_threads, refuse_runs, wait_for
 from twin.sim import Scenario
 from twin.sim.executor import IN_PROCESS, Executor
 from twin.web.jobs import INLINE_MAX_STEPS, JobRunner, steps
@@ -89,15 +88,8 @@ def test_a_short_run_while_one_is_in_hand_goes_to_the_executor(
     store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """One short run in process at a time: the next goes to the executor, and both finish."""
-    entered, release = threading.Event(), threading.Event()
-    real = twin.web.jobs.run_scenario
-
-    def held(*args: Any, **kwargs: Any) -> Any:
-        entered.set()
-        release.wait(60)
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(twin.web.jobs, "run_scenario", held)
+    held = HeldRuns(monkeypatch)
+    entered, release = held.entered, held.release
     jobs = _runner(store, executor)
     try:
         executor.submitted.clear()
@@ -117,15 +109,8 @@ def test_a_short_run_while_one_is_in_hand_goes_to_the_executor(
 def test_cancelling_a_short_run_in_flight_drops_its_outcome(
     store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    entered, release = threading.Event(), threading.Event()
-    real = twin.web.jobs.run_scenario
-
-    def held(*args: Any, **kwargs: Any) -> Any:
-        entered.set()
-        release.wait(60)
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(twin.web.jobs, "run_scenario", held)
+    held = HeldRuns(monkeypatch)
+    entered, release = held.entered, held.release
     jobs = _runner(store, executor)
     try:
         run = store.create(Scenario(**SHORT))
@@ -148,12 +133,7 @@ def test_a_short_run_the_engine_refuses_raises_as_on_the_executor(
     store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A `ValueError` before the first step reaches the request (a 422 there), stored failed."""
-    from twin.errors import TwinError
-
-    def refusing(*args: Any, **kwargs: Any) -> Any:
-        raise TwinError("heading: refused by the engine (test)")
-
-    monkeypatch.setattr(twin.web.jobs, "run_scenario", refusing)
+    refuse_runs(monkeypatch)
     jobs = _runner(store, executor)
     try:
         run = store.create(Scenario(**SHORT))
@@ -170,14 +150,7 @@ def test_run_here_runs_on_the_calling_thread_with_the_executors_outcome(
     """A request's worker thread runs its short run itself (no hand-off to the runner's
     thread): resolved when `run_here` returns, no executor task, and the same stored run as
     the executor's."""
-    threads: list[threading.Thread] = []
-    real = twin.web.jobs.run_scenario
-
-    def recorded(*args: Any, **kwargs: Any) -> Any:
-        threads.append(threading.current_thread())
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(twin.web.jobs, "run_scenario", recorded)
+    threads = record_run_threads(monkeypatch)
     scenario = Scenario(**SHORT)
     jobs = _runner(store, executor)
     try:
@@ -206,16 +179,8 @@ def test_run_here_while_a_run_is_in_hand_goes_to_the_executor(
 ) -> None:
     """The slot is one for both threads: a request's run while the runner's thread holds one
     goes to the executor instead of waiting, and both finish."""
-    entered, release = threading.Event(), threading.Event()
-    real = twin.web.jobs.run_scenario
-
-    def held(*args: Any, **kwargs: Any) -> Any:
-        if not entered.is_set():
-            entered.set()
-            release.wait(60)
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(twin.web.jobs, "run_scenario", held)
+    held = HeldRuns(monkeypatch, first_only=True)
+    entered, release = held.entered, held.release
     jobs = _runner(store, executor)
     try:
         executor.submitted.clear()
@@ -236,15 +201,8 @@ def test_cancelling_a_run_running_here_drops_its_outcome(
 ) -> None:
     """A cancel while a request's thread runs the run: the future is cancelled, the run stays
     cancelled in the store, and the slot is free again."""
-    entered, release = threading.Event(), threading.Event()
-    real = twin.web.jobs.run_scenario
-
-    def held(*args: Any, **kwargs: Any) -> Any:
-        entered.set()
-        release.wait(60)
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(twin.web.jobs, "run_scenario", held)
+    held = HeldRuns(monkeypatch)
+    entered, release = held.entered, held.release
     jobs = _runner(store, executor)
     run = store.create(Scenario(**SHORT))
     outcome: list[Any] = []

@@ -5,16 +5,13 @@ refuses is still a 422 that leaves nothing stored."""
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
 
-import twin.web.jobs
-from tests.web.support import access
+from tests.web.support import access, record_run_threads, refuse_runs
 from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web import JobRunner, RunStore, create_app
@@ -42,14 +39,7 @@ def client(tmp_path: Path, executor: Executor) -> Iterator[TestClient]:
 def test_a_short_run_runs_on_the_requests_thread(
     client: TestClient, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    threads: list[threading.Thread] = []
-    real = twin.web.jobs.run_scenario
-
-    def recorded(*args: Any, **kwargs: Any) -> Any:
-        threads.append(threading.current_thread())
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(twin.web.jobs, "run_scenario", recorded)
+    threads = record_run_threads(monkeypatch)
     response = client.post("/api/runs", json=SHORT)
     assert response.status_code == 201, response.text
     body = response.json()
@@ -64,12 +54,7 @@ def test_a_short_run_runs_on_the_requests_thread(
 def test_a_short_run_the_engine_refuses_is_a_422_and_leaves_nothing(
     client: TestClient, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from twin.errors import TwinError
-
-    def refusing(*args: Any, **kwargs: Any) -> Any:
-        raise TwinError("heading: refused by the engine (test)")
-
-    monkeypatch.setattr(twin.web.jobs, "run_scenario", refusing)
+    refuse_runs(monkeypatch)
     response = client.post("/api/runs", json=SHORT)
     assert response.status_code == 422, response.text
     assert "refused by the engine" in response.text
