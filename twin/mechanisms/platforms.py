@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import cache
+from typing import NamedTuple
 
 import numpy as np
 
@@ -37,6 +38,27 @@ MAX_LEGS = 4
 #: the pose is then within ~1e-12 of the limit, and one Jacobian is saved per step.
 FIT_TOL = 1e-8
 FIT_MAX_ITER = 30
+
+
+class NewtonWork(NamedTuple):
+    """One lane's scratch for `platform_kinematics` and a Newton solve (numba passes it as one
+    argument): R (3, 3), o (3,), residual (≥ n,) and J (≥ n, 3) [native], M (3, 4), step (3,)
+    [native | rad]. `platform_newton` leaves the last evaluation's residual and step in it."""
+
+    R: np.ndarray
+    o: np.ndarray
+    residual: np.ndarray
+    J: np.ndarray
+    M: np.ndarray
+    step: np.ndarray
+
+
+@register_jitable
+def newton_work() -> NewtonWork:
+    """Fresh `NewtonWork` for any small platform (`MAX_LEGS` rows)."""
+    return NewtonWork(np.zeros((3, 3)), np.zeros(3), np.zeros(MAX_LEGS), np.zeros((MAX_LEGS, 3)),
+                      np.zeros((3, 4)), np.zeros(3))  # fmt: skip
+
 
 #: A small platform as the lanes read it (one record, `PlatformModel.pack`):
 #: mechanism code (`MECHANISM_*`), actuated limbs n, [m] per native unit, the Upu3Up's l
@@ -150,12 +172,7 @@ def platform_newton(
     max_iter: int,
     step_tol: float,
     x: np.ndarray,
-    R: np.ndarray,
-    o: np.ndarray,
-    residual: np.ndarray,
-    J: np.ndarray,
-    M: np.ndarray,
-    step: np.ndarray,
+    w: NewtonWork,
 ) -> tuple[int, int]:
     """Newton-Raphson on l(x) − L from the start x (3,), in place (seed 001 eqs (20)-(24); the
     Upr4's four limbs a Gauss-Newton least-squares step): at most max_iter + 1 evaluations of
@@ -163,33 +180,23 @@ def platform_newton(
     residual and step_tol [native | rad] on the step. Returns (the last step's outcome,
     `twin.mechanisms.newton.STEPPED` if max_iter ran out; the steps taken before it).
 
-    lengths (n,) [native]; g: a `PLATFORM_GEOMETRY` record; R, o, J (≥ n, 3), M (3, 4):
-    scratch; residual (≥ n,) and step (3,): the last evaluation's, written; x: after the last
-    step taken (the root where converged).
+    lengths (n,) [native]; g: a `PLATFORM_GEOMETRY` record; w: scratch, its residual and step
+    the last evaluation's; x: after the last step taken (the root where converged).
     """
     n = g["n_legs"]
+    residual = w.residual
     for iteration in range(max_iter + 1):
-        platform_kinematics(x, g, R, o, residual, J, True)
+        platform_kinematics(x, g, w.R, w.o, residual, w.J, True)
         for i in range(n):
             residual[i] = residual[i] - lengths[i]  # seed 001 eq (20), in lengths
-        outcome = newton_step_lane(residual, J, n, tol, step_tol, M, step, x)
+        outcome = newton_step_lane(residual, w.J, n, tol, step_tol, w.M, w.step, x)
         if outcome != STEPPED:
             return outcome, iteration
     return STEPPED, max_iter
 
 
 @register_jitable
-def upu3up_forward(
-    lengths: np.ndarray,
-    g: np.void,
-    x: np.ndarray,
-    R: np.ndarray,
-    o: np.ndarray,
-    residual: np.ndarray,
-    J: np.ndarray,
-    M: np.ndarray,
-    step: np.ndarray,
-) -> bool:
+def upu3up_forward(lengths: np.ndarray, g: np.void, x: np.ndarray, w: NewtonWork) -> bool:
     """`Upu3Up.forward` on the geometry's envelope, from the start x (3,), in place:
     `platform_newton` with `FORWARD_TOL`, `FORWARD_MAX_ITER`; False where `forward` raises:
     lengths outside the stroke, a non-finite residual, a singular J, no convergence, or a
@@ -198,8 +205,7 @@ def upu3up_forward(
     for i in range(n):  # check_range in Upu3Up.forward
         if not (g["stroke_low"] <= lengths[i] <= g["stroke_high"]):
             return False
-    outcome, _ = platform_newton(lengths, g, FORWARD_TOL, FORWARD_MAX_ITER, np.inf, x, R, o,
-                                 residual, J, M, step)  # fmt: skip
+    outcome, _ = platform_newton(lengths, g, FORWARD_TOL, FORWARD_MAX_ITER, np.inf, x, w)
     if outcome != CONVERGED:
         return False
     for j in range(3):  # Upu3Up._check_state on the envelope
@@ -212,20 +218,11 @@ def upu3up_forward(
 
 @register_jitable
 def platform_fit(
-    lengths: np.ndarray,
-    guess: np.ndarray,
-    g: np.void,
-    x: np.ndarray,
-    R: np.ndarray,
-    o: np.ndarray,
-    residual: np.ndarray,
-    J: np.ndarray,
-    M: np.ndarray,
-    step: np.ndarray,
+    lengths: np.ndarray, guess: np.ndarray, g: np.void, x: np.ndarray, w: NewtonWork
 ) -> bool:
     """`PlatformModel.fit`: the state (3,) of actuator lengths (n,) [native] into x,
-    warm-started at `guess` (3,); False where no state is found (x then undefined). R, o,
-    residual (≥ n,), J (≥ n, 3), M (3, 4), step (3,): scratch.
+    warm-started at `guess` (3,); False where no state is found (x then undefined). w:
+    scratch.
 
     Upu3Up: `upu3up_forward`. Upr4: four limbs for three DOFs, so the least-squares pose,
     Gauss-Newton on l(x) − L (`platform_newton` with no residual test), stopping once every
@@ -235,9 +232,8 @@ def platform_fit(
     for j in range(3):
         x[j] = guess[j]
     if g["mechanism"] == MECHANISM_UPU3UP:
-        return upu3up_forward(lengths, g, x, R, o, residual, J, M, step)
-    outcome, _ = platform_newton(lengths, g, np.inf, FIT_MAX_ITER - 1, FIT_TOL, x, R, o,
-                                 residual, J, M, step)  # fmt: skip
+        return upu3up_forward(lengths, g, x, w)
+    outcome, _ = platform_newton(lengths, g, np.inf, FIT_MAX_ITER - 1, FIT_TOL, x, w)
     return outcome == CONVERGED
 
 
@@ -260,10 +256,9 @@ def fit_lanes(
 ) -> None:
     """`platform_fit` of lengths (N, n) from guesses (N, 3) into x (N, 3), success into ok (N,)
     bool; geometry (1,) `PLATFORM_GEOMETRY`."""
-    R, o, residual = np.zeros((3, 3)), np.zeros(3), np.zeros(MAX_LEGS)
-    J, M, step = np.zeros((MAX_LEGS, 3)), np.zeros((3, 4)), np.zeros(3)
+    w = newton_work()
     for k in range(lengths.shape[0]):
-        ok[k] = platform_fit(lengths[k], guesses[k], geometry[0], x[k], R, o, residual, J, M, step)
+        ok[k] = platform_fit(lengths[k], guesses[k], geometry[0], x[k], w)
 
 
 @cache
@@ -321,8 +316,7 @@ def _forward_batch(
     """`platform_newton` of lengths (N, n) from guesses (N, 3) into x (N, 3), the last
     residual (N, MAX_LEGS) and step (N, 3), and (outcome, steps) (N, 2); geometry (1,)
     `PLATFORM_GEOMETRY`."""
-    R, o = np.zeros((3, 3)), np.zeros(3)
-    J, M = np.zeros((MAX_LEGS, 3)), np.zeros((3, 4))
+    w = newton_work()
     for k in range(lengths.shape[0]):
         for j in range(3):
             x[k, j] = guesses[k, j]
@@ -330,8 +324,8 @@ def _forward_batch(
             residual[k, i] = 0.0
         for j in range(3):
             step[k, j] = np.inf  # no step taken yet
-        result = platform_newton(lengths[k], geometry[0], tol, max_iter, step_tol, x[k], R, o,
-                                 residual[k], J, M, step[k])  # fmt: skip
+        lane = NewtonWork(w.R, w.o, residual[k], w.J, w.M, step[k])
+        result = platform_newton(lengths[k], geometry[0], tol, max_iter, step_tol, x[k], lane)
         outcome[k, 0], outcome[k, 1] = result[0], result[1]
 
 

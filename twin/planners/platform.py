@@ -40,7 +40,9 @@ from twin.mechanisms.platforms import (
     FIT_MAX_ITER,
     MAX_LEGS,
     MECHANISM_UPU3UP,
+    NewtonWork,
     batch,
+    newton_work,
     platform_fit,
     platform_kinematics,
 )
@@ -446,15 +448,10 @@ def limit_lane(
     g: np.void,
     velocity: np.ndarray,
     x: np.ndarray,
-    R: np.ndarray,
-    o: np.ndarray,
-    residual: np.ndarray,
-    J: np.ndarray,
-    M: np.ndarray,
-    rates: np.ndarray,
+    w: NewtonWork,
 ) -> bool:
     """`PlatformPlanner.limit`: rates (n,) [native/s] within ±speed [native/s] into
-    `velocity`; returns whether the limit bound. x, R, o, residual, J, M, rates: scratch.
+    `velocity`; returns whether the limit bound. x, w: scratch (w.step the split's rates).
 
     Beyond the limit, the command c is split at the pose of `lengths` (`platform_fit` from
     `guess`; `guess` itself where that fails) into tilt and heave parts, ṡ = J⁺ c,
@@ -472,10 +469,11 @@ def limit_lane(
         for i in range(n):
             velocity[i] = command[i]
         return False
-    if not platform_fit(lengths, guess, g, x, R, o, residual, J, M, rates):
+    if not platform_fit(lengths, guess, g, x, w):
         for j in range(3):
             x[j] = guess[j]  # no pose from the encoders: split at the desired state instead
-    platform_kinematics(x, g, R, o, residual, J, True)
+    R, J, M, rates = w.R, w.J, w.M, w.step
+    platform_kinematics(x, g, R, w.o, w.residual, J, True)
     if not least_squares_lane(J, command, n, M, rates):
         for j in range(3):
             rates[j] = np.nan
@@ -606,8 +604,8 @@ def plan_lane(
         clipped = clipped or ahead_clipped
         for i in range(n):
             command[i] = (l_next[i] - legs[i]) / dt  # reach l_d(t + dt) in one step
-    saturated = limit_lane(command, legs, state_d, p["speed_limit"], g, velocity, fit_x, R, o,
-                           residual, J, M, rates)  # fmt: skip
+    newton = NewtonWork(R, o, residual, J, M, rates)
+    saturated = limit_lane(command, legs, state_d, p["speed_limit"], g, velocity, fit_x, newton)
     if pid:  # anti-windup by conditional integration: no integral while the limit binds
         for i in range(n):
             error = l_d[i] - legs[i]
@@ -677,11 +675,10 @@ def limit_lanes(
 ) -> None:
     """`limit_lane` of commands (N, n) at lengths (N, n) from guesses (N, 3) into velocity
     (N, n) and bound (N,) bool."""
-    x, R, o, residual = np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros(MAX_LEGS)
-    J, M, rates = np.zeros((MAX_LEGS, 3)), np.zeros((3, 4)), np.zeros(3)
+    x, w = np.zeros(3), newton_work()
     for k in range(commands.shape[0]):
         bound[k] = limit_lane(commands[k], lengths[k], guesses[k], speed, geometry[0],
-                              velocity[k], x, R, o, residual, J, M, rates)  # fmt: skip
+                              velocity[k], x, w)  # fmt: skip
 
 
 def actuate_lanes(

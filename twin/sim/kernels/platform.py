@@ -30,7 +30,7 @@ from functools import cache
 import numpy as np
 
 from twin.compiled import compile_runner, prange, register_jitable
-from twin.mechanisms.platforms import platform_fit
+from twin.mechanisms.platforms import NewtonWork, platform_fit
 from twin.planners.platform import (
     MEMORY_SIZE,
     PLATFORM_MEMORY,
@@ -132,7 +132,7 @@ def step(
             fault = FAULT_JOINT_LIMIT
         l_next[i] = lengths
     fit_x, residual, rates = scratch[0:3], scratch[4:8], scratch[8:11]
-    if not platform_fit(l_next, x, g, fit_x, R, work[1], residual, J, M, rates):
+    if not platform_fit(l_next, x, g, fit_x, NewtonWork(R, work[1], residual, J, M, rates)):
         return fault | FAULT_KINEMATICS
     for j in range(3):
         if not np.isfinite(fit_x[j]):
