@@ -84,25 +84,26 @@ def test_a_short_run_runs_in_process_with_the_executors_outcome(
         assert (a.series[key] == b.series[key]).all(), key
 
 
+@pytest.mark.parametrize("second_by", ["submit", "run_here"])
 def test_a_short_run_while_one_is_in_hand_goes_to_the_executor(
-    store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
+    store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch, second_by: str
 ) -> None:
-    """One short run in process at a time: the next goes to the executor, and both finish."""
-    held = HeldRuns(monkeypatch)
-    entered, release = held.entered, held.release
+    """One short run in process at a time, one slot for both threads: the next, submitted or
+    run by a request's thread, goes to the executor instead of waiting, and both finish."""
+    held = HeldRuns(monkeypatch, first_only=True)
     jobs = _runner(store, executor)
     try:
         executor.submitted.clear()
         first = jobs.submit(store.create(Scenario(**SHORT)).id)
-        assert entered.wait(60)
-        second = jobs.submit(store.create(Scenario(**SHORT)).id)
+        assert held.entered.wait(60)
+        second = getattr(jobs, second_by)(store.create(Scenario(**SHORT)).id)
         assert second.result(timeout=120).status == "done"
         assert executor.submitted == ["run_scenario"]
         assert not first.done()  # still held on the server's thread
-        release.set()
+        held.release.set()
         assert first.result(timeout=120).status == "done"
     finally:
-        release.set()
+        held.release.set()
         jobs.shutdown()
 
 
@@ -172,28 +173,6 @@ def test_run_here_runs_on_the_calling_thread_with_the_executors_outcome(
     a, b = store.result(here.id), store.result(there.id)
     for key in a.series:
         assert (a.series[key] == b.series[key]).all(), key
-
-
-def test_run_here_while_a_run_is_in_hand_goes_to_the_executor(
-    store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """The slot is one for both threads: a request's run while the runner's thread holds one
-    goes to the executor instead of waiting, and both finish."""
-    held = HeldRuns(monkeypatch, first_only=True)
-    entered, release = held.entered, held.release
-    jobs = _runner(store, executor)
-    try:
-        executor.submitted.clear()
-        first = jobs.submit(store.create(Scenario(**SHORT)).id)
-        assert entered.wait(60)
-        second = jobs.run_here(store.create(Scenario(**SHORT)).id)
-        assert second.result(timeout=120).status == "done"
-        assert executor.submitted == ["run_scenario"] and not first.done()
-        release.set()
-        assert first.result(timeout=120).status == "done"
-    finally:
-        release.set()
-        jobs.shutdown()
 
 
 def test_cancelling_a_run_running_here_drops_its_outcome(
