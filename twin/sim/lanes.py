@@ -231,8 +231,9 @@ class HybridLanes:
 
         Returns:
             Sample S − 1's computed records (N, 1, …) (`record_views`' keys), or None where
-            a state or record is not finite: then `reduction` is left as it was, and
-            `records` (still to be called) records the chunk, to be held as a series is.
+            a state or record is not finite: then `reduction` holds part of the chunk (the
+            caller puts back what it held before, as `Simulation` does), and `records` (still
+            to be called) records the chunk, to be held as a series is.
 
         Raises:
             ValueError: samples that do not follow those already added.
@@ -243,7 +244,6 @@ class HybridLanes:
         xs, S = self._xs, len(t) + 1
         if np.any(reduction.seen != np.minimum(reduction.ends, start)):
             raise ValueError(f"reduction: samples from {start} on, after {reduction.seen}")
-        before = reduction.acc.copy()
         # legs and scalars: one row each sample overwrites; the errors: the chunk's, where
         # the kernel handed its differential lanes' over (kept for `records` if one is not
         # finite)
@@ -255,7 +255,6 @@ class HybridLanes:
                       np.ascontiguousarray(t), reduction.hold,
                       np.clip(reduction.ends - start, 0, S - 1), finite)  # fmt: skip
         if not finite.all():
-            reduction.acc[:] = before
             return None
         self._handed = None  # the scratch rows die with the chunk
         return record_views(legs, errors[:, -1:], scalars, 0)
