@@ -227,12 +227,10 @@ def test_a_port_in_use_exits_2_naming_it_before_starting(tmp_path: Path) -> None
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        start = time.monotonic()
         result = twin("serve", "--no-viewer", "--port", str(port), cwd=tmp_path)
-        took = time.monotonic() - start
     assert result.returncode == 2, result.stderr
     assert f"127.0.0.1:{port}" in result.stderr and "--port" in result.stderr
-    assert "compiled kernels ready" not in result.stdout and took < scaled(15.0)
+    assert "compiled kernels ready" not in result.stdout  # it stopped before warming
     second, _ = start_server(tmp_path)  # the data directory was released
     second.send_signal(signal.SIGINT)
     second.communicate(timeout=20)
