@@ -3,9 +3,11 @@
     python benchmarks/run.py --server-only   # just these rows, patched into docs/performance.md
 
 - **live server**: a `LiveSession` shown by `start_viewer`; N websocket clients (the `websockets`
-  package, speaking viser's subprotocol) count the messages each receives over a window after
-  the initial scene; CPU per update is the process's CPU time (simulation, render thread and
-  websocket server together) over the render frames drawn in that window.
+  package, speaking viser's subprotocol, each sending a browser's camera first, without
+  which viser does not count it a browser and the viewer, resting, draws nothing) count the
+  messages each receives over a window after the initial scene; CPU per update is the
+  process's CPU time (simulation, render thread and websocket server together) over the
+  render frames drawn in that window.
 - **REST**: `POST /api/runs` of a 60 s scenario (1200 steps, under the synchronous cap, so the
   answer comes when the run is done: stored, simulated in the server process on the request's
   own worker thread (`twin.web.jobs.JobRunner.run_here`) — a run of at most
@@ -46,6 +48,7 @@ import websockets
 from twin.sim.live import LiveSession
 from twin.web import JobRunner, RunStore, create_app
 from twin.web.viewer import start_viewer
+from twin.web.viewer.viser_adapter import camera_hello
 
 #: [s] the window over which live updates are counted
 LIVE_WINDOW = 5.0
@@ -71,6 +74,7 @@ async def _count(url: str, clients: int, settle: float, window: float) -> list[i
 
     async def client(i: int) -> None:
         async with websockets.connect(url, subprotocols=[protocol], max_size=None) as ws:
+            await ws.send(camera_hello())  # a browser's first word: viser then draws for it
             while True:
                 await ws.recv()
                 if counting.is_set():

@@ -207,18 +207,11 @@ def mixed_load(soak: Soak, seed: int) -> None:
 
 
 def _camera_message() -> bytes:
-    """What a browser sends once its page has drawn: its camera. viser then counts it a
-    browser, the viewer builds its panel, and the render loop draws `FPS` frames a second for
-    it; a client that never sends it gets the scene once and then nothing (issue 30 item 7)."""
-    import msgspec
+    """What a browser sends once its page has drawn (`camera_hello`): a client that never sends
+    it gets the scene once and then nothing (issue 30 item 7)."""
+    from twin.web.viewer.viser_adapter import camera_hello
 
-    from twin.web.viewer.viser_adapter import browser_message
-
-    return msgspec.msgpack.encode(browser_message(
-        "ViewerCameraMessage", wxyz=(1.0, 0.0, 0.0, 0.0), position=(3.0, 3.0, 3.0), fov=1.3,
-        near=0.01, far=1000.0, image_height=600, image_width=800, look_at=(0.0, 0.0, 0.0),
-        up_direction=(0.0, 0.0, 1.0),
-    ).as_serializable_dict())  # fmt: skip
+    return camera_hello()
 
 
 async def _viewer(port: int, index: int, camera: bytes, stop: Any, counts: dict[str, int]) -> None:

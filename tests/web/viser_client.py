@@ -18,7 +18,7 @@ import viser
 import zstandard
 from websockets.sync.client import connect
 
-from twin.web.viewer.viser_adapter import browser_message
+from twin.web.viewer.viser_adapter import browser_message, camera_hello
 
 PROTOCOL = f"viser-v{viser.__version__}"
 
@@ -78,14 +78,7 @@ class ViserClient:
 
     def hello(self) -> None:
         """The camera message a browser sends first: viser then calls it connected."""
-        self.send(
-            browser_message(
-                "ViewerCameraMessage",
-                wxyz=(1.0, 0.0, 0.0, 0.0), position=(3.0, 3.0, 3.0), fov=1.3, near=0.01,
-                far=1000.0, image_height=600, image_width=800, look_at=(0.0, 0.0, 0.0),
-                up_direction=(0.0, 0.0, 1.0),
-            )
-        )  # fmt: skip
+        self.ws.send(camera_hello())
 
     def widgets(self) -> dict[str, str]:
         """Label → uuid of every GUI element this connection was sent (the newest of a label)."""

@@ -17,8 +17,9 @@ viser (1.1) has no public hook for these, so the viewer reaches in here and nowh
   (`_websock_server._live_connections`).
 - a script run in one browser (`run_javascript`), viser's own `RunJavascriptMessage`, as
   viser itself sends plotly.js (`ClientHandle._websock_connection`).
-- what a browser sends (`browser_message`), for the tests' raw websocket client
-  (tests/web/viser_client.py), which speaks viser's wire format without a browser.
+- what a browser sends (`browser_message`, `camera_hello`), for the raw websocket clients of
+  the tests (tests/web/viser_client.py), the soak and the benchmarks, which speak viser's
+  wire format without a browser.
 - one encoding of a broadcast window for every browser (`share_broadcast_encoding`): viser
   runs one producer per connection (`viser.infra._infra._message_producer`), and each turned
   the same window of the broadcast buffer (`WebsockServer._broadcast_buffer`) into the same
@@ -177,6 +178,19 @@ def browser_message(name: str, *args: Any, **kwargs: Any) -> Any:
     if name not in known:
         raise TwinError(f"browser message {name!r} unknown; one of: {', '.join(known)}")
     return getattr(viser._messages, name)(*args, **kwargs)
+
+
+def camera_hello() -> bytes:
+    """The bytes a browser sends once its page has drawn: its camera (`ViewerCameraMessage`),
+    msgpack-encoded as on the wire. Only then does viser count the connection a browser, the
+    viewer build its panel and the render loop draw for it; a raw client that never sends it
+    gets the initial scene and nothing more (scripts/soak.py, the benchmarks, the tests)."""
+    camera = browser_message(
+        "ViewerCameraMessage", wxyz=(1.0, 0.0, 0.0, 0.0), position=(3.0, 3.0, 3.0), fov=1.3,
+        near=0.01, far=1000.0, image_height=600, image_width=800, look_at=(0.0, 0.0, 0.0),
+        up_direction=(0.0, 0.0, 1.0),
+    )  # fmt: skip
+    return msgspec.msgpack.encode(camera.as_serializable_dict())
 
 
 def remote_address(server: viser.ViserServer, client: viser.ClientHandle) -> str | None:
