@@ -48,21 +48,7 @@ def assert_same(expected, actual) -> None:
     for key, value in expected.series.items():
         assert actual.series[key].shape == value.shape, key
         np.testing.assert_allclose(actual.series[key], value, rtol=1e-9, atol=1e-9, err_msg=key)
-    assert actual.metrics.keys() == expected.metrics.keys()
-    for key, value in expected.metrics.items():
-        if isinstance(value, int):
-            assert actual.metrics[key] == value, key
-        else:
-            np.testing.assert_allclose(
-                np.array(_flat(actual.metrics[key])), _flat(value), rtol=1e-9, atol=1e-9,
-                err_msg=key,
-            )  # fmt: skip
-
-
-def _flat(value) -> list[float]:
-    if isinstance(value, dict):
-        return [x for v in value.values() for x in _flat(v)]
-    return list(value) if isinstance(value, list) else [value]
+    assert_same_metrics(actual.metrics, expected.metrics)
 
 
 @pytest.fixture(scope="module")

@@ -78,7 +78,12 @@ def oracle_metrics(series: dict[str, np.ndarray], model: PlatformModel, joint_li
         "saturated": int(np.sum(series["saturated"] > 0)),
         "eta_printed": finite(100 * printed),
         "eta": finite(100 * integral),
+        "first_bound": None,
     }
+    if bad.any():  # the first violating sample, the first kind it violates
+        k = int(np.argmax(bad))
+        kind = next(name for name, v in violated.items() if v[k])
+        metrics["first_bound"] = {"t": float(t[k]), "limit": kind}
     if "coupled_displacement" in series:
         peak = np.abs(series["coupled_displacement"][s]).max(axis=0)
         metrics["coupled_displacement_max"] = {
@@ -100,7 +105,8 @@ def assert_matches_oracle(
     size = {f"/states/{name}/drift": np.abs(series["state"][:, j]).max() * scales[j]
             for j, name in enumerate(model.mechanism.state_names)}  # fmt: skip
     size |= {f"/leg_drift/{j}": np.abs(series["legs"][:, j]).max() for j in range(model.n_legs)}
-    exact = ("violations", "min", "max", "margin", "clipped", "saturated", "/x", "/y", "/z")
+    exact = ("violations", "min", "max", "margin", "clipped", "saturated", "/x", "/y", "/z",
+             "first_bound", "/t", "/limit")  # fmt: skip
     for path, value in want_leaves.items():
         assert type(got_leaves[path]) is type(value), path
         if path.endswith(exact) or path.startswith("/limit_violations"):

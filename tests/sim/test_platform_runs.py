@@ -38,9 +38,13 @@ def leg_rate_demand(state: str, dt: float = 0.05, duration: float = 30.0) -> flo
 
 
 def finite_floats(value: object) -> bool:
-    """Every leaf of a metrics tree is a finite int or float."""
+    """Every leaf of a metrics tree is a finite int or float; its first bound is none, or a
+    finite time and a limit's name."""
     if isinstance(value, dict):
-        return all(finite_floats(v) for v in value.values())
+        bound = value.get("first_bound")
+        if bound is not None and not (finite_floats(bound["t"]) and bound["limit"]):
+            return False
+        return all(finite_floats(v) for k, v in value.items() if k != "first_bound")
     if isinstance(value, list):
         return all(finite_floats(v) for v in value)
     return isinstance(value, int | float) and bool(np.isfinite(value))

@@ -180,21 +180,31 @@ def test_outputs_are_json_csv_and_pngs(tmp_path: Path, executor: Executor) -> No
     assert bad["limiting"].str.len().gt(0).all()
 
 
-def test_limiting_constraint_is_the_one_passed_furthest() -> None:
-    joints = {name: {"min": 0.0, "max": 0.0, "margin": 1.0} for name in
-              ("x", "y", "roll", "pitch", "yaw", "q1", "q2", "d3")}  # fmt: skip
-    # z [m] range 1.525 … 3.595: 0.1 m over the top is 4.8 % of its range
-    joints["z"] = {"min": 2.0, "max": 3.695, "margin": -0.1}
-    metrics = {"violations": 5, "tip_position_error_max": 0.2, "joints": joints,
-               "leg_margin": -0.05, "table7": {"legs_min": 3.0, "legs_max": 4.23}}  # fmt: skip
-    # legs 0.05 m over a 1.6 m stroke: 3.1 %, less than z's share
-    assert run_summary(metrics, "hybrid")["limit"] == "joint z (upper)"
-    metrics["leg_margin"] = -0.1  # 6.3 %: now the legs
-    assert run_summary(metrics, "hybrid")["limit"] == "leg stroke (upper)"
+def test_limiting_constraint_is_the_first_bound_with_its_time() -> None:
+    """A row names the limit its run bound first (the metrics' first_bound), a small
+    platform's in words; a run within every limit names none."""
+    metrics = {"violations": 5, "tip_position_error_max": 0.2,
+               "first_bound": {"t": 12.5, "limit": "leg 4 (lower)"}}  # fmt: skip
+    assert run_summary(metrics, "hybrid") == {"violations": 5, "tip_error": 0.2,
+                                              "limit": "leg 4 (lower)", "limit_t": 12.5}
     platform = {"violations": 3, "tip_position_error_max": 0.0,
-                "limit_violations": {"stroke_min": 1, "stroke_max": 3, "clamped": 0}}  # fmt: skip
+                "first_bound": {"t": 0.5, "limit": "stroke_max"}}  # fmt: skip
     assert run_summary(platform, "upr4")["limit"] == "leg stroke (upper)"
-    assert run_summary({**metrics, "violations": 0}, "hybrid")["limit"] is None
+    within = {"violations": 0, "tip_position_error_max": 0.3, "first_bound": None}
+    assert run_summary(within, "hybrid")["limit"] is None
+
+
+def test_a_run_names_the_limit_it_reached_first() -> None:
+    """A real run that violates a limit: its summary names its metrics' first bound, at a time
+    within the run, and the limit is one of the hybrid system's joints or legs."""
+    from twin.sim import simulate
+
+    result = simulate({"planner": "pi", "sea_state": 7, "duration": 20.0, "seed": 2})
+    summary = run_summary(result.metrics, "hybrid")
+    assert summary["violations"] > 0
+    assert summary["limit"] == result.metrics["first_bound"]["limit"]
+    assert 0.0 <= summary["limit_t"] <= 20.0
+    assert summary["limit"].startswith(("joint ", "leg "))
 
 
 @pytest.mark.parametrize(

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -238,7 +239,27 @@ def hybrid_metrics_from(row: Sequence[float], mechanism: HybridBoardingSystem) -
         "phi_e_max": finite(row[kernel.R_PHI_E] * _DEGREES),
         "theta_e_max": finite(row[kernel.R_THETA_E] * _DEGREES),
         **efficacy_percent(row[kernel.R_ETA_PRINTED], row[kernel.R_ETA]),
+        "first_bound": first_bound(row[kernel.R_BOUND_T], hybrid_bound_name(row[kernel.R_BOUND])),
     }  # fmt: skip
+
+
+def hybrid_bound_name(code: float) -> str | None:
+    """The limit of a `twin.sim.kernels.metrics.hybrid_first_bound` code: "joint d3 (upper)",
+    "leg 4 (lower)" (legs numbered 1-6 in the hinge order of seed 000 eq (1)); None for 0 (no
+    violation)."""
+    c = int(code) - 1
+    if c < 0:
+        return None
+    side = "upper" if c % 2 else "lower"
+    if c < 2 * kernel.N_JOINTS:
+        return f"joint {JOINT_NAMES[c // 2]} ({side})"
+    return f"leg {(c - 2 * kernel.N_JOINTS) // 2 + 1} ({side})"
+
+
+def first_bound(t: float, limit: str | None) -> dict[str, Any] | None:
+    """A run's first bound as its metrics give it: {"t": [s] its first violating sample,
+    "limit": the limit that sample violates}, or None for a run that violates none."""
+    return None if limit is None else {"t": finite(t), "limit": limit}
 
 
 def platform_metrics(
@@ -434,6 +455,10 @@ def platform_metrics_from(
         "clipped": int(acc[kernel.PA_CLIPPED]),
         "saturated": int(acc[kernel.PA_SATURATED]),
         **efficacy_percent(row[kernel.PR_ETA_PRINTED], row[kernel.PR_ETA]),  # seed 002 eq (29)
+        # the first limit kind its first violating sample violates (kinds' names, as above)
+        "first_bound": first_bound(acc[kernel.PA_BOUND_T],
+                                   kinds[int(acc[kernel.PA_BOUND]) - 1]
+                                   if acc[kernel.PA_BOUND] > 0 else None),
     }  # fmt: skip
     if isinstance(model.mechanism, Upu3Up):  # seed 001 eq (15), mm
         peak = acc[kernel.PA_COUPLED_MAX : kernel.PA_COUPLED_MAX + 3]

@@ -34,22 +34,21 @@ relative heading; the best of a set (the captain picks the heading that keeps ev
 row's probability is the largest over the set, and the heading that gave it is reported); or the
 vessel heading from the record (β from the record's wave direction and vessel heading).
 
-The limiting constraint of a non-operable run is read from its metrics (`twin.sim.metrics`): with
-a limit violated, the joint or leg stroke (hybrid system) whose margin, as a share of its range,
-is the smallest (most negative: passed furthest), or for a small platform the limit with the most
-violating samples (`limit_violations`); with no violation, the tip error. The metrics keep
-extrema, not the first time a limit was reached, so this is the constraint that bound hardest,
-which is the one that bound first unless two are passed within one run.
+The limiting constraint of a non-operable run is the limit that bound first, read from its
+metrics (`twin.sim.metrics`, "first_bound"): the limit its first violating sample violates. For
+the hybrid system, a virtual joint and side ("joint d3 (upper)") or one of the six legs ("leg 4
+(lower)"); of several violated at that sample, the one passed furthest as a share of its range.
+For a small platform, the first limit kind that sample violates (leg stroke, U-joint angle,
+collision, state range; the clamped demand, in `record` mode, last). A run that violates no
+limit but misses the tip-error threshold is limited by the tip error.
 """
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import io
 import itertools
 import json
-import math
 import sqlite3
 import time
 from collections import Counter
@@ -74,7 +73,7 @@ from twin.site.windows import regular_series, window_stats
 
 #: what a cached cell depends on besides its scenario: the package version and this module's
 #: reduction of a run (bump CELL_FORMAT when `run_summary` changes)
-CELL_FORMAT = 1
+CELL_FORMAT = 2
 ENGINE_VERSION = f"twin {twin.__version__} / cells {CELL_FORMAT}"
 #: the cache file in a data dir
 CELL_DATABASE = "cells.sqlite"
@@ -262,54 +261,27 @@ class WorkabilitySpec(BaseModel):
 # -- what a worker runs ---------------------------------------------------------------------------
 
 
-@functools.lru_cache(maxsize=1)
-def _hybrid_limits() -> dict[str, tuple[float, float]]:
-    """Each hybrid joint's (lower, upper) limit in the units its metrics report (deg, m), and
-    the legs' stroke [m]."""
-    from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
-
-    model = HybridBoardingSystem()
-    angles = {"roll", "pitch", "yaw", "q1", "q2"}
-    out = {}
-    for name, low, high in zip(JOINT_NAMES, model.lower, model.upper, strict=True):
-        scale = math.degrees(1.0) if name in angles else 1.0
-        out[name] = (float(low) * scale, float(high) * scale)
-    out["legs"] = (float(model.stewart.leg_min), float(model.stewart.leg_max))
-    return out
+#: a small platform's limit kinds (`twin.sim.metrics.PlatformReduction.kinds`) as a row names them
+PLATFORM_LIMITS = {"stroke_min": "leg stroke (lower)", "stroke_max": "leg stroke (upper)",
+                   "u_joint": "U-joint angle", "collision": "collision",
+                   "clamped": "demand clamped (rate or range)", "state": "state range"}  # fmt: skip
 
 
 def run_summary(metrics: dict[str, Any], mechanism: str) -> dict[str, Any]:
     """What a cell keeps of a run's metrics: violations, the tip's largest position error [m]
-    and, if a limit was violated, the constraint that bound hardest (module docstring)."""
+    and, if a limit was violated, the limit that bound first and when (module docstring)."""
+    bound = metrics.get("first_bound")
     out: dict[str, Any] = {
         "violations": int(metrics["violations"]),
         "tip_error": float(metrics["tip_position_error_max"]),
         "limit": None,
+        "limit_t": None,
     }
-    if out["violations"] == 0:
+    if out["violations"] == 0 or bound is None:
         return out
-    if mechanism == "hybrid":
-        limits = _hybrid_limits()
-        worst, share = None, math.inf
-        for name, joint in metrics["joints"].items():
-            low, high = limits[name]
-            side = "lower" if joint["min"] - low <= high - joint["max"] else "upper"
-            s = joint["margin"] / (high - low)
-            if s < share:
-                worst, share = f"joint {name} ({side})", s
-        low, high = limits["legs"]
-        table7 = metrics["table7"]
-        side = "lower" if table7["legs_min"] - low <= high - table7["legs_max"] else "upper"
-        if metrics["leg_margin"] / (high - low) < share:
-            worst = f"leg stroke ({side})"
-        out["limit"] = worst
-    else:
-        counts = metrics.get("limit_violations", {})
-        name = max(counts, key=counts.get) if counts else None
-        names = {"stroke_min": "leg stroke (lower)", "stroke_max": "leg stroke (upper)",
-                 "u_joint": "U-joint angle", "collision": "collision",
-                 "clamped": "demand clamped (rate or range)", "state": "state range"}  # fmt: skip
-        out["limit"] = names.get(name, name) if name and counts[name] > 0 else "state range"
+    name = bound["limit"]
+    out["limit"] = name if mechanism == "hybrid" else PLATFORM_LIMITS.get(name, name)
+    out["limit_t"] = float(bound["t"])
     return out
 
 

@@ -4,6 +4,8 @@ of different lengths in one call."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -84,7 +86,27 @@ def oracle_metrics(series: dict[str, np.ndarray], joint_limits: str) -> dict:
         "theta_e_max": finite(np.degrees(extreme(series["theta_e"][s]))),
         "eta_printed": finite(100 * printed),
         "eta": finite(100 * integral),
+        "first_bound": oracle_first_bound(series, joint_bad | leg_bad, joint_limits),
     }  # fmt: skip
+
+
+def oracle_first_bound(series: dict[str, np.ndarray], bad: np.ndarray, joint_limits: str) -> Any:
+    """The first violating sample's time and the limit it passes furthest (share of range;
+    the first of joints lower/upper in order, then legs, on a tie), or None."""
+    if not bad.any():
+        return None
+    k = int(np.argmax(bad))
+    x, legs = series["xi"][k], series["legs"][k]
+    leg_min, leg_max = H.stewart.leg_min, H.stewart.leg_max
+    past = np.stack([H.lower - x, x - H.upper], axis=1)
+    flagged = past > 1e-9 if joint_limits == "hold" else past >= -1e-9
+    shares = np.where(flagged, past / (H.upper - H.lower)[:, None], -np.inf).ravel()
+    leg_past = np.stack([leg_min - legs, legs - leg_max], axis=1)
+    leg_shares = np.where(leg_past > 5e-4, leg_past / (leg_max - leg_min), -np.inf).ravel()
+    c = int(np.argmax(np.concatenate([shares, leg_shares])))
+    side = ("lower", "upper")[c % 2]
+    name = f"joint {JOINT_NAMES[c // 2]}" if c < 18 else f"leg {(c - 18) // 2 + 1}"
+    return {"t": float(series["t"][k]), "limit": f"{name} ({side})"}
 
 
 def leaves(value, path: str = "") -> dict:
@@ -107,7 +129,8 @@ def assert_matches_oracle(got: dict, series: dict[str, np.ndarray], joint_limits
     ranges = {f"/joints/{name}/drift": np.ptp(series["xi"][:, j]) * scales[j]
               for j, name in enumerate(JOINT_NAMES)}  # fmt: skip
     ranges |= {f"/leg_drift/{j}": np.ptp(series["legs"][:, j]) for j in range(6)}
-    exact = ("violations", "min", "max", "margin", "legs_max", "legs_min", "error_max", "_e_max")
+    exact = ("violations", "min", "max", "margin", "legs_max", "legs_min", "error_max", "_e_max",
+             "first_bound", "/t", "/limit")  # fmt: skip
     for path, value in want_leaves.items():
         assert type(got_leaves[path]) is type(value), path
         if path.endswith(exact):
@@ -213,3 +236,28 @@ def test_compiled_serial_parallel_and_interpreted_runners_agree_to_the_bit(runs:
         rows.append(out)
     np.testing.assert_array_equal(rows[1], rows[0])
     np.testing.assert_array_equal(rows[2], rows[0])
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_the_first_bound_is_the_limit_reached_first_not_the_one_passed_furthest(
+    compiled: bool,
+) -> None:
+    """d3 a millimetre past its upper limit at sample 20 (t = 1 s), leg 4 half a metre past its
+    lower stroke from sample 30: the run bound first on d3 although it passed leg 4 further;
+    with both at sample 20, the leg (the larger share of its range); before the judged samples
+    (k < SETTLE) too; chunked as one run."""
+    series = synthetic(60, 3)
+    d3 = JOINT_NAMES.index("d3")
+    series["xi"][20, d3] = H.upper[d3] + 1e-3
+    series["legs"][30:, 3] = H.stewart.leg_min - 0.5
+    for mode in ("record", "hold"):
+        got = hybrid_metrics(series, H, mode, compiled=compiled)
+        assert got["first_bound"] == {"t": 1.0, "limit": "joint d3 (upper)"}
+        assert_matches_oracle(got, series, mode)
+    series["legs"][20, 3] = H.stewart.leg_min - 0.5
+    got = hybrid_metrics(series, H, compiled=compiled)
+    assert got["first_bound"] == {"t": 1.0, "limit": "leg 4 (lower)"}
+    series["xi"][2, 0] = H.lower[0] - 0.1  # x below its limit at sample 2, before SETTLE
+    assert hybrid_metrics(series, H, compiled=compiled)["first_bound"] == {
+        "t": 0.1, "limit": "joint x (lower)"}
+    assert hybrid_metrics(synthetic(60, 3), H, compiled=compiled)["first_bound"] is None

@@ -20,7 +20,10 @@ Per lane, over samples k = 0 … T−1 (T = end), S = min(SETTLE, T − 1) the f
   over k ≥ S;
 - seed 002 eq (29) as printed: the mean of (α_bottom − α_top)/α_bottom over samples with
   α_bottom > 1e-9 rad (0 if none); SPEC erratum 11's integral form 1 − Σ|α_top| / Σ|α_bottom|
-  (0 if the base never tilts); both as fractions, all samples.
+  (0 if the base never tilts); both as fractions, all samples;
+- the first bound: the time of the first violating sample and the limit it violates
+  (`hybrid_first_bound`: of those it violates, the one passed furthest as a share of its
+  range), all samples; what a workability row names as its limiting constraint.
 
 Every reduction is a running one: a lane's accumulator row (`A_*`, N_ACC floats) takes its
 samples in order, one at a time (`hybrid_add_sample`), in as many chunks as come
@@ -73,7 +76,9 @@ R_ORIENTATION_RMS, R_ORIENTATION_MAX = R_LEGS_MAX + 3, R_LEGS_MAX + 4
 R_MANIPULABILITY_MIN = R_LEGS_MAX + 5
 R_PHI_E, R_THETA_E = R_LEGS_MAX + 6, R_LEGS_MAX + 7
 R_ETA_PRINTED, R_ETA = R_LEGS_MAX + 8, R_LEGS_MAX + 9
-N_ROW = R_ETA + 1
+#: the first violating sample's time [s] and its limit's code (`hybrid_first_bound`; 0: none)
+R_BOUND_T, R_BOUND = R_ETA + 1, R_ETA + 2
+N_ROW = R_BOUND + 1
 
 #: the series `run_hybrid_reductions` reads, in its argument order
 REDUCED = ("t", "xi", "legs", "tip_error", "manipulability", "phi_e", "theta_e", "alpha_top",
@@ -88,8 +93,8 @@ TR_T0, TR_T_LAST, TR_T_MEAN, TR_T_SPREAD, TR_MEAN = 0, 1, 2, 3, 4
 E_PRINTED, E_TILTED, E_TOP, E_BOTTOM = 0, 1, 2, 3
 N_EFFICACY = 4
 #: a hybrid lane's accumulator row (`hybrid_add_lane`): samples seen, the first judged one, the
-#: counts, min/max and sums of the module docstring, then the efficacy sums and the joints' and
-#: legs' trends
+#: counts, min/max and sums of the module docstring, then the efficacy sums, the joints' and
+#: legs' trends and the first bound (its time [s] and code)
 A_SEEN, A_FIRST, A_VIOLATIONS, A_JOINT_VIOLATIONS, A_LEG_VIOLATIONS = 0, 1, 2, 3, 4
 A_JOINT_MIN = 5
 A_JOINT_MAX = A_JOINT_MIN + N_JOINTS
@@ -102,7 +107,12 @@ A_PHI_E, A_THETA_E = A_LEGS_MAX + 6, A_LEGS_MAX + 7
 A_EFFICACY = A_LEGS_MAX + 8
 A_JOINT_TREND = A_EFFICACY + N_EFFICACY
 A_LEG_TREND = A_JOINT_TREND + 4 + 2 * N_JOINTS
-N_ACC = A_LEG_TREND + 4 + 2 * N_LEGS
+A_BOUND_T = A_LEG_TREND + 4 + 2 * N_LEGS
+A_BOUND = A_BOUND_T + 1
+N_ACC = A_BOUND + 1
+#: `hybrid_first_bound`'s codes: 1 + 2j + side for joint j (`JOINT_NAMES` order), then
+#: 1 + 2 N_JOINTS + 2i + side for leg i; side 0 lower, 1 upper; 0 none
+BOUND_LEGS = 1 + 2 * N_JOINTS
 
 
 @register_borrowing
@@ -255,6 +265,36 @@ def hybrid_settled_add(
 
 
 @register_inline
+def hybrid_first_bound(
+    x: np.ndarray, legs: np.ndarray, lower: np.ndarray, upper: np.ndarray, leg_min: float,
+    leg_max: float, hold: bool,
+) -> int:
+    """The limit a violating sample violates (`BOUND_LEGS` for the codes): of the joints on or
+    past a limit (past one in hold mode; `hybrid_add_sample`'s test) and the legs past their
+    stroke, the one passed furthest as a share of its range; the first in code order on a tie.
+
+    Args:
+        x: (9,) xi [m, rad]; legs: (6,) [m]; lower, upper: (9,) the joint limits; leg_min,
+            leg_max: the stroke [m]; hold: the lane's mode.
+    """
+    best, code = -math.inf, 0
+    for j in range(N_JOINTS):
+        span = upper[j] - lower[j]
+        for side in range(2):
+            past = lower[j] - x[j] if side == 0 else x[j] - upper[j]
+            if (past > JOINT_TOL) if hold else (past >= -JOINT_TOL):
+                if past / span > best:
+                    best, code = past / span, 1 + 2 * j + side
+    span = leg_max - leg_min
+    for i in range(N_LEGS):
+        for side in range(2):
+            past = leg_min - legs[i] if side == 0 else legs[i] - leg_max
+            if past > LEG_TOL and past / span > best:
+                best, code = past / span, BOUND_LEGS + 2 * i + side
+    return code
+
+
+@register_inline
 def hybrid_add_sample(
     acc: np.ndarray,
     t: float,
@@ -289,12 +329,15 @@ def hybrid_add_sample(
     acc[A_JOINT_VIOLATIONS] += 1.0 if joint else 0.0
     acc[A_LEG_VIOLATIONS] += 1.0 if leg else 0.0
     acc[A_VIOLATIONS] += 1.0 if joint | leg else 0.0
+    if (joint | leg) and acc[A_BOUND] == 0.0:
+        acc[A_BOUND_T] = t
+        acc[A_BOUND] = hybrid_first_bound(x, legs, lower, upper, leg_min, leg_max, hold)
     if k >= int(acc[A_FIRST]):
         hybrid_settled_add(acc, k == int(acc[A_FIRST]), x, legs, e, manipulability, phi_e,
                            theta_e)  # fmt: skip
     efficacy_add(acc[A_EFFICACY : A_EFFICACY + N_EFFICACY], alpha_top, alpha_bottom)
     trend_add(acc[A_JOINT_TREND:A_LEG_TREND], k + 1, t, x)
-    trend_add(acc[A_LEG_TREND:N_ACC], k + 1, t, legs)
+    trend_add(acc[A_LEG_TREND:A_BOUND_T], k + 1, t, legs)
     acc[A_SEEN] = k + 1
 
 
@@ -328,7 +371,8 @@ def hybrid_finish_lane(acc: np.ndarray, out: np.ndarray) -> None:
     out[R_PHI_E], out[R_THETA_E] = acc[A_PHI_E], acc[A_THETA_E]
     out[R_ETA_PRINTED], out[R_ETA] = efficacy_finish(acc[A_EFFICACY : A_EFFICACY + N_EFFICACY])
     trend_finish(acc[A_JOINT_TREND:A_LEG_TREND], out[R_JOINT_DRIFT : R_JOINT_DRIFT + N_JOINTS])
-    trend_finish(acc[A_LEG_TREND:N_ACC], out[R_LEG_DRIFT : R_LEG_DRIFT + N_LEGS])
+    trend_finish(acc[A_LEG_TREND:A_BOUND_T], out[R_LEG_DRIFT : R_LEG_DRIFT + N_LEGS])
+    out[R_BOUND_T], out[R_BOUND] = acc[A_BOUND_T], acc[A_BOUND]
 
 
 @register_borrowing
@@ -472,14 +516,17 @@ def compiled_series_reductions() -> SeriesReductions:
 #   samples;
 # - tip error: RMS and max over k ≥ S of |e_p| [m] and |e_R| [rad]; the largest α_top, α_bottom
 #   and |coupled displacement| per axis (seed 001 eq (15), the Upu3Up's) over k ≥ S;
-# - the two efficacies (`efficacy_add`), all samples.
+# - the two efficacies (`efficacy_add`), all samples;
+# - the first bound: the first violating sample's time and the first limit kind it violates
+#   (in the kinds' order, the clamped demand last), all samples.
 
 #: most actuators of a small platform (the 4-UPR's four; the 3UPU_UP has three)
 MAX_ACTUATORS = 4
 #: a small platform lane's accumulator row (`platform_add_lane`): samples seen, the first
 #: judged one, violating samples, then min/max, maxima and sums (block comment above), the
-#: efficacy sums, the state's and the actuators' trends, and last one count per limit kind
-#: (N_PLATFORM_ACC + kinds floats in all)
+#: efficacy sums, the state's and the actuators' trends, the first bound (its time [s] and
+#: 1 + its kind's index, 0 none), and last one count per limit kind (N_PLATFORM_ACC + kinds
+#: floats in all)
 PA_SEEN, PA_FIRST, PA_VIOLATIONS = 0, 1, 2
 PA_STATE_MIN = 3
 PA_STATE_MAX = PA_STATE_MIN + 3
@@ -494,7 +541,9 @@ PA_COUPLED_MAX = PA_SATURATED + 1
 PA_EFFICACY = PA_COUPLED_MAX + 3
 PA_STATE_TREND = PA_EFFICACY + N_EFFICACY
 PA_LEG_TREND = PA_STATE_TREND + 4 + 2 * 3
-PA_KINDS = PA_LEG_TREND + 4 + 2 * MAX_ACTUATORS
+PA_BOUND_T = PA_LEG_TREND + 4 + 2 * MAX_ACTUATORS
+PA_BOUND = PA_BOUND_T + 1
+PA_KINDS = PA_BOUND + 1
 N_PLATFORM_ACC = PA_KINDS
 #: `platform_finish_lane`'s row: the state's drifts (3), the actuators' (MAX_ACTUATORS, the
 #: first n written), the tip errors' RMS, the two efficacies
@@ -559,6 +608,8 @@ def platform_add_lane(
         bad = False
         for j in range(kinds):
             acc[PA_KINDS + j] += flags[i, j]
+            if flags[i, j] and acc[PA_BOUND] == 0.0:
+                acc[PA_BOUND_T], acc[PA_BOUND] = t[i], j + 1
             bad |= flags[i, j]
         acc[PA_VIOLATIONS] += bad
         for j in range(n_legs):
