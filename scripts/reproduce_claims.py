@@ -26,7 +26,12 @@ import numpy as np
 
 from twin.mechanisms import Upu3Up
 from twin.planners import PlannerParameters
-from twin.sea.presets import SEED001_DURATION, SEED001_TRAJECTORIES, seed001_inputs
+from twin.sea.presets import (
+    SEED001_DURATION,
+    SEED001_TRAJECTORIES,
+    seed001_signals,
+    seed001_trajectory,
+)
 from twin.sim import PAPER_PRESETS
 from twin.sim.claims import (
     SEED001_DT,
@@ -134,11 +139,12 @@ def seed001_all(seeds: range) -> dict[str, np.ndarray]:
     """Trajectory → (seeds, 3) coupled-displacement maxima |Xc|, |Yc|, |Zc| [mm] over 500 s."""
     t = np.arange(0.0, SEED001_DURATION + SEED001_DT / 2, SEED001_DT)
     platform = Upu3Up()
+    signals = [seed001_signals(t, s) for s in seeds]  # one sea per seed, for all four
     return {
         name: np.array(
             [
-                np.abs(platform.coupled_displacement(*seed001_inputs(t, s, name))).max(axis=0)
-                for s in seeds
+                np.abs(platform.coupled_displacement(*seed001_trajectory(one, name))).max(axis=0)
+                for one in signals
             ]
         )
         for name in SEED001_TRAJECTORIES

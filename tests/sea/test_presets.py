@@ -8,12 +8,14 @@ from scipy.integrate import quad
 
 from twin.errors import TwinError
 from twin.mechanisms import Upu3Up
-from twin.sea import evaluate_elevation, pierson_moskowitz_wind
+from twin.sea import evaluate_elevation, evaluate_slope, evaluate_surface, pierson_moskowitz_wind
 from twin.sea.presets import (
     SEED001_DURATION,
     SEED001_TRAJECTORIES,
     seed001_inputs,
     seed001_sea,
+    seed001_signals,
+    seed001_trajectory,
 )
 
 U, G_PAPER, DOMEGA = 12.0, 9.8, 0.01  # [m/s], [m/s²], [rad/s] seed 001 §IV.C, eq (28)
@@ -109,3 +111,20 @@ def test_unknown_trajectory_is_refused() -> None:
     """An unknown trajectory name raises, naming the allowed ones."""
     with pytest.raises(TwinError, match=r"\['P5', 'P6', 'P7', 'P8'\]"):
         seed001_inputs(T, trajectory="P1")
+
+
+def test_one_sea_serves_every_trajectory_bit_for_bit() -> None:
+    """`evaluate_surface` is `evaluate_elevation` and `evaluate_slope` in one pass, to the bit;
+    the trajectories built from one seed's signals are `seed001_inputs`' own; an unknown name
+    is refused by either path."""
+    sea = seed001_sea(4)
+    heave, slope = evaluate_surface(sea, T[:500])
+    np.testing.assert_array_equal(heave, evaluate_elevation(sea, T[:500]))
+    np.testing.assert_array_equal(slope, evaluate_slope(sea, T[:500]))
+    signals = seed001_signals(T, 4)
+    for name in SEED001_TRAJECTORIES:
+        for got, want in zip(seed001_trajectory(signals, name), seed001_inputs(T, 4, name),
+                             strict=True):  # fmt: skip
+            np.testing.assert_array_equal(got, want)
+    with pytest.raises(TwinError, match="P5"):
+        seed001_trajectory(signals, "P1")

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 from twin.errors import TwinError
 from twin.sea.components import WaveComponents
 from twin.sea.spectra import pierson_moskowitz_wind
-from twin.sea.synthesis import evaluate_elevation, evaluate_slope, frequency_bins
+from twin.sea.synthesis import evaluate_surface, frequency_bins
 
 SEED001_WIND_SPEED = 12.0  # [m/s] U at 19.5 m, seed 001 §IV.C
 SEED001_G = 9.8  # [m/s²] seed 001 eq (28)
@@ -61,6 +61,20 @@ SEED001_TRAJECTORIES: MappingProxyType[str, Table4Row] = MappingProxyType(
         "P8": Table4Row(z=True, alpha=True, beta=True),
     }
 )
+
+
+def table4_row(trajectory: str) -> Table4Row:
+    """The inputs seed 001 Table 4's `trajectory` drives.
+
+    Raises:
+        TwinError: unknown trajectory, naming the known ones.
+    """
+    if trajectory not in SEED001_TRAJECTORIES:
+        raise TwinError(
+            f"trajectory must be one of {sorted(SEED001_TRAJECTORIES)} (seed 001 Table 4), "
+            f"got {trajectory!r}"
+        )
+    return SEED001_TRAJECTORIES[trajectory]
 
 
 def seed001_sea(seed: int | np.random.Generator | None = 0) -> WaveComponents:
@@ -104,15 +118,37 @@ def seed001_inputs(
     Raises:
         TwinError: unknown trajectory, or non-finite t.
     """
-    if trajectory not in SEED001_TRAJECTORIES:
-        raise TwinError(
-            f"trajectory must be one of {sorted(SEED001_TRAJECTORIES)} (seed 001 Table 4), "
-            f"got {trajectory!r}"
-        )
-    row = SEED001_TRAJECTORIES[trajectory]
-    sea = seed001_sea(seed)
-    heave = 1e3 * SEED001_HEAVE_SCALE * evaluate_elevation(sea, t)  # Table 4, [m] → [mm]
-    slope = evaluate_slope(sea, t)[..., 0]  # a(t), eq (30): along the travel direction +x
+    table4_row(trajectory)  # an unknown name fails before the sea is computed
+    return seed001_trajectory(seed001_signals(t, seed), trajectory)
+
+
+def seed001_signals(
+    t: ArrayLike, seed: int | np.random.Generator | None = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """The two wave signals every seed 001 Table 4 trajectory is made of, at times `t`.
+
+    Args:
+        t: [s] times, any shape; seed: seed or Generator of the sea's phases (`seed001_sea`).
+
+    Returns:
+        z = 0.05 A(t) [mm] (Table 4, the 3UPU_UP's unit) and the slope a(t) [m/m] along the
+        travel direction +x (eq (30)), each the shape of `t`.
+    """
+    heave, slope = evaluate_surface(seed001_sea(seed), t)  # one pass gives both
+    return 1e3 * SEED001_HEAVE_SCALE * heave, slope[..., 0]
+
+
+def seed001_trajectory(
+    signals: tuple[np.ndarray, np.ndarray], trajectory: str = "P8"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A Table 4 trajectory's inputs z [mm], α, β [rad] from the signals of `seed001_signals`
+    (one sea serves all four trajectories); inputs it does not drive are 0.
+
+    Raises:
+        TwinError: unknown trajectory.
+    """
+    row = table4_row(trajectory)
+    heave, slope = signals
     # own arrays: α and β share a(t), and a caller may edit one in place
     z, alpha, beta = (
         x.copy() if on else np.zeros_like(x)

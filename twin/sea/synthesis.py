@@ -241,6 +241,15 @@ def _evaluate(
     return eta.reshape(shape), grad.reshape((*shape, 2))
 
 
+def evaluate_surface(
+    components: WaveComponents, t: ArrayLike, x: ArrayLike = 0.0, y: ArrayLike = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Elevation η (...) [m] and slope (∂η/∂x, ∂η/∂y) (..., 2) [m/m] of `components` at
+    broadcast (t, x, y), in one pass: `evaluate_elevation`'s and `evaluate_slope`'s values,
+    bit for bit, for the price of the slope alone."""
+    return _evaluate(components, t, x, y)
+
+
 def evaluate_elevation(
     components: WaveComponents, t: ArrayLike, x: ArrayLike = 0.0, y: ArrayLike = 0.0
 ) -> np.ndarray:
