@@ -10,7 +10,8 @@ import pytest
 from tests.conformance import conformance
 from twin.sim.engine import LANES, Simulation
 from twin.sim.lanes import HybridLanes, PlatformLanes
-from twin.sim.protocols import Lanes
+from twin.sim.metrics import HybridReduction, PlatformReduction
+from twin.sim.protocols import Lanes, ReducingLanes
 
 #: two lanes with different planners, so `keys` has two families to tell apart (hybrid)
 SCENARIOS = {
@@ -47,6 +48,15 @@ def test_lanes_implement_the_protocol(mechanism: str) -> None:
     assert (lanes.extra is None) == (mechanism == "hybrid")
     for s in sim.scenarios:  # a lane's diagnostics are among every family's
         assert lanes.keys(s.planner_name) <= lanes.diagnostics
+    # keep="metrics": the lanes make their own running metrics; the hybrid's reduce as they
+    # record (the engine asks the protocol, never the class)
+    hybrid = mechanism == "hybrid"
+    reduction = lanes.reduction(np.array([5, 3]), ["record", "hold"])
+    assert isinstance(reduction, HybridReduction if hybrid else PlatformReduction)
+    assert reduction.ends.tolist() == [5, 3] and reduction.hold.tolist() == [False, True]
+    assert isinstance(lanes, ReducingLanes) == hybrid
+    if hybrid:
+        assert conformance(lanes, ReducingLanes) == []
 
 
 @pytest.mark.parametrize("mechanism", sorted(SCENARIOS))

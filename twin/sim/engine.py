@@ -53,8 +53,8 @@ from twin.sim.faults import (
 from twin.sim.history import History
 from twin.sim.kernels import layout
 from twin.sim.lanes import HybridLanes, PlatformLanes, runner, use_numba
-from twin.sim.metrics import HybridReduction, PlatformReduction, Reduction
-from twin.sim.protocols import Lanes, LanesFactory
+from twin.sim.metrics import Reduction
+from twin.sim.protocols import Lanes, LanesFactory, ReducingLanes
 from twin.sim.result import SimulationResult
 from twin.sim.scenario import DEFAULT_PLANNER, Scenario
 from twin.sim.scratch import scratch
@@ -188,10 +188,7 @@ class Simulation:
         if keep == "metrics":
             ends = np.array([round(s.duration / s.dt) + 1 for s in self.scenarios])
             modes = [s.joint_limits for s in self.scenarios]
-            if isinstance(self.lanes, PlatformLanes):
-                self._reduction = PlatformReduction(self.lanes.models, ends, modes, self.compiled)
-            else:
-                self._reduction = HybridReduction(self.mechanism, ends, modes, self.compiled)
+            self._reduction = self.lanes.reduction(ends, modes)
             # the series' fault counts (`series_faults`), summed chunk by chunk
             self._limited = [dict.fromkeys(("joint_limit", "singular"), 0) for _ in ends]
         # a batch run keeps every sample, unless its metrics are reduced as it goes
@@ -418,14 +415,15 @@ class Simulation:
     def _reduce_as_recorded(
         self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, t: np.ndarray
     ) -> dict[str, np.ndarray] | None:
-        """keep="metrics" on the hybrid system: the chunk's samples 1 … m (at times t [s]),
-        after sample 0 on the first chunk, added to the metrics as each is recorded
-        (`HybridLanes.reduce`: no record array of the chunk is made) and to the series' fault
+        """keep="metrics" on lanes that reduce as they record (`ReducingLanes`: the hybrid
+        system's): the chunk's samples 1 … m (at times t [s]), after sample 0 on the first
+        chunk, added to the metrics as each is recorded (no record array of the chunk is made)
+        and to the series' fault
         counts. Returns the newest sample's records (N, 1, ...), for the history; None, with
         nothing added, where the run keeps a series, or a state, diagnostic or record is not
         finite (the chunk is then recorded whole and held, `hold_nonfinite`)."""
         lanes = self.lanes
-        if not isinstance(self._reduction, HybridReduction) or not isinstance(lanes, HybridLanes):
+        if self._reduction is None or not isinstance(lanes, ReducingLanes):
             return None
         if not (np.isfinite(xs).all() and np.isfinite(diag).all() and np.isfinite(poses).all()):
             return None

@@ -32,6 +32,8 @@ from twin.planners import (
 from twin.sim.kernels import layout
 from twin.sim.metrics import (
     HybridReduction,
+    PlatformReduction,
+    Reduction,
     hybrid_metrics,
     hybrid_metrics_lanes,
     platform_metrics,
@@ -221,12 +223,17 @@ class HybridLanes:
         computed): base poses, states and diagnostics of samples 1 … S − 1, (N, S − 1, …)."""
         return self._with_state(poses, xs, diag, {}, 1)
 
-    def reduce(self, reduction: HybridReduction, t: np.ndarray, start: int) -> dict | None:
+    def reduction(self, ends: np.ndarray, joint_limits: Sequence[str]) -> HybridReduction:
+        """The lanes' running metrics for keep="metrics" (`HybridReduction`), lane n over its
+        first ends[n] samples in its `joint_limits` mode."""
+        return HybridReduction(self.mechanism, ends, joint_limits, self.compiled)
+
+    def reduce(self, reduction: Reduction, t: np.ndarray, start: int) -> dict | None:
         """keep="metrics": samples 1 … S − 1 of the chunk `run` just stepped, each recorded and
         added to `reduction` at once (`run_hybrid_records` reducing), its records never kept.
 
         Args:
-            reduction: the lanes' running metrics, samples up to `start` added.
+            reduction: the lanes' running metrics (`reduction`), samples up to `start` added.
             t: (S − 1,) the samples' times [s]; start: the index of sample 1 in the run.
 
         Returns:
@@ -430,6 +437,11 @@ class PlatformLanes:
     def keys(self, planner: str) -> set[str]:
         del planner  # Unused: both laws record the same.
         return set()
+
+    def reduction(self, ends: np.ndarray, joint_limits: Sequence[str]) -> PlatformReduction:
+        """The lanes' running metrics for keep="metrics" (`PlatformReduction`): each chunk is
+        recorded, then reduced (these lanes have no `reduce`)."""
+        return PlatformReduction(self.models, ends, joint_limits, self.compiled)
 
     def metrics(
         self, series: dict[str, np.ndarray], lane: int, joint_limits: str = "record"

@@ -17,6 +17,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from twin.sim.metrics import Reduction
 from twin.sim.scenario import Scenario
 
 
@@ -113,6 +114,32 @@ class Lanes(Protocol):
     ) -> list[dict[str, Any]]:
         """Every lane's `metrics` from series (N, C, …), lane n over its first ends[n]
         samples."""
+        ...
+
+    def reduction(self, ends: np.ndarray, joint_limits: Sequence[str], /) -> Reduction:
+        """The running metrics of keep="metrics" (`twin.sim.metrics`): lane n's over its first
+        ends[n] samples, in its `joint_limits` mode; the engine adds each chunk to it."""
+        ...
+
+
+@runtime_checkable
+class ReducingLanes(Lanes, Protocol):
+    """Lanes that add a chunk's samples to their running metrics as each is recorded, so a
+    keep="metrics" run makes no record array of the chunk (the hybrid system's, `HybridLanes`);
+    other lanes record the chunk and then reduce it."""
+
+    def state_records(
+        self, poses: np.ndarray, xs: np.ndarray, diag: np.ndarray, /
+    ) -> dict[str, np.ndarray]:
+        """The chunk's records that need no kinematics: states, poses, diagnostics (N, S, …)."""
+        ...
+
+    def reduce(
+        self, reduction: Reduction, t: np.ndarray, start: int, /
+    ) -> dict[str, np.ndarray] | None:
+        """Samples 1 … S − 1 of the chunk just stepped (at times t [s]; sample 1 is the run's
+        `start`-th) recorded and added to `reduction`; the newest sample's records (N, 1, …),
+        or None where one is not finite (the caller puts back what `reduction` held before)."""
         ...
 
 
