@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tests.site.support import script_module
 from twin.assets import asset_path
 from twin.errors import TwinError
 from twin.site import read_forecast, read_ndbc, read_record, read_scatter, read_timeseries
@@ -197,3 +198,31 @@ def test_read_record_rejects_unknown_kinds_and_missing_files(tmp_path: Path) -> 
         read_record(write(tmp_path, "a.csv", CSV), kind="grib")
     with pytest.raises(TwinError, match="no such file"):
         read_record(tmp_path / "none.csv")
+
+
+def test_a_csv_with_an_issued_column_is_sniffed_as_a_forecast(tmp_path: Path) -> None:
+    """`issued` marks a forecast; without it the same rows are a plain time series."""
+    rows = "2019-08-20T00:10Z,1.5,9.0,300\n2019-08-20T03:10Z,1.7,9.5,310\n"
+    plain = write(tmp_path, "plain.csv", "time,hs,tp,direction\n" + rows)
+    issued = write(tmp_path, "issued.csv", "issued,time,hs,tp,direction\n"
+                   + "".join(f"2019-08-20T00:10Z,{line}\n" for line in rows.splitlines()))
+    assert read_record(plain).kind == "timeseries"
+    forecast = read_record(issued)
+    assert forecast.kind == "forecast" and forecast.hs.tolist() == [1.5, 1.7]
+
+
+def test_the_shipped_forecast_example_is_the_buoys_record_every_3_hours() -> None:
+    """40 steps of 3 h from 20 August 2019 00:10, each the 46097 record's own sea state at that
+    hour, read as a forecast; the build script writes the shipped file again, to the byte."""
+    build = script_module("build_site_forecast")
+    path = asset_path("site", build.TARGET)
+    forecast = read_record(path)
+    assert forecast.kind == "forecast" and forecast.n == 40
+    steps = np.diff(forecast.time).astype("timedelta64[h]").astype(int)
+    assert set(steps.tolist()) == {3} and forecast.time[0] == np.datetime64("2019-08-20T00:10")
+    buoy = read_record(asset_path("site", "46097h2019_08.txt"))
+    at = np.searchsorted(buoy.time, forecast.time)
+    assert np.array_equal(buoy.time[at], forecast.time)
+    assert np.array_equal(buoy.hs[at], forecast.hs) and np.array_equal(buoy.tp[at], forecast.tp)
+    assert np.array_equal(buoy.direction[at], forecast.direction)
+    assert build.build().to_csv(index=False) == path.read_text()

@@ -3,12 +3,11 @@ one its build script makes from the shipped coastDat-2 year."""
 
 from __future__ import annotations
 
-import importlib.util
-
 import numpy as np
 import pandas as pd
 import pytest
 
+from tests.site.support import script_module
 from twin.assets import asset_path
 from twin.errors import TwinError
 from twin.site import read_record
@@ -36,13 +35,7 @@ def test_bad_series_are_refused(hs: list[float], tp: list[float], message: str) 
 
 
 def test_the_shipped_north_sea_scatter_is_rebuilt_from_the_shipped_hindcast() -> None:
-    script = asset_path("..", "scripts", "build_site_scatter.py")
-    if not script.is_file():
-        pytest.skip("scripts/ is not beside an installed package (a wheel)")
-    spec = importlib.util.spec_from_file_location("build_site_scatter", script)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = script_module("build_site_scatter")
     shipped = pd.read_csv(asset_path("site", "north_sea_coastdat2_2014_scatter.csv"))
     pd.testing.assert_frame_equal(module.build(), shipped)
     record = read_record(asset_path("site", "north_sea_coastdat2_2014_scatter.csv"))

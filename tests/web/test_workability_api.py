@@ -69,7 +69,8 @@ def wait_finished(
 
 def test_records_lists_the_shipped_ones(client: TestClient) -> None:
     assert client.get("/api/workability/records").json() == sorted(
-        [SHIPPED, "44005h2012.txt", "north_sea_coastdat2_2014_scatter.csv"]
+        [SHIPPED, "44005h2012.txt", "north_sea_coastdat2_2014_scatter.csv",
+         "forecast_example_46097_2019_08_20.csv"]
     )
 
 

@@ -46,6 +46,8 @@ MAX_FILE = 64 * 1024 * 1024
 #: the columns of a time series (required first)
 TIMESERIES_REQUIRED = ("time", "hs", "tp", "direction")
 TIMESERIES_OPTIONAL = ("spreading", "heading")
+#: the column that makes a CSV time series a forecast when sniffed: when it was issued
+FORECAST_MARKER = "issued"
 #: names of a long scatter table's weight column
 WEIGHT_NAMES = ("occurrence", "count", "probability", "weight")
 
@@ -139,8 +141,8 @@ class SiteRecord:
 def read_record(path: str | Path, kind: str | None = None) -> SiteRecord:
     """Read any record: by `kind` ("ndbc", "timeseries", "scatter", "forecast"), else sniffed
     (`.parquet`: a time series; a first line starting `#YY`, `YY` or `YYYY`: NDBC; a CSV with an
-    `occurrence`-like column or numeric column names after `hs`: a scatter table; any other CSV:
-    a time series).
+    `issued` column (when the forecast was issued): a forecast; a CSV with an `occurrence`-like
+    column or numeric column names after `hs`: a scatter table; any other CSV: a time series).
 
     Raises:
         TwinError: an unknown kind, a missing file or malformed content (naming it).
@@ -271,7 +273,8 @@ def read_timeseries(path: str | Path, kind: Kind = "timeseries") -> SiteRecord:
 
 
 def read_forecast(path: str | Path) -> SiteRecord:
-    """A forecast: a time series (`read_timeseries`'s columns), kind "forecast"."""
+    """A forecast: a time series (`read_timeseries`'s columns, and optionally `issued`, when it
+    was issued, which read_record's sniffing recognises; not otherwise read), kind "forecast"."""
     return read_timeseries(path, kind="forecast")
 
 
@@ -360,6 +363,8 @@ def _sniff(path: Path) -> str:
     if words and words[0] in ("YY", "YYYY") and "," not in first:
         return "ndbc"
     header = [_column_name(c) for c in first.strip().split(",")]
+    if FORECAST_MARKER in header:
+        return "forecast"
     if any(c in WEIGHT_NAMES for c in header):
         return "scatter"
     rest = [c for c in header if c not in ("hs", "direction")]
