@@ -5,6 +5,7 @@ its camera stands, clear of the control panel.
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Iterable
 from typing import Any, Literal
 
@@ -22,6 +23,12 @@ View = Literal["overview", "walkway", "close-up"]
 #: the view every browser gets when a mechanism is built: the mechanism and its target fill
 #: it, however small the mechanism is next to its vessel
 FRAMING: View = "close-up"
+#: [s] after a build, a browser whose camera reports another view than the framing is put back
+#: at it: the camera message it sent before the new framing reached it can arrive after it,
+#: and viser then takes that old view for the browser's (seen on a loaded machine)
+FRAMING_SETTLE = 2.0
+#: [-] a reported view within this share of the framing's distance is the framing
+FRAMING_TOLERANCE = 0.05
 #: [rad] the cameras' vertical field of view (viser's default, set on every camera)
 FOV = float(np.radians(75.0))
 #: [px] the overview draws the mechanism's longest side at least this long, face on, in a
@@ -85,6 +92,8 @@ class Cameras:
     last: FrameState | None
     clip: tuple[float, float]
     server: viser.ViserServer
+    #: [s] monotonic time until which `settle_framing` puts browsers back at the framing
+    framing_until: float = 0.0
 
     def camera_pose(self, view: View, fs: FrameState) -> tuple[np.ndarray, np.ndarray]:
         """(camera position, look-at point) [m] of a preset view at the frame's state."""
@@ -127,8 +136,36 @@ class Cameras:
             return beside_panel(centre, direction, distance)
         raise ValueError(f"unknown view {view!r}; allowed: {VIEWS}")
 
+    def frame(self, clients: Iterable[viser.ClientHandle]) -> None:
+        """Point the clients' cameras at the framing of a new build, and keep them there for
+        `FRAMING_SETTLE` (`settle_framing`)."""
+        self.set_camera(FRAMING, clients)
+        self.framing_until = time.monotonic() + FRAMING_SETTLE
+
+    def settle_framing(self, clients: Iterable[viser.ClientHandle]) -> None:
+        """Each frame, within `FRAMING_SETTLE` of a build: a browser whose reported view (from
+        its look-at point to its camera) is not the framing's is put at the framing again."""
+        if self.last is None or time.monotonic() > self.framing_until:
+            return
+        position, look_at = self.camera_pose(FRAMING, self.last)
+        view = position - look_at
+        tolerance = FRAMING_TOLERANCE * float(np.linalg.norm(view))
+        off = []
+        for client in clients:
+            try:
+                reported = client.camera.position - client.camera.look_at
+            except Exception:  # a browser that has not sent its camera yet
+                continue
+            if float(np.linalg.norm(reported - view)) > tolerance:
+                off.append(client)
+        if off:
+            self.set_camera(FRAMING, off)
+
     def set_camera(self, view: View, clients: Iterable[viser.ClientHandle]) -> None:
-        """Point the clients' cameras at a preset view of the latest frame."""
+        """Point the clients' cameras at a preset view of the latest frame (another view than
+        the framing ends `settle_framing`'s hold)."""
+        if view != FRAMING:
+            self.framing_until = 0.0
         if self.last is None:
             return
         position, look_at = self.camera_pose(view, self.last)

@@ -243,7 +243,7 @@ class TwinScene(Cameras):
         camera.fov = FOV
         camera.near, camera.far = self.clip
         self.last = fs
-        self.set_camera(FRAMING, self.server.get_clients().values())
+        self.frame(self.server.get_clients().values())
         self.mechanism_name = name  # last: readers see a complete build
 
     def matches(self, fs: FrameState) -> bool:

@@ -253,6 +253,7 @@ class Viewer:
                 self._shown = shown
                 self.scene.update(fs, show_trail=self.gui.trail)
             self.gui.update(fs)
+        self.scene.settle_framing(self.server.get_clients().values())
 
 
 def start_viewer(
