@@ -41,7 +41,8 @@ def target_from(xi: np.ndarray, twist: np.ndarray, offset: np.ndarray | None = N
 
 @pytest.mark.parametrize("name", ["pi", "wpi", "mtmp"])
 def test_tip_follows_the_commanded_twist(name: str, rng: np.random.Generator) -> None:
-    """J_task ξ̇ = ẋ_d + k_e e: the primary task is met exactly away from singularities."""
+    """J_task ξ̇ = ẋ_d + k e with k_e sampled over the step, k = (1 − e^(−k_e dt))/dt: the
+    primary task is met exactly away from singularities."""
     for xi in random_hybrid_states(rng, 10, shrink=0.3):
         twist = rng.normal(0, 0.05, 6)
         target = target_from(xi, twist, offset=rng.normal(0, 1e-3, 3))
@@ -49,7 +50,8 @@ def test_tip_follows_the_commanded_twist(name: str, rng: np.random.Generator) ->
         out = planner.step(xi, target, DT)
         if out.diagnostics["velocity_scale"] < 1:
             continue
-        demand = twist + 25.0 * pose_error(target.transform, H.end_effector(xi))
+        gain = -np.expm1(-25.0 * DT) / DT
+        demand = twist + gain * pose_error(target.transform, H.end_effector(xi))
         np.testing.assert_allclose(H.task_jacobian(xi) @ out.velocity, demand, atol=1e-8)
 
 
@@ -127,7 +129,8 @@ def test_velocity_is_the_weighted_minimum_norm_solution(
 ) -> None:
     """Away from singularities (λ = 0) and limits, eq (34) typed in numpy's normal equations:
     ξ̇ = W Jᵀ (J W Jᵀ)⁻¹ b + λ_s (I − W Jᵀ (J W Jᵀ)⁻¹ J) e_7 k_a (q̃2 − q2), W = diag(W⁻¹) the
-    planner's weights (β split × joint-limit weights), b = ẋ_d + k_e e, J and e numpy's."""
+    planner's weights (β split × joint-limit weights), b = ẋ_d + k e with k_e = 20 1/s sampled
+    over the step (k = (1 − e^(−k_e dt))/dt), J and e numpy's."""
     for xi in random_hybrid_states(rng, 8, shrink=0.4):
         split = BetaSplit(rng.uniform(0.2, 0.9), rng.uniform(0.5, 2.0))
         weights = ProductWeights(
@@ -142,7 +145,8 @@ def test_velocity_is_the_weighted_minimum_norm_solution(
         out = planner.step(xi, target, DT)
         assert out.diagnostics["damping"] == 0.0 and out.diagnostics["velocity_scale"] == 1.0
         J, W = H.task_jacobian(xi), np.diag(weights(xi))
-        b = target.twist + 20.0 * pose_error(target.transform, H.end_effector(xi))
+        b = target.twist - np.expm1(-20.0 * DT) / DT * pose_error(target.transform,
+                                                                   H.end_effector(xi))
         pinv = W @ J.T @ np.linalg.inv(J @ W @ J.T)
         expected = pinv @ b
         if posture:

@@ -159,7 +159,7 @@ def test_objective_is_its_terms(rng: np.random.Generator) -> None:
         target = near_target(xi, rng)
         problem = planner.problem(xi, target, DT)
         J = H.task_jacobian(xi)
-        b, _ = planner.tip.demand(xi, target)
+        b, _ = planner.tip.demand(xi, target, DT)
         w = planner.split(xi)
 
         def cost(v: np.ndarray, xi=xi, p=p, planner=planner, J=J, b=b, w=w) -> float:

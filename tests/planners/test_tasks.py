@@ -55,3 +55,15 @@ def test_bad_states_raise_twin_errors() -> None:
         TASK.jacobian(xi)
     with pytest.raises(TwinError, match=r"shape \(\.\.\., 9\)"):
         TASK.jacobian(np.zeros(8))
+
+
+def test_the_demand_over_a_step_applies_the_sampled_gain(rng: np.random.Generator) -> None:
+    """With a control period dt the demand is ẋ_d + (1 − e^(−k_e dt))/dt · e, the gain the
+    planners' steps apply; without one, ẋ_d + k_e e."""
+    xi = random_hybrid_states(rng, 10)
+    target = targets(rng, xi)
+    for dt in (0.01, 0.2):
+        demand, error = TASK.demand(xi, target, dt)
+        sampled = (1.0 - np.exp(-TASK.gain * dt)) / dt
+        np.testing.assert_allclose(demand, target.twist + sampled * error, rtol=0, atol=1e-12)
+        assert sampled < TASK.gain

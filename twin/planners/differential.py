@@ -88,11 +88,10 @@ class DifferentialPlanner:
             TwinError: xi not (..., 9) or not finite; a part without `pack`, or one the
                 compiled kernel cannot run (`pack`).
         """
-        del dt  # Unused: the solve is instantaneous; integration is the simulation's.
         # imported here: the step module imports this one (its parameter record)
         from twin.planners.differential_step import differential_step
 
-        return differential_step(self, xi, target)
+        return differential_step(self, xi, target, dt)
 
     def pack(self, hold: bool) -> np.ndarray:
         """The planner as its lane's parameter row (`DIFFERENTIAL_PARAMETERS`): each part

@@ -46,6 +46,7 @@ from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.planners.differential import DIFFERENTIAL_PARAMETERS, DifferentialPlanner
+from twin.planners.gains import proportional_gain
 from twin.planners.lane_rows import (
     D_DAMPING,
     D_SCALE,
@@ -142,6 +143,7 @@ def differential_velocity(
     target: np.ndarray,
     p: np.record,
     const: np.ndarray,
+    dt: float,
     work: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     v_out: np.ndarray,
     diag_out: np.ndarray,
@@ -159,6 +161,8 @@ def differential_velocity(
             twist ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s].
         p: the lane's `DIFFERENTIAL_PARAMETERS` record (its row, `DifferentialPlanner.pack`).
         const: (N_HYBRID_CONSTANTS,) the hybrid constants (`HybridBoardingSystem.pack`).
+        dt: [s] the control period the velocity is held for: k_e is applied sampled,
+            (1 − e^(−k_e dt))/dt (`proportional_gain`); dt ≤ 0 applies k_e itself.
         work: `differential_work()`, overwritten: K, K W Kᵀ, diag(W⁻¹), the demand and the
             posture column in P, which `damped_differential_velocity` goes on from; the tip
             ᴮT_E (frames[1]) and its error (row W_ERROR), which the runner hands to the record.
@@ -175,9 +179,9 @@ def differential_velocity(
     K, A, L, frames, M, vectors = work
     w, b, column = vectors[W_WEIGHTS], vectors[W_DEMAND, :6], vectors[W_COLUMN, :6]
     back, y = vectors[W_BACK], vectors[W_SOLVE, :6]
-    # the tip task: K and the demand ẋ_d + k_e e in B (eqs (14), (24), (34))
+    # the tip task: K and the demand ẋ_d + k_e e in B (eqs (14), (24), (34)), k_e sampled
     c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
-    tip_task_lane(x, R, target, p.gain, c.d1, c.a1, frames, M, K, b,
+    tip_task_lane(x, R, target, proportional_gain(p.gain, dt), c.d1, c.a1, frames, M, K, b,
                   vectors[W_ERROR, :6])  # fmt: skip
     # turned into P in place: b = Dᵀ (ẋ_d + k_e e)
     for half in (0, 3):
@@ -322,6 +326,7 @@ def _differential_batch(
     target: np.ndarray,
     row: np.ndarray,
     const: np.ndarray,
+    dt: float,
     v_out: np.ndarray,
     diag_out: np.ndarray,
     error_out: np.ndarray,
@@ -331,14 +336,16 @@ def _differential_batch(
     NEEDS_SVD (as `twin.sim.kernels.hybrid_runner.run_hybrid` takes it), into v_out (N, 9),
     diag_out (N, N_HYBRID_DIAGNOSTICS) (rows D_WEIGHTS … D_SCALE written) and the tip's pose
     error e (N, 6) [m, rad] in B that the tip task planned on (row W_ERROR of the work).
-    row: the planner's (ROW_SIZE,) (`DifferentialPlanner.pack`); const: the hybrid constants."""
+    row: the planner's (ROW_SIZE,) (`DifferentialPlanner.pack`); const: the hybrid constants;
+    dt: [s] the control period (`differential_velocity`)."""
     R = np.empty((3, 3))
     work = differential_work()
     p = row.view(DIFFERENTIAL_PARAMETERS)[0]  # the row by name, as the runner reads it
     error = work[5]
     for k in range(x.shape[0]):
         rpy_to_matrix_lane(x[k, 3], x[k, 4], x[k, 5], R)
-        bits = differential_velocity(x[k], R, target[k], p, const, work, v_out[k], diag_out[k])
+        bits = differential_velocity(x[k], R, target[k], p, const, dt, work, v_out[k],
+                                     diag_out[k])  # fmt: skip
         if bits == NEEDS_SVD:
             damped_differential_velocity(x[k], p, work, v_out[k], diag_out[k])
         for i in range(6):
@@ -351,7 +358,7 @@ DIFFERENTIAL_STEP = LaneBatch(_differential_batch, cores=(1, 1))
 
 
 def differential_step(
-    planner: DifferentialPlanner, xi: np.ndarray, target: TipTarget
+    planner: DifferentialPlanner, xi: np.ndarray, target: TipTarget, dt: float
 ) -> PlannerOutput:
     """`DifferentialPlanner.step`: the planner packed (`pack`; `hold` is the runner's guard's,
     not the velocity's) and stepped lane by lane by the engine's own step (`DIFFERENTIAL_STEP`).
@@ -360,6 +367,8 @@ def differential_step(
         planner: the planner; every part must `pack`.
         xi: (..., 9) [m, rad] the states; target: the desired tip motion in B, its leading
             axes broadcast against xi's.
+        dt: [s] the control period the velocity is held for (k_e sampled over it,
+            `differential_velocity`); dt ≤ 0: k_e itself.
 
     Returns:
         velocity (..., 9) and the diagnostics `weights` (..., 9) diag(W⁻¹), `task_error`
@@ -376,7 +385,7 @@ def differential_step(
     # gangway's d1, a1 (its own rate limit is its row's, `VelocityLimit.pack`)
     const = planner.tip.mechanism.pack(np.full(9, np.inf))
     v, diag, error = DIFFERENTIAL_STEP(
-        [xi, target_rows(target)], [row, const], [(9,), (N_HYBRID_DIAGNOSTICS,), (6,)]
+        [xi, target_rows(target)], [row, const, float(dt)], [(9,), (N_HYBRID_DIAGNOSTICS,), (6,)]
     )
     return PlannerOutput(
         velocity=v,

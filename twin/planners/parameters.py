@@ -102,7 +102,7 @@ class PlannerParameters(BaseModel):
     # Seed 002 §5 tunes an effort PID in Gazebo (kp = 5000, ki = 0.5, kd = 10); ours commands
     # velocity, so kp is a bandwidth: 120 1/s lags the 3 s wave of Table 2 by ω/kp ≈ 1.7 %,
     # the paper's level (η 98.23 %), and ki keeps the paper's ki/kp. The loop is sampled
-    # exactly (`twin.planners.platform.proportional_gain`), so it is stable at every dt, and
+    # exactly (`twin.planners.gains.proportional_gain`), so it is stable at every dt, and
     # reaches that level at the seed 002 presets' dt = 0.005 s. The paper's kd damps the mass
     # of its effort loop (`actuator_mass` > 0 models that); a velocity loop is first order and
     # needs none: a derivative term rings there once kp·dt nears 1 (docs/planners_platforms.md).

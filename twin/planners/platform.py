@@ -48,6 +48,7 @@ from twin.mechanisms.platforms import (
 )
 from twin.mechanisms.upr4 import Upr4
 from twin.mechanisms.upu3up import Upu3Up
+from twin.planners.gains import proportional_gain
 from twin.planners.parameters import (
     KIND_PLATFORM,
     PlannerParameters,
@@ -78,14 +79,6 @@ PHYSICS_STEP = 1e-3
 def physics_steps(dt: float) -> int:
     """Steps of the actuator dynamics in a control period dt [s]: the fewest of ≤ 1 ms."""
     return max(1, int(np.ceil(dt / PHYSICS_STEP - 1e-9)))
-
-
-@register_jitable
-def proportional_gain(kp: float, dt: float) -> float:
-    """[1/s] the sampled gain (1 − e^(−kp·dt))/dt of the loop ė = −kp e: the error a step
-    leaves is e^(−kp·dt) of the one before (the continuous loop's, exactly), never negative,
-    so the loop neither overshoots nor goes unstable at any dt. ≈ kp for kp·dt ≪ 1."""
-    return float(-np.expm1(-kp * dt) / dt)
 
 
 @dataclass(frozen=True)

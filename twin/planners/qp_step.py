@@ -35,6 +35,7 @@ import numpy as np
 from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS
+from twin.planners.gains import proportional_gain
 from twin.planners.lane_rows import D_QP_ACTIVE, D_QP_LEVEL, FAULT_INFEASIBLE
 from twin.planners.parameters import KIND_QP, parameter_record
 from twin.planners.qp import (
@@ -222,10 +223,12 @@ def qp_problem_lane(
     (module doc); prm the lane's float row (`QP_PARAMETERS` by name), const the hybrid
     constants (`HYBRID_CONSTANTS` by name); `work` from `problem_work`."""
     p, c = prm.view(QP_PARAMETERS)[0], const.view(HYBRID_CONSTANTS)[0]
-    # the tip task: ᴮR_P, K and the demand b = ẋ_d + k_e e in B (eqs (14), (24), (34))
+    # the tip task: ᴮR_P, K and the demand b = ẋ_d + k_e e in B (eqs (14), (24), (34)), k_e
+    # sampled over dt (`proportional_gain`)
     R, K, b, frames, M, error, bo, bounds = work
     rpy_to_matrix_lane(x[3], x[4], x[5], R)
-    tip_task_lane(x, R, target, p.gain, c.d1, c.a1, frames, M, K, b, error)
+    tip_task_lane(x, R, target, proportional_gain(p.gain, dt), c.d1, c.a1, frames, M, K, b,
+                  error)  # fmt: skip
     qp_cost_lane(x, R, K, b, p, bo, H, f)
     # the rate box and the position equality
     for j in range(9):

@@ -13,6 +13,7 @@ import numpy as np
 from twin.batch import LaneBatch
 from twin.compiled import register_inline
 from twin.mechanisms.hybrid import HybridBoardingSystem, tip_transform
+from twin.planners.gains import proportional_gain
 from twin.planners.parameters import refuse
 from twin.planners.target import TipTarget
 from twin.spatial import rpy_to_matrix_lane, so3_log_lane
@@ -51,15 +52,20 @@ class TipPoseTask:
         xi = as_array(xi, "xi", (9,))
         return TIP_TASK([xi, HELD_ROW], [0.0, *self._gangway()], [(6,), (6,), (6, 9)])[2]
 
-    def demand(self, xi: np.ndarray, target: TipTarget) -> tuple[np.ndarray, np.ndarray]:
-        """(ẋ_d + k_e e, e), each (..., 6), by `tip_task_lane` lane by lane.
+    def demand(
+        self, xi: np.ndarray, target: TipTarget, dt: float = 0.0
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(ẋ_d + k e, e), each (..., 6), by `tip_task_lane` lane by lane: k the gain k_e
+        sampled over a control period dt [s] as the planners' steps apply it,
+        (1 − e^(−k_e dt))/dt (`proportional_gain`); dt ≤ 0 (the default): k_e itself.
 
         Raises:
             TwinError: NaN or inf gangway joints (as `error`).
         """
         xi = self._checked(xi, "q")
         rows = target_rows(target)
-        demand, e, _ = TIP_TASK([xi, rows], [float(self.gain), *self._gangway()],
+        gain = proportional_gain(float(self.gain), float(dt))
+        demand, e, _ = TIP_TASK([xi, rows], [gain, *self._gangway()],
                                 [(6,), (6,), (6, 9)])  # fmt: skip
         return demand, e
 

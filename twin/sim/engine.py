@@ -49,6 +49,7 @@ from twin.sim.faults import (
     hold_invalid,
     hold_nonfinite,
     series_faults,
+    tracking_diverged,
 )
 from twin.sim.history import History
 from twin.sim.kernels import layout
@@ -562,10 +563,12 @@ def with_fault_counts(
     """`with_faults` with the series' counts given (`series_faults`'s, `limited`): a run that
     keeps no series sums them chunk by chunk."""
     metrics["faults"] = holds
+    metrics["tracking_diverged"] = tracking_diverged(metrics)
     metrics["fault_counts"] = {
         **{flag_name(f): counts[flag_name(f)] for f in Fault if f in HOLDS},
         **limited,
         "infeasible": counts["infeasible"],
+        "tracking_diverged": int(metrics["tracking_diverged"]),
     }
     return metrics
 

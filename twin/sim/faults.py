@@ -10,6 +10,7 @@ squares) or clamps (a step shortened at a limit), and flags the sample with a `F
 from __future__ import annotations
 
 from collections import Counter, deque
+from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import IntFlag
 
@@ -181,6 +182,21 @@ class FaultLog:
                 for e in self.events
             ],
         }
+
+
+#: [m] a tip position error beyond which a run's tracking counts as diverged: two orders of
+#: magnitude above a compensating run's (millimetres) and past any gangway's landing tolerance,
+#: while a loop that has lost its target (an unstable gain, a limit it stays on, a planner that
+#: cannot follow) goes on to decimetres and metres (docs/decisions.md, "Sampled loop gains")
+TRACKING_DIVERGED = 0.25
+
+
+def tracking_diverged(metrics: Mapping[str, object]) -> bool:
+    """Whether a run's tracking diverged: its tip position error reached `TRACKING_DIVERGED`
+    at some sample, whatever the cause (`metrics["tip_position_error_max"]` [m], every
+    mechanism's metrics have it; a run without one, e.g. no samples, did not diverge)."""
+    error = metrics.get("tip_position_error_max")
+    return isinstance(error, float | int) and float(error) >= TRACKING_DIVERGED
 
 
 def series_faults(series: dict[str, np.ndarray]) -> dict[str, int]:

@@ -306,7 +306,8 @@ _STATE_FIELDS: dict[str, Any] = dict(
             description="numerical faults since the last (re)start: `counts` per kind "
             "(base_motion, planner, kinematics: the step was held; joint_limit: shortened at a "
             "limit; singular: damped; infeasible: the qp planner took the closest feasible "
-            "rates), `held` steps, the newest `events` (t, kinds, message) "
+            "rates; tracking_diverged: 1 once the tip error reached 0.25 m), `held` steps, the "
+            "newest `events` (t, kinds, message) "
             "and `loop_errors`"
         ),
     ),

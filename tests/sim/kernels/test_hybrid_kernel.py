@@ -128,7 +128,7 @@ def differential(
     R, work = np.empty((3, 3)), ds.differential_work()
     spatial.rpy_to_matrix_lane(x[3], x[4], x[5], R)
     record = prm.view(DIFFERENTIAL_PARAMETERS)[0]  # the row by name, as the runner reads it
-    bits = ds.differential_velocity(x, R, target, record, const, work, v, diag)
+    bits = ds.differential_velocity(x, R, target, record, const, DT, work, v, diag)
     if bits == ds.NEEDS_SVD:
         bits = ds.damped_differential_velocity(x, record, work, v, diag)
     return bits

@@ -109,7 +109,7 @@ def hybrid_lane(
         else:
             rpy_to_matrix_lane(x[3], x[4], x[5], R)  # ᴮR_P: the planner's, guard's, step's
             if kind == KIND_DIFFERENTIAL:
-                bits = differential_velocity(x, R, targets[k], differential_row, const,
+                bits = differential_velocity(x, R, targets[k], differential_row, const, dt,
                                              differential, v, d)  # fmt: skip
                 if bits == NEEDS_SVD:
                     return k
