@@ -156,7 +156,7 @@ def create_app(
         viewer_port=viewer_port,
         warmup=warmup,
         workability=workability if workability is not None
-        else WorkabilityRunner(WorkabilityStore(store.path)),
+        else WorkabilityRunner(WorkabilityStore(store.path, store.quota)),
     )
     app = FastAPI(
         title="wave-twin",

@@ -308,6 +308,82 @@ def requeue(
     return [row["id"] for row in rows]
 
 
+#: tables whose rows count as stored runs against `Quota.max_runs` (a workability job keeps
+#: its uploaded record's columns: issue 43)
+COUNTED = ("runs", "workability")
+#: tables whose finished, unpinned rows a retaining store deletes to make room, and the
+#: tables of their parts deleted with them
+_RETAINED = {"runs": (), "sweeps": (), "workability": ("workability_plots",)}
+
+
+def _has_table(conn: sqlite3.Connection, table: str) -> bool:
+    sql = "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?"
+    return conn.execute(sql, (table,)).fetchone() is not None
+
+
+def usage(conn: sqlite3.Connection) -> tuple[int, int]:
+    """([bytes] stored or reserved by runs, sweeps and workability jobs, rows counted as runs:
+    runs and workability jobs) of the store file `conn` is open on (a workability table not
+    there yet, or without its `size`, counts nothing)."""
+    used = runs = 0
+    for table in _RETAINED:
+        if not _has_table(conn, table):
+            continue
+        try:
+            count, size = conn.execute(
+                f"SELECT COUNT(*), COALESCE(SUM(size), 0) FROM {table}"
+            ).fetchone()
+        except sqlite3.OperationalError:  # an older workability table, before its `size`
+            continue
+        used += size
+        runs += count if table in COUNTED else 0
+    return used, runs
+
+
+def make_room(conn: sqlite3.Connection, quota: Quota, table: str, need: int) -> None:
+    """Within a write transaction on `conn`: room for a new row of `need` bytes in `table`
+    under `quota`, deleting the oldest finished unpinned results if it retains (runs, sweeps
+    and workability jobs alike, oldest first).
+
+    Raises:
+        StoreFull: over the quota, and (without retention, or nothing left to delete) no
+            room can be made.
+    """
+    if quota.max_bytes is None and quota.max_runs is None:
+        return
+    counted = table in COUNTED
+
+    def over() -> tuple[bool, bool]:
+        used, runs = usage(conn)
+        return (quota.max_bytes is not None and used + need > quota.max_bytes,
+                counted and quota.max_runs is not None and runs + 1 > quota.max_runs)  # fmt: skip
+
+    def finished(t: str) -> str:  # workability jobs cannot be pinned
+        return "status IN ('done', 'failed')" + (" AND pinned = 0" if t != "workability" else "")
+
+    while any(too_much := over()):
+        victim = None
+        if quota.retain:
+            # only a counted row's deletion frees a run's place
+            tables = [t for t in _RETAINED if _has_table(conn, t)
+                      and (t in COUNTED or not too_much[1])]  # fmt: skip
+            victim = conn.execute(" UNION ALL ".join(
+                f"SELECT '{t}' AS t, id, created FROM {t} WHERE {finished(t)}" for t in tables
+            ) + " ORDER BY created LIMIT 1").fetchone()  # fmt: skip
+        if victim is None:
+            used, runs = usage(conn)
+            limit = (f"{used + need} of at most {quota.max_bytes} bytes" if too_much[0]
+                     else f"{runs + 1} runs of at most {quota.max_runs}")  # fmt: skip
+            raise StoreFull(
+                f"run store full: this would make {limit} (--max-store, --max-runs; stored "
+                "workability jobs count as runs); delete runs, sweeps or workability jobs "
+                "(DELETE /api/runs/{id}, /api/sweeps/{id}, /api/workability/{id}), unpin "
+                "some, or start the server with a larger quota or --retain"
+            )
+        for part in (victim["t"], *_RETAINED[victim["t"]]):
+            conn.execute(f"DELETE FROM {part} WHERE id = ?", (victim["id"],))
+
+
 def _run(row: sqlite3.Row) -> Run:
     try:
         return _run_fields(row)
@@ -473,59 +549,10 @@ class RunStore:
             return self._usage()
 
     def _usage(self) -> tuple[int, int]:
-        runs, size = self._conn.execute(
-            "SELECT COUNT(*), COALESCE(SUM(size), 0) FROM runs"
-        ).fetchone()
-        swept = self._conn.execute("SELECT COALESCE(SUM(size), 0) FROM sweeps").fetchone()[0]
-        return size + swept, runs
+        return usage(self._conn)
 
     def _make_room(self, table: str, need: int) -> None:
-        """Within a write transaction: room for a new row of `need` bytes in `table` under
-        the quota, deleting the oldest finished unpinned results if it retains (runs and
-        sweeps alike, oldest first).
-
-        Raises:
-            StoreFull: over the quota, and (without retention, or nothing left to delete) no
-                room can be made.
-        """
-        quota = self.quota
-        if quota.max_bytes is None and quota.max_runs is None:
-            return
-
-        def over() -> bool:
-            used, runs = self._usage()
-            return (quota.max_bytes is not None and used + need > quota.max_bytes) or (
-                table == "runs" and quota.max_runs is not None and runs + 1 > quota.max_runs
-            )
-
-        finished = "status IN ('done', 'failed') AND pinned = 0"
-        while over():
-            victim = None
-            if quota.retain:
-                victim = self._conn.execute(
-                    f"SELECT 'runs' AS t, id, created FROM runs WHERE {finished} UNION ALL "
-                    f"SELECT 'sweeps', id, created FROM sweeps WHERE {finished} "
-                    "ORDER BY created LIMIT 1"
-                ).fetchone()
-                if table == "runs" and victim is not None and victim["t"] == "sweeps":
-                    runs = self._usage()[1]
-                    if quota.max_runs is not None and runs + 1 > quota.max_runs:
-                        # only a run's deletion frees a run's place
-                        victim = self._conn.execute(
-                            f"SELECT 'runs' AS t, id FROM runs WHERE {finished} "
-                            "ORDER BY created LIMIT 1"
-                        ).fetchone()
-            if victim is None:
-                used, runs = self._usage()
-                limit = (f"{used + need} of at most {quota.max_bytes} bytes"
-                         if quota.max_bytes is not None and used + need > quota.max_bytes
-                         else f"{runs + 1} runs of at most {quota.max_runs}")  # fmt: skip
-                raise StoreFull(
-                    f"run store full: this would make {limit} (--max-store, --max-runs); "
-                    "delete runs or sweeps (DELETE /api/runs/{id}, /api/sweeps/{id}), unpin "
-                    "some, or start the server with a larger quota or --retain"
-                )
-            self._conn.execute(f"DELETE FROM {victim['t']} WHERE id = ?", (victim["id"],))
+        make_room(self._conn, self.quota, table, need)
 
     def mark_running(self, run_id: str) -> bool:
         """A queued run starts (a run in any other status stays as it is); whether it did.

@@ -1,37 +1,51 @@
-"""Workability jobs of the REST API: one at a time, on the server's one executor.
+"""Workability jobs of the REST API: one at a time, each a task on the server's one executor.
 
 `WorkabilityRunner` extends `twin.web.jobs.QueuedJobs`, as `SweepRunner` does: a daemon thread
-drives `twin.sim.workability.run_workability` on the server's executor (the workers simulate in
-chunks, below single runs' priority; the thread only collects), stores progress (runs done of those
-needed, cached ones counting as done), then draws the plots as a task on the executor (never in
-the process that answers requests) and stores the result and its PNGs. Cancel marks the job
-failed and stops the evaluation after the chunk in hand (`run_workability`'s `stop`). A stopped
-server leaves its job queued; the next start queues it again, up to `store.MAX_ATTEMPTS` starts.
+takes a stored job, counts its attempt (`store.running`, before anything of it is read), and
+hands the whole evaluation to a worker of the server's executor (`evaluate_job`): the record
+unpacked, `twin.sim.workability.run_workability` driving its runs from there (a client of the
+same cluster, `distributed.worker_client`: the chunks still spread over every worker, below
+single runs' priority), the per-row table, the summary and the plots. None of it runs in the
+process that answers requests (issue 43: on a 200,000-row record with 36 headings, the unique
+over row-headings alone held the GIL for 16 s, and health waited as long). The thread only
+waits, storing the progress the task reports (a Dask event topic of its own), and stores the
+result, its PNGs and the per-row CSV. Cancel marks the job failed and sets the task's stop
+event: it stops after the chunk in hand (`run_workability`'s `stop`). A stopped server leaves
+its job queued; the next start queues it again, up to `store.MAX_ATTEMPTS` starts.
 
 Operability cells are cached in the server's data dir (the run store's folder, `cells.sqlite`,
-`twin.sim.workability.CellCache`), so a second record or a longer one reuses them.
+`twin.sim.workability.CellCache`), written by the worker that runs the job.
 
 Records: a shipped one by name (`shipped_records`, the files of `assets/site/`), or an uploaded
-one's text (`record_csv`, at most `MAX_RECORD_BYTES`), written to a temporary file and read by the
-same readers as the CLI (`twin.site.read_record`).
+one's text (`record_csv`, at most `MAX_RECORD_BYTES`), priced and read at submission by
+`read_upload` (`twin.web.upload_records`: a text scan, then the CLI's readers in a bounded
+child process, `twin.web.upload_worker`); the job gets the record's columns, never the text.
 """
 
 from __future__ import annotations
 
+import gzip
 import logging
 import tempfile
+import threading
+import uuid
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from twin.assets import asset_path
 from twin.errors import TwinError
 from twin.site import SiteRecord, read_record
-from twin.web.jobs import POLL as POLL  # [s] the plots' stop poll, one value for both runners
-from twin.web.jobs import QueuedJobs, wait_polling
+from twin.web.jobs import POLL, QueuedJobs
 from twin.web.limits import MAX_BODY
-from twin.web.workability_store import WorkabilityStore
+from twin.web.upload_records import (
+    DEFAULT_NAME,
+    prescan,
+    read_shipped,
+    unpack_record,
+)
+from twin.web.upload_worker import BoundedWorker, Budget
+from twin.web.workability_store import ROWS_FILE, WorkabilityStore
 
 log = logging.getLogger(__name__)
 
@@ -44,46 +58,31 @@ MAX_RECORD_BYTES = 4 * 1024 * 1024
 UPLOAD_BODY = 2 * MAX_RECORD_BYTES + MAX_BODY
 #: most forecast steps a job's result lists (`forecast_steps`): 7 days at 3 h steps, and more
 MAX_STEPS = 500
-#: files of assets/site that are not records
-_NOT_RECORDS = {"README.md"}
-
-
-def shipped_records() -> list[str]:
-    """Names of the records shipped under `assets/site/`, sorted."""
-    folder = asset_path("site")
-    return sorted(p.name for p in folder.iterdir() if p.is_file() and p.name not in _NOT_RECORDS)
-
-
+#: what reading one record at submission may take, in its child process: a 4 MiB, 10-year
+#: hourly record takes 0.25 s on one core; the request answers within `READ_BUDGET.wall` of
+#: a child being free
+READ_BUDGET = Budget(cpu=1.0, wall=0.9)
+#: [s] how long a submission waits for a free reading child (two, busy or starting) before a 503
+READ_WAIT = 5.0
 def load_record(source: dict[str, Any]) -> SiteRecord:
-    """A record from a job's source: `{"name": NAME}` (shipped) or `{"csv": TEXT, "kind": K}`.
+    """A record from a job stored without its columns (before issue 43): `{"name": NAME}`
+    (shipped) or `{"csv": TEXT, "kind": K}`, read where it is called (a worker's task).
 
     Raises:
-        TwinError: an unknown name (naming the shipped ones), text over `MAX_RECORD_BYTES`, or
-            malformed content (the reader's message, with its line).
+        TwinError: an unknown name, or malformed content (the reader's message, with its line).
     """
     if "name" in source:
-        name = source["name"]
-        names = shipped_records()
-        if name not in names:
-            raise TwinError(
-                f"record: {name!r} is not a shipped record; allowed {names} "
-                "(GET /api/workability/records), or upload one as record_csv"
-            )
-        return read_record(asset_path("site", name))
-    text = source["csv"]
-    size = len(text.encode())
-    if size > MAX_RECORD_BYTES:
-        raise TwinError(f"record_csv: {size} bytes; allowed at most {MAX_RECORD_BYTES}")
+        return unpack_record(read_shipped(source["name"])["blob"])
     with tempfile.TemporaryDirectory(prefix="twin-record-") as folder:
-        path = Path(folder) / "upload.csv"  # the name the readers' messages show
-        path.write_text(text, encoding="utf-8")
+        path = Path(folder) / DEFAULT_NAME
+        path.write_text(source["csv"], encoding="utf-8")
         return read_record(path, kind=source.get("kind"))
 
 
 def forecast_steps(result: Any) -> dict[str, Any]:
     """A forecast's rows for the page's table: `{"steps": [{time, hs, tp, planner,
     probability, operable, limiting}, …]}` (at most `MAX_STEPS` rows × planners); {} for other
-    records (their rows are the CLI's CSV)."""
+    records (their rows are the per-row CSV)."""
     if result.record.kind != "forecast":
         return {}
     rows = result.rows.head(MAX_STEPS * len(result.spec.planners or [1]))
@@ -96,14 +95,51 @@ def forecast_steps(result: Any) -> dict[str, Any]:
     return {"steps": steps}
 
 
-def draw(result: Any) -> dict[str, bytes]:
-    """A result's PNG plots (a task for a worker process: matplotlib stays out of the server)."""
-    return result.pngs()
+def rows_csv(result: Any) -> bytes:
+    """A result's per-row table (`WorkabilityResult.to_csv`), gzip-compressed."""
+    with tempfile.TemporaryDirectory(prefix="twin-rows-") as folder:
+        path = result.to_csv(Path(folder) / "rows.csv")
+        return gzip.compress(path.read_bytes(), compresslevel=6)
+
+
+def evaluate_job(
+    fields: dict[str, Any], record: bytes | dict[str, Any], *, data_dir: str, where: str,
+    topic: str, job: str, stop_event: str,
+) -> dict[str, Any]:  # fmt: skip
+    """One job, a task on a worker of the executor: its result (with `forecast_steps`), its
+    PNG plots and `ROWS_FILE` by name.
+
+    Args:
+        fields: the `WorkabilitySpec` fields.
+        record: the record's packed columns (`pack_record`), or the source of a job stored
+            before issue 43 (`load_record`).
+        data_dir: folder of the cell cache.
+        where: the executor's `where` (its runs' numba threads follow it).
+        topic: the Dask event topic progress goes to, as {"job", "done", "total"}.
+        job: the job's id, in the progress reports.
+        stop_event: the Dask `Event` whose setting stops it after the chunk in hand.
+    """
+    from distributed import Event, worker_client
+
+    from twin.sim.executor import Executor, report
+    from twin.sim.workability import WorkabilitySpec, run_workability
+
+    site = unpack_record(record) if isinstance(record, bytes) else load_record(record)
+    with worker_client() as client:  # this task leaves its slot to the chunks it waits for
+        stop = Event(stop_event, client=client)
+        result = run_workability(
+            WorkabilitySpec(**fields), site, executor=Executor(client, where=where),
+            data_dir=data_dir, stop=stop.is_set,
+            on_progress=lambda done, total: report(topic, {"job": job, "done": done,
+                                                            "total": total}),
+        )  # fmt: skip
+    files = {**result.pngs(), ROWS_FILE: rows_csv(result)}
+    return {"result": {**result.to_dict(), **forecast_steps(result)}, "files": files}
 
 
 class WorkabilityRunner(QueuedJobs):
-    """Workability jobs one at a time from a daemon thread on the server's executor
-    (`twin.web.jobs.QueuedJobs`).
+    """Workability jobs one at a time from a daemon thread, each a task on the server's
+    executor (`twin.web.jobs.QueuedJobs`), and the bounded reading of records at submission.
 
     Args:
         store: where jobs are read from and written to.
@@ -118,6 +154,56 @@ class WorkabilityRunner(QueuedJobs):
     def __init__(self, store: WorkabilityStore, data_dir: str | Path | None = None) -> None:
         super().__init__(store)
         self.data_dir = Path(data_dir) if data_dir is not None else store.path.parent
+        self.topic = f"twin-workability-{uuid.uuid4().hex[:12]}"
+        self._progress: dict[str, tuple[int, int]] = {}  # job id → (done, total), last reported
+        self._reader: BoundedWorker | None = None
+        self._reader_lock = threading.Lock()
+
+    # -- reading records at submission ------------------------------------------------------
+    def read(self, source: dict[str, Any], require: tuple[str, ...]) -> dict[str, Any]:
+        """Read a request's record within `READ_BUDGET` in a child process: `{"blob", "summary"}`
+        (`twin.web.upload_records.parse_record`). `source`: `{"name": …}` or `{"csv": text,
+        "kind": …, "upload": file name}`.
+
+        Raises:
+            TwinError: the record is malformed, unknown, over a limit (`UploadRefused`) or over
+                its budget (`OverBudget`); `WorkerBusy`: no child was free.
+        """
+        if "name" in source:
+            return self._reader_worker().call("read_shipped", source["name"], require,
+                                              budget=READ_BUDGET, wait=READ_WAIT)  # fmt: skip
+        text = source["csv"]
+        size = len(text.encode())
+        if size > MAX_RECORD_BYTES:
+            raise TwinError(f"record_csv: {size} bytes; allowed at most {MAX_RECORD_BYTES}")
+        prescan(text)  # priced before any parser sees it
+        return self._reader_worker().call(
+            "parse_record", text, source.get("kind"), source["upload"], require,
+            budget=READ_BUDGET, wait=READ_WAIT,
+        )  # fmt: skip
+
+    def _reader_worker(self) -> BoundedWorker:
+        with self._reader_lock:
+            if self._reader is None:  # the first upload starts the children (1-2 s once)
+                self._reader = BoundedWorker("twin.web.upload_records")
+            return self._reader
+
+    # -- jobs --------------------------------------------------------------------------------
+    def start(self, executor: Any) -> list[str]:
+        executor.client.subscribe_topic(self.topic, self._on_report)
+        return super().start(executor)
+
+    def shutdown(self, timeout: float = 2.0) -> None:
+        super().shutdown(timeout)
+        with self._reader_lock:
+            reader, self._reader = self._reader, None
+        if reader is not None:
+            reader.close()
+
+    def _on_report(self, event: tuple[float, dict[str, Any]]) -> None:
+        # in the client's event-loop thread: only noted here, stored by the runner's thread
+        message = event[1]
+        self._progress[message["job"]] = (int(message["done"]), int(message["total"]))
 
     def _requeue(self) -> list[str]:
         return self.store.requeue_unfinished()
@@ -129,23 +215,33 @@ class WorkabilityRunner(QueuedJobs):
         self.store.fail(job_id, error)
 
     def _work(self, job_id: str, stop: Any) -> None:
-        """Run one stored job to the end, storing progress, result and plots."""
-        from twin.sim.workability import WorkabilitySpec, run_workability
+        """Run one stored job to the end as a task on the executor, storing its progress while
+        it runs, then its result and files."""
+        from distributed import Event
 
-        fields, source = self.store.request(job_id)
-        spec = WorkabilitySpec(**fields)
-        record = load_record(source)
-        if not self.store.running(job_id):
-            return  # cancelled before it started
-        result = run_workability(
-            spec, record, executor=self.executor, data_dir=self.data_dir, stop=stop,
-            on_progress=lambda done, total: self.store.progress(job_id, done, total),
-        )  # fmt: skip
-        plots = self._render(result, stop)
-        self.store.finish(job_id, {**result.to_dict(), **forecast_steps(result)}, plots)
-
-    def _render(self, result: Any, stop: Any) -> dict[str, bytes]:
-        """The plots drawn by a task on the executor, waited for in short steps."""
         if self.executor is None:
             raise RuntimeError("WorkabilityRunner.start(executor) first")
-        return wait_polling(self.executor, draw, result, stop, "the plots")
+        if not self.store.running(job_id):  # the attempt counts from here, before any reading
+            return  # cancelled before it started
+        fields, source, upload = self.store.request(job_id)
+        flag = f"{self.topic}-stop-{job_id}"
+        future = self.executor.submit(
+            evaluate_job, fields, upload if upload is not None else source,
+            data_dir=str(self.data_dir), where=self.executor.where, topic=self.topic,
+            job=job_id, stop_event=flag,
+        )  # fmt: skip
+        try:
+            while True:
+                if stop():
+                    Event(flag, client=self.executor.client).set()
+                    raise RuntimeError("stopped while the job ran")
+                try:
+                    out = future.result(timeout=POLL)
+                    break
+                except TimeoutError:
+                    if job_id in self._progress:
+                        self.store.progress(job_id, *self._progress[job_id])
+        finally:
+            self.executor.cancel([future])
+            self._progress.pop(job_id, None)
+        self.store.finish(job_id, out["result"], out["files"])

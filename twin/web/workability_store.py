@@ -8,15 +8,22 @@ has and `RunStore`'s schema version is untouched):
 - `workability`: one row per job: status queued → running → done | failed, runs `done` of
   `total` (the total is the upper bound priced at submission until the evaluation's cache
   lookup says how many it needs), the request (`spec`: the `WorkabilitySpec` fields; `record`:
-  `{"name": …}` for a shipped record or `{"csv": …, "kind": …}` for an uploaded one), the
-  result (`WorkabilityResult.to_dict()`), the error, and how many times it was started;
-- `workability_plots`: its PNG plots by file name (`monthly.png`, `windows.png`, …).
+  `{"name": …}` for a shipped record or `{"upload": file name, "kind": …, "bytes": …}` for an
+  uploaded one), the record's columns as read at submission (`upload`:
+  `twin.web.upload_records.pack_record`, kept only while the job is queued or running), the
+  result (`WorkabilityResult.to_dict()`), the error, how many times it was started, and its
+  `size` [bytes];
+- `workability_plots`: its files by name: the PNG plots (`monthly.png`, `windows.png`, …) and
+  the per-row table (`rows.csv.gz`).
 
 A cancelled job's late result is not stored over it (as sweeps). Jobs left unfinished by a
-stopped server are queued again at the next start, up to `store.MAX_ATTEMPTS` starts.
+stopped server are queued again at the next start, up to `store.MAX_ATTEMPTS` starts; the
+attempt is counted when the runner picks a job up, before anything of it is read.
 
-Not counted by `RunStore`'s quota (`--max-store`): a job stores its summary (a few kB) and
-2-4 PNGs (~100 kB); the records uploaded are capped by the request body's size.
+Counted by the store's quota (issue 43: 80 submit-and-cancel cycles took a 300 MB store to
+453 MB): every job's `size` counts against `--max-store` and each job as a run against
+`--max-runs` (`twin.web.store.make_room`, with `--retain` deleting the oldest finished ones).
+A job ends (done, failed or cancelled) without its upload.
 """
 
 from __future__ import annotations
@@ -36,12 +43,15 @@ from twin.errors import TwinError
 from twin.web.store import (
     CANCELLED,
     MAX_ATTEMPTS,
+    ROW_OVERHEAD,
     QueueFull,
+    Quota,
     RunNotFound,
     Status,
     StoreUnavailable,
     cancel_sql,
     connect,
+    make_room,
     requeue,
     transaction,
 )
@@ -58,7 +68,9 @@ CREATE TABLE IF NOT EXISTS workability (
     record    TEXT NOT NULL,
     result    TEXT,
     error     TEXT,
-    attempts  INTEGER NOT NULL DEFAULT 0
+    attempts  INTEGER NOT NULL DEFAULT 0,
+    size      INTEGER NOT NULL DEFAULT 0,
+    upload    BLOB
 );
 CREATE TABLE IF NOT EXISTS workability_plots (
     id        TEXT NOT NULL,
@@ -69,6 +81,21 @@ CREATE TABLE IF NOT EXISTS workability_plots (
 """
 _COLUMNS = "id, created, finished, status, done, total, spec, record, result, error"
 _WAS_CANCELLED = f"(status = 'failed' AND error LIKE '{CANCELLED}%')"
+#: columns added after the table's first version: added to an older file when it is opened
+_ADDED = {"size": "INTEGER NOT NULL DEFAULT 0", "upload": "BLOB"}
+#: [bytes] what a job holds: its fields, its upload, its result and its files
+_SIZE = (
+    "LENGTH(spec) + LENGTH(record) + COALESCE(LENGTH(upload), 0) + COALESCE(LENGTH(result), 0)"
+    " + (SELECT COALESCE(SUM(LENGTH(png)), 0) FROM workability_plots p"
+    f" WHERE p.id = workability.id) + {ROW_OVERHEAD}"
+)
+#: a finished job lets its upload go (it is read again only by a job that runs)
+_DROP_UPLOAD = (
+    f"UPDATE workability SET upload = NULL, size = {_SIZE} "
+    "WHERE id = ? AND status IN ('done', 'failed')"
+)
+#: the per-row table's name among a job's files
+ROWS_FILE = "rows.csv.gz"
 
 
 def _utc(t: float | None) -> datetime | None:
@@ -91,12 +118,14 @@ class Workability(BaseModel):
     progress: float = Field(description="[-] done / total, 0-1")
     spec: dict[str, Any] = Field(description="the validated WorkabilitySpec, every field")
     record: dict[str, Any] = Field(
-        description="the record: {name} of a shipped one, or {kind, bytes} of an uploaded one"
+        description="the record: {name} of a shipped one, or {upload, kind, bytes} of an "
+        "uploaded one (its file name, format and size)"
     )
     result: dict[str, Any] | None = Field(
         None, description="once done: WorkabilityResult.to_dict() (summary, windows, notes)"
     )
     plots: list[str] = Field(default_factory=list, description="PNG plots, once done")
+    rows: bool = Field(False, description="whether the per-row CSV is there (GET …/rows.csv)")
     error: str | None = Field(None, description="why it failed")
 
 
@@ -105,10 +134,12 @@ class WorkabilityStore:
 
     Args:
         path: the database file (the run store's); created with its folder if missing.
+        quota: the store's quota (the `RunStore`'s on the same file); None: none.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, quota: Quota | None = None) -> None:
         self.path = Path(path)
+        self.quota = quota if quota is not None else Quota()
         # as RunStore: one connection under a lock, autocommit, one transaction per write
         self._conn = connect(self.path)
         self._lock = threading.Lock()
@@ -117,6 +148,10 @@ class WorkabilityStore:
                 self._conn.execute("PRAGMA journal_mode = WAL")
                 self._conn.execute("PRAGMA synchronous = FULL")
                 self._conn.executescript(f"BEGIN IMMEDIATE; {_SCHEMA} COMMIT;")
+                have = {r["name"] for r in self._conn.execute("PRAGMA table_info(workability)")}
+                for name, kind in _ADDED.items():
+                    if name not in have:
+                        self._conn.execute(f"ALTER TABLE workability ADD COLUMN {name} {kind}")
         except sqlite3.DatabaseError as exc:
             self._conn.close()
             raise TwinError(f"run store {self.path} cannot be read ({exc})") from None
@@ -146,33 +181,35 @@ class WorkabilityStore:
         spec: dict[str, Any],
         record: dict[str, Any],
         total: int,
+        upload: bytes | None = None,
         max_pending: int | None = None,
     ) -> Workability:
-        """Store a new job (queued) of a validated spec (a dict) on `record`.
+        """Store a new job (queued) of a validated spec (a dict) on `record`, with the
+        record's columns as read (`upload`, `pack_record`'s bytes) if it has them.
 
         Raises:
             QueueFull: `max_pending` jobs are queued or running (counted in the insert's
                 transaction, so concurrent submissions cannot pass it).
+            StoreFull: the job's size is over the quota and no room can be made.
         """
         job_id = uuid.uuid4().hex
+        spec_text, record_text = json.dumps(spec, allow_nan=False), json.dumps(record)
+        size = len(spec_text) + len(record_text) + len(upload or b"") + ROW_OVERHEAD
         with self._lock:
-            self._conn.execute("BEGIN IMMEDIATE")
-            try:
+            if not self.path.exists():
+                raise StoreUnavailable(f"run store {self.path} was deleted while the server runs")
+            with transaction(self._conn, self.path):
                 count = self._conn.execute(
                     "SELECT COUNT(*) FROM workability WHERE status IN ('queued', 'running')"
                 ).fetchone()[0]
                 if max_pending is not None and count >= max_pending:
                     raise QueueFull("workability jobs", count, max_pending)
+                make_room(self._conn, self.quota, "workability", size)
                 self._conn.execute(
-                    "INSERT INTO workability (id, created, status, total, spec, record) "
-                    "VALUES (?, ?, 'queued', ?, ?, ?)",
-                    (job_id, time.time(), total, json.dumps(spec, allow_nan=False),
-                     json.dumps(record)),
+                    "INSERT INTO workability (id, created, status, total, spec, record, upload, "
+                    "size) VALUES (?, ?, 'queued', ?, ?, ?, ?, ?)",
+                    (job_id, time.time(), total, spec_text, record_text, upload, size),
                 )  # fmt: skip
-            except BaseException:
-                self._conn.execute("ROLLBACK")
-                raise
-            self._conn.execute("COMMIT")
         return self.get(job_id)
 
     def running(self, job_id: str) -> bool:
@@ -193,7 +230,8 @@ class WorkabilityStore:
         ))  # fmt: skip
 
     def finish(self, job_id: str, result: dict[str, Any], plots: dict[str, bytes]) -> None:
-        """Store a finished job's result and PNG plots (status done), unless it was cancelled."""
+        """Store a finished job's result and files (status done: the PNG plots, `ROWS_FILE`),
+        unless it was cancelled; its upload goes."""
         text = json.dumps(result, allow_nan=False)
         self._write(
             ("UPDATE workability SET status = 'done', done = total, finished = ?, result = ?, "
@@ -203,22 +241,26 @@ class WorkabilityStore:
             *[("INSERT INTO workability_plots (id, name, png) SELECT ?, ?, ? WHERE EXISTS "
                "(SELECT 1 FROM workability WHERE id = ? AND status = 'done')",
                (job_id, name, png, job_id)) for name, png in plots.items()],
+            (_DROP_UPLOAD, (job_id,)),
         )  # fmt: skip
 
     def fail(self, job_id: str, error: str) -> None:
+        """A job failed with `error` (unless it was cancelled); its upload goes."""
         self._write((
             "UPDATE workability SET status = 'failed', finished = ?, error = ? "
             "WHERE id = ? AND NOT " + _WAS_CANCELLED, (time.time(), error, job_id),
-        ))  # fmt: skip
+        ), (_DROP_UPLOAD, (job_id,)))  # fmt: skip
 
     def cancel(self, job_id: str, reason: str = "by request") -> bool:
-        """A queued or running job becomes failed, `error` "cancelled …"; whether it was.
+        """A queued or running job becomes failed, `error` "cancelled …", and its upload goes;
+        whether it was.
 
         Raises:
             WorkabilityNotFound: no job has this id.
         """
         changed = self._write(
-            (cancel_sql("workability"), (time.time(), f"{CANCELLED} {reason}", job_id))
+            (cancel_sql("workability"), (time.time(), f"{CANCELLED} {reason}", job_id)),
+            (_DROP_UPLOAD, (job_id,)),
         )
         if not changed:
             self.get(job_id)
@@ -235,7 +277,13 @@ class WorkabilityStore:
         """Jobs a stopped server left queued or running, queued again, oldest first; those
         started `max_attempts` times already are failed instead, saying so."""
         with self._lock:
-            return requeue(self._conn, "workability", "done = 0", max_attempts)
+            ids = requeue(self._conn, "workability", "done = 0", max_attempts)
+            with transaction(self._conn, self.path):  # those failed let their uploads go
+                self._conn.execute(
+                    f"UPDATE workability SET upload = NULL, size = {_SIZE} "
+                    "WHERE status = 'failed' AND upload IS NOT NULL"
+                )
+            return ids
 
     # -- readers -----------------------------------------------------------------------------
     def pending(self) -> int:
@@ -260,7 +308,7 @@ class WorkabilityStore:
             "SELECT name FROM workability_plots WHERE id = ? ORDER BY name", (job_id,)
         )]  # fmt: skip
         record = json.loads(row["record"])
-        if "csv" in record:  # the upload itself is not echoed back: its size says which
+        if "csv" in record:  # a job stored before issue 43: the text is not echoed back
             record = {"kind": record.get("kind"), "bytes": len(record["csv"].encode())}
         return Workability(
             id=row["id"], created=_utc(row["created"]), finished=_utc(row["finished"]),
@@ -268,20 +316,23 @@ class WorkabilityStore:
             progress=min(row["done"] / row["total"], 1.0) if row["total"] else 0.0,
             spec=json.loads(row["spec"]), record=record,
             result=None if row["result"] is None else json.loads(row["result"]),
-            plots=names, error=row["error"],
+            plots=[n for n in names if n.endswith(".png")], rows=ROWS_FILE in names,
+            error=row["error"],
         )  # fmt: skip
 
-    def request(self, job_id: str) -> tuple[dict[str, Any], dict[str, Any]]:
-        """(spec fields, record source) of a job, as submitted."""
-        row = self._row(job_id, "spec, record")
-        return json.loads(row["spec"]), json.loads(row["record"])
+    def request(self, job_id: str) -> tuple[dict[str, Any], dict[str, Any], bytes | None]:
+        """(spec fields, record source, the record's packed columns or None) of a job, as
+        submitted."""
+        row = self._row(job_id, "spec, record, upload")
+        upload = None if row["upload"] is None else bytes(row["upload"])
+        return json.loads(row["spec"]), json.loads(row["record"]), upload
 
     def plot(self, job_id: str, name: str) -> bytes:
-        """A done job's PNG plot `name` (e.g. "monthly.png").
+        """A done job's file `name`: a PNG plot ("monthly.png", …) or `ROWS_FILE`.
 
         Raises:
             WorkabilityNotFound: no job has this id.
-            TwinError: the job is not done, or has no such plot (naming those it has).
+            TwinError: the job is not done, or has no such file (naming its plots).
         """
         job = self.get(job_id)
         if job.status != "done":

@@ -4,21 +4,29 @@
     POST   /api/workability                    queue a job (202, Location)
     GET    /api/workability/{id}               status, progress, then the result
     GET    /api/workability/{id}/{plot}.png    its plots (monthly, windows, strip, forecast)
+    GET    /api/workability/{id}/rows.csv      its per-row table (each record row and planner)
     POST   /api/workability/{id}/cancel        cancel a queued or running job
     DELETE /api/workability/{id}               cancel and forget it
 
 The body is a `WorkabilitySpec` plus the record: `record` (a shipped record's name) or
 `record_csv` (an uploaded record's text, read by the CLI's readers; `record_kind` forces the
-format, else it is sniffed). Validated as a sweep's body (a 422 naming the field; a malformed
-record is a 422 naming its line), priced before it starts (a 422 over `MAX_RUNS` runs or
-`MAX_TOTAL_STEPS` steps, naming the limit), and guarded like every route that changes something.
+format, else it is sniffed; `record_name` is the file's name, which the plots' titles show).
+Validated as a sweep's body (a 422 naming the field), admitted by the submission rate limit,
+then priced and read before it is stored (issue 43): the text is scanned for its lines and
+columns before any parser sees it, read within a CPU, memory and wall budget in a child process
+(`WorkabilityRunner.read`), and the job priced on the rows read (a 422 over `MAX_RUNS` runs,
+`MAX_TOTAL_STEPS` steps or `MAX_ROW_WORK` row-headings, naming the limit). A malformed record is
+a 422 naming its line; one without a usable row a 422 with the reasons its rows were skipped.
+The job stores the record's columns, not its text, and counts against the store's quota.
 """
 
 from __future__ import annotations
 
+import gzip
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, HTTPException, Request, Response
+from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import FileResponse
 from pydantic import Field, ValidationError, ValidationInfo, field_validator, model_validator
 
@@ -26,20 +34,16 @@ from twin.errors import TwinError
 from twin.planners import get_planner
 from twin.sim import sweep as sweep_module
 from twin.sim.workability import WorkabilitySpec
-from twin.site import SiteRecord
 from twin.site.records import READ_KINDS
 from twin.web.deps import GUARDED, AdmissionDep, ServicesDep
 from twin.web.models import RANGES, RunRequest, _ranges, body_errors, unprocessable
 from twin.web.routers.registries import STATIC_DIR
 from twin.web.routers.responses import LIMITED, REFUSED, STORE
-from twin.web.store import QueueFull
-from twin.web.workability_jobs import (
-    MAX_RECORD_BYTES,
-    WorkabilityRunner,
-    load_record,
-    shipped_records,
-)
-from twin.web.workability_store import Workability
+from twin.web.store import QueueFull, StoreFull
+from twin.web.upload_records import DEFAULT_NAME, shipped_records
+from twin.web.upload_worker import WorkerBusy
+from twin.web.workability_jobs import MAX_RECORD_BYTES, WorkabilityRunner
+from twin.web.workability_store import ROWS_FILE, Workability
 
 router = APIRouter(prefix="/api/workability", tags=["workability"])
 #: the browser page and its script (not in the schema)
@@ -51,8 +55,12 @@ MAX_RUNS = sweep_module.MAX_RUNS
 MAX_TOTAL_STEPS = sweep_module.MAX_TOTAL_STEPS
 #: the plots a job may have
 PLOTS = ("monthly", "windows", "strip", "forecast")
+#: most row-headings one job may judge (rows × heading options × planners): the per-row work
+#: of its evaluation, summary and table, besides its runs (10 years hourly, best of 12
+#: headings, 3 planners, and more)
+MAX_ROW_WORK = 4_000_000
 #: fields of the body that are not the spec's
-RECORD_FIELDS = {"record", "record_csv", "record_kind"}
+RECORD_FIELDS = {"record", "record_csv", "record_kind", "record_name"}
 
 
 class WorkabilityRequest(WorkabilitySpec):
@@ -69,6 +77,11 @@ class WorkabilityRequest(WorkabilitySpec):
     record_kind: Literal["ndbc", "timeseries", "scatter", "forecast"] | None = Field(
         None, description=f"record_csv's format, one of {READ_KINDS}; None: sniffed"
     )
+    record_name: str | None = Field(
+        None, min_length=1, max_length=100, pattern=r"^[^/\\\x00-\x1f]+$",
+        description="record_csv's file name (no folder), shown in the plots' titles; None: "
+        f"{DEFAULT_NAME}",
+    )  # fmt: skip
 
     @field_validator("planners")
     @classmethod
@@ -90,10 +103,12 @@ class WorkabilityRequest(WorkabilitySpec):
         return self
 
     def source(self) -> dict[str, Any]:
-        """The record as a job stores it."""
+        """The record to read: `{"name"}` of a shipped one, `{"csv", "kind", "upload"}` of an
+        uploaded one (`upload`: its file name)."""
         if self.record is not None:
             return {"name": self.record}
-        return {"csv": self.record_csv, "kind": self.record_kind}
+        name = self.record_name if self.record_name not in (None, ".", "..") else DEFAULT_NAME
+        return {"csv": self.record_csv, "kind": self.record_kind, "upload": name}
 
     def spec(self) -> WorkabilitySpec:
         return WorkabilitySpec(**self.model_dump(exclude=RECORD_FIELDS))
@@ -102,14 +117,18 @@ class WorkabilityRequest(WorkabilitySpec):
 RANGES[("POST", "/api/workability")] = _ranges(WorkabilityRequest)
 
 
-def price(spec: WorkabilitySpec, record: SiteRecord) -> tuple[int, int]:
-    """(runs, steps) a job needs at most: rows × heading options × seeds × planners for
-    `direct`, cells (Hs × Tp × headings) × seeds × planners for `cells` (an upper bound: cells
-    no row falls in, and cached ones, are not run)."""
+def options(spec: WorkabilitySpec) -> int:
+    """Heading options each row is judged at."""
+    return 1 if spec.heading.kind == "record" else len(spec.heading.headings)
+
+
+def price(spec: WorkabilitySpec, rows: int) -> tuple[int, int]:
+    """(runs, steps) a job on `rows` rows needs at most: rows × heading options × seeds ×
+    planners for `direct`, cells (Hs × Tp × headings) × seeds × planners for `cells` (an upper
+    bound: cells no row falls in, and cached ones, are not run)."""
     planners = len(spec.planners or [])
     if spec.method == "direct":
-        options = 1 if spec.heading.kind == "record" else len(spec.heading.headings)
-        places = record.n * options
+        places = rows * options(spec)
     else:
         headings = (len(spec.heading_grid) if spec.heading.kind == "record"
                     else len(spec.heading.headings))  # fmt: skip
@@ -118,12 +137,21 @@ def price(spec: WorkabilitySpec, record: SiteRecord) -> tuple[int, int]:
     return runs, runs * max(round(spec.duration / spec.dt), 1)
 
 
-def over_limits(spec: WorkabilitySpec, record: SiteRecord) -> list[dict[str, Any]]:
-    """The limits a job is over, as 422 errors naming each (empty: it may run)."""
-    runs, steps = price(spec, record)
+def over_limits(spec: WorkabilitySpec, rows: int) -> list[dict[str, Any]]:
+    """The limits a job on `rows` rows is over, as 422 errors naming each (empty: it may
+    run): its runs, its steps and its row-headings (`MAX_ROW_WORK`)."""
+    runs, steps = price(spec, rows)
     what = ("rows × headings × seeds × planners" if spec.method == "direct"
             else "cells × seeds × planners")  # fmt: skip
     errors = []
+    work = rows * options(spec) * len(spec.planners or [])
+    if work > MAX_ROW_WORK:
+        errors.append({
+            "loc": ("body", "heading"), "type": "limit_exceeded",
+            "msg": f"{work} row-headings ({rows} rows × {options(spec)} headings × planners); "
+            f"allowed at most {MAX_ROW_WORK} (MAX_ROW_WORK): fewer headings or planners, or "
+            "a shorter record",
+        })  # fmt: skip
     if runs > MAX_RUNS:
         errors.append({
             "loc": ("body", "seeds"), "type": "limit_exceeded",
@@ -137,6 +165,15 @@ def over_limits(spec: WorkabilitySpec, record: SiteRecord) -> list[dict[str, Any
             f"{MAX_TOTAL_STEPS} (MAX_TOTAL_STEPS): shorter runs or fewer runs",
         })  # fmt: skip
     return errors
+
+
+def stored_record(source: dict[str, Any], summary: dict[str, Any]) -> dict[str, Any]:
+    """What a job shows of its record: `{"name"}` of a shipped one, `{"upload", "kind",
+    "bytes"}` of an uploaded one (the text itself is not kept)."""
+    if "name" in source:
+        return {"name": source["name"]}
+    return {"upload": source["upload"], "kind": source["kind"] or summary["kind"],
+            "bytes": len(source["csv"].encode())}  # fmt: skip
 
 
 def get_runner(services: ServicesDep) -> WorkabilityRunner:
@@ -166,8 +203,8 @@ def list_records() -> list[str]:
 
 
 @router.post("", status_code=202, response_model=Workability, dependencies=GUARDED,
-             responses=LIMITED)  # fmt: skip
-def create_workability(
+             responses={**LIMITED, 503: {"description": "every reader busy: retry"}})  # fmt: skip
+async def create_workability(
     body: WorkabilityRequest,
     request: Request,
     response: Response,
@@ -176,12 +213,15 @@ def create_workability(
 ) -> Any:
     """Queue a workability job: the `WorkabilitySpec` fields plus `record` or `record_csv`.
 
-    Answers 202 at once; poll `GET /api/workability/{id}` (the Location header) for status and
-    progress (runs done of those needed) and, once done, the result (`WorkabilityResult.
-    to_dict()`: workability per planner and month, the Hs-threshold baseline, limiting
-    constraints, weather windows) and the names of its PNG plots. A malformed record is a 422
-    naming its line; a job over `MAX_RUNS` runs or `MAX_TOTAL_STEPS` steps is a 422 naming the
-    limit. Jobs share the runs' rate limit; at most `MAX_PENDING_WORKABILITY` wait at a time.
+    Answers 202 once the record is read; poll `GET /api/workability/{id}` (the Location
+    header) for status and progress (runs done of those needed) and, once done, the result
+    (`WorkabilityResult.to_dict()`: workability per planner and month, the Hs-threshold
+    baseline, limiting constraints, weather windows) and the names of its PNG plots. A malformed
+    record is a 422 naming its line, one without usable rows a 422 with the reasons; a record
+    over `MAX_LINES` lines or `MAX_COLUMNS` columns, or whose reading goes over its budget, and
+    a job over `MAX_RUNS` runs, `MAX_TOTAL_STEPS` steps or `MAX_ROW_WORK` row-headings, is a 422
+    naming the limit. Jobs share the runs' rate limit, counted before the record is read; at
+    most `MAX_PENDING_WORKABILITY` wait at a time.
     """
     ranges = RANGES[("POST", "/api/workability")]
     try:
@@ -193,23 +233,33 @@ def create_workability(
         return unprocessable(errors, ranges)
     try:
         spec = body.spec()
-        record = load_record(body.source())
     except ValidationError as exc:
         return unprocessable(body_errors(exc, ranges), ranges)
-    except TwinError as exc:  # the reader's message names the file's line and column
+    store = runner.store
+    admission.admit(request, "workability", await run_in_threadpool(store.pending))  # first
+    source = body.source()
+    require = ("direction", "heading") if spec.heading.kind == "record" else ()
+    try:
+        read = await run_in_threadpool(runner.read, source, require)
+    except WorkerBusy as exc:
+        raise HTTPException(503, str(exc), headers={"Retry-After": "2"}) from None
+    except TwinError as exc:  # the reader's message names the line; a limit names itself
         field = "record" if body.record is not None else "record_csv"
         return unprocessable([{"loc": ("body", field), "msg": str(exc), "type": "value_error"}],
                              ranges)  # fmt: skip
-    over = over_limits(spec, record)
+    rows = int(read["summary"]["rows"])
+    over = over_limits(spec, rows)
     if over:
         return unprocessable(over, ranges)
-    store = runner.store
-    admission.admit(request, "workability", store.pending())
     try:
-        job = store.create(spec.model_dump(mode="json"), body.source(), price(spec, record)[0],
-                           max_pending=admission.caps["workability"])  # fmt: skip
+        job = await run_in_threadpool(
+            store.create, spec.model_dump(mode="json"), stored_record(source, read["summary"]),
+            price(spec, rows)[0], read["blob"], admission.caps["workability"],
+        )  # fmt: skip
     except QueueFull as exc:
         raise HTTPException(429, str(exc), headers={"Retry-After": "5"}) from None
+    except StoreFull as exc:  # the quota (--max-store, --max-runs): nothing stored
+        raise HTTPException(507, str(exc)) from None
     runner.submit(job.id)
     response.headers["Location"] = f"/api/workability/{job.id}"
     return job
@@ -243,6 +293,34 @@ def get_workability_plot(job_id: str, plot: str, runner: Runner) -> Response:
     if f"{plot}.png" not in job.plots:
         raise HTTPException(404, f"workability {job_id} has no {plot} plot; it has {job.plots}")
     return Response(runner.store.plot(job_id, f"{plot}.png"), media_type="image/png")
+
+
+@router.get(
+    "/{job_id}/rows.csv",
+    response_class=Response,
+    responses={
+        200: {"content": {"text/csv": {}}, "description": "one line per record row and planner"},
+        404: {"description": "no job, or a job done before the table was kept"},
+        409: {"description": "the job is not done"},
+        **STORE,
+    },
+)
+def get_workability_rows(job_id: str, request: Request, runner: Runner) -> Response:
+    """A done job's per-row table (`WorkabilityResult.to_csv`): each record row and planner,
+    its cell, probability of operable, whether operable and what limited it. Sent gzip-encoded
+    to a client that accepts it (as every browser does)."""
+    job = runner.store.get(job_id)
+    if job.status != "done":
+        raise HTTPException(409, f"workability {job_id} is {job.status}; rows.csv once done")
+    if not job.rows:
+        raise HTTPException(404, f"workability {job_id} has no per-row table; resubmit it")
+    packed = runner.store.plot(job_id, ROWS_FILE)
+    name = f"workability-{job_id[:8]}-rows.csv"
+    headers = {"Content-Disposition": f'attachment; filename="{name}"', "Vary": "Accept-Encoding"}
+    if "gzip" in request.headers.get("accept-encoding", ""):
+        return Response(packed, media_type="text/csv", headers={**headers,
+                        "Content-Encoding": "gzip"})  # fmt: skip
+    return Response(gzip.decompress(packed), media_type="text/csv", headers=headers)
 
 
 _CANCEL = {404: {"description": "no workability job"}, **REFUSED, **STORE}
