@@ -24,7 +24,8 @@ def brute_range(pose: np.ndarray, axis: int) -> float:
     s = np.arange(-3.0, 3.0 + 1e-12, 1e-4)
     poses = np.tile(pose, (s.size, 1))
     poses[:, axis] += s
-    ok = H.stewart.within_limits(H.stewart.leg_lengths(poses))
+    legs = H.stewart.leg_lengths(poses)  # the stroke itself: the range is geometric, no tolerance
+    ok = np.all((legs >= H.stewart.leg_min) & (legs <= H.stewart.leg_max), axis=-1)
     centre = np.argmin(np.abs(s))
     hi = centre + np.argmin(ok[centre:]) - 1 if not ok[centre:].all() else s.size - 1
     lo = centre - np.argmin(ok[centre::-1]) + 1 if not ok[centre::-1].all() else 0

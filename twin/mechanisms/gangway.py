@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline
 from twin.errors import UnreachableError
+from twin.mechanisms.limits import JOINT_PAST
 from twin.validation import as_array
 
 
@@ -123,7 +124,7 @@ class Gangway:
         p = as_array(position, "position", (3,))
         q = GANGWAY_INVERSE([p], [float(self.d1), float(self.a1)], [(3,)])[0]  # the lane's
         if check:
-            bad = np.any((q < self.lower - 1e-12) | (q > self.upper + 1e-12), axis=-1)
+            bad = np.any(JOINT_PAST(q, self.lower, self.upper, 0.0) != 0.0, axis=-1)
             if np.any(bad):
                 raise UnreachableError(
                     f"position {np.round(p[bad], 4).tolist()!r:.120} m needs gangway joints "

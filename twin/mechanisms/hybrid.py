@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 from twin.compiled import register_inline
 from twin.mechanisms.gangway import Gangway, gangway_tip_lane
 from twin.mechanisms.legs import LegLayout
+from twin.mechanisms.limits import JOINT_PAST
 from twin.mechanisms.stewart import StewartPlatform
 from twin.spatial import pose_to_transform, se3_exp, skew, transform_to_pose
 from twin.validation import as_array
@@ -176,9 +177,10 @@ class HybridBoardingSystem:
         )
 
     def within_limits(self, xi: ArrayLike) -> np.ndarray:
-        """True where xi (..., 9) is inside the Table 6 limits and every leg inside Table 1."""
+        """True where xi (..., 9) is inside the Table 6 limits and every leg inside Table 1, to
+        their tolerances (`twin.mechanisms.limits`, as the metrics count in `hold` mode)."""
         xi = as_array(xi, "xi", (9,))
-        joints = np.all((xi >= self.lower - 1e-12) & (xi <= self.upper + 1e-12), axis=-1)
+        joints = np.all(JOINT_PAST(xi, self.lower, self.upper, 0.0) == 0.0, axis=-1)
         return joints & self.stewart.within_limits(self.leg_lengths(xi))
 
 

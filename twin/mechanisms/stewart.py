@@ -24,6 +24,7 @@ from twin.mechanisms.legs import (
     legs,
     twist_jacobian,
 )
+from twin.mechanisms.limits import LEG_PAST
 from twin.mechanisms.newton import (
     STEPPED,
     NewtonResult,
@@ -33,10 +34,6 @@ from twin.mechanisms.newton import (
 )
 from twin.spatial import pose_to_transform, rpy_to_matrix_lane
 from twin.validation import as_array
-
-# [m] Table 1 prints the stroke to the millimetre; the retracted legs of its own geometry are
-# 2.57986 m (Table 5 rounds them to 2.58), so the limits are enforced to half a millimetre.
-LENGTH_TOL = 5e-4
 
 
 def hinge_angles(
@@ -222,8 +219,9 @@ class StewartPlatform:
         return lengths
 
     def check_lengths(self, lengths: np.ndarray, name: str) -> None:
-        """Raise UnreachableError if any leg leaves the stroke by more than `LENGTH_TOL`."""
-        bad = (lengths < self.leg_min - LENGTH_TOL) | (lengths > self.leg_max + LENGTH_TOL)
+        """Raise UnreachableError if any leg leaves the stroke by more than `LEG_TOL` (Table 1
+        prints the stroke to the millimetre: `twin.mechanisms.limits`)."""
+        bad = LEG_PAST(lengths, self.leg_min, self.leg_max) != 0.0
         if np.any(bad):
             raise UnreachableError(
                 f"{name} needs leg lengths {np.round(lengths[bad], 4).tolist()!r:.120} m, "
@@ -246,9 +244,10 @@ class StewartPlatform:
         return KINEMATICS([pose], self._hinges(), [(6,), (6, 6)])[1]
 
     def within_limits(self, lengths: ArrayLike) -> np.ndarray:
-        """True where every leg of (..., 6) lengths [m] lies in [leg_min, leg_max]."""
-        lengths = np.asarray(lengths)
-        return np.all((lengths >= self.leg_min) & (lengths <= self.leg_max), axis=-1)
+        """True where every leg of (..., 6) lengths [m] lies in [leg_min, leg_max] to
+        `LEG_TOL` (`leg_past_lane`, as the metrics count)."""
+        lengths = np.asarray(lengths, dtype=float)
+        return np.all(LEG_PAST(lengths, self.leg_min, self.leg_max) == 0.0, axis=-1)
 
     def forward(
         self,

@@ -10,7 +10,7 @@ Per lane, over samples k = 0 … T−1 (T = end), S = min(SETTLE, T − 1) the f
 
 - violations: samples with a virtual joint on or past its Table 6 limit (to 1e-9; `record`
   mode) or past it (`hold` mode), and samples with a leg past its stroke by more than
-  `LEG_TOL`; all samples;
+  `LEG_TOL` (`twin.mechanisms.limits`: the same predicates as the objects'); all samples;
 - per joint and over all legs: min and max over k ≥ S;
 - drift of each joint and leg: the least-squares slope of x(t) times the run's duration,
   Σ (t_k − t̄)(x_k − x̄) / max(Σ (t_k − t̄)², 1e-300) · (t_{T−1} − t_0), all samples, its sums
@@ -50,15 +50,11 @@ from typing import NamedTuple
 import numpy as np
 
 from twin.compiled import compile_runner, prange, register_borrowing, register_inline
+from twin.mechanisms.limits import joint_past_lane, leg_past_lane
 
 #: samples left out at the start of min/max and error statistics (seed 000 §5.3: "the first 10
 #: data points are removed")
 SETTLE = 10
-#: [m] a leg counts as past its stroke beyond Table 1's millimetre precision (as
-#: `StewartPlatform.check_lengths`): the geometry's stowed legs, 2.57986 m, are Table 1's 2.58 m
-LEG_TOL = 5e-4
-#: [m, rad] a virtual joint within this of its limit is on it
-JOINT_TOL = 1e-9
 #: [rad] the least base tilt counted by eq (29) as printed
 TILTED = 1e-9
 
@@ -279,18 +275,18 @@ def hybrid_first_bound(
     """
     best, code = -math.inf, 0
     for j in range(N_JOINTS):
-        span = upper[j] - lower[j]
-        for side in range(2):
-            past = lower[j] - x[j] if side == 0 else x[j] - upper[j]
-            if (past > JOINT_TOL) if hold else (past >= -JOINT_TOL):
-                if past / span > best:
-                    best, code = past / span, 1 + 2 * j + side
+        side = joint_past_lane(x[j], lower[j], upper[j], 0.0 if hold else 1.0)
+        if side != 0.0:  # the flags' own predicate: a flagged sample always has a bound
+            past = lower[j] - x[j] if side < 0.0 else x[j] - upper[j]
+            if past / (upper[j] - lower[j]) > best:
+                best, code = past / (upper[j] - lower[j]), 1 + 2 * j + (side > 0.0)
     span = leg_max - leg_min
     for i in range(N_LEGS):
-        for side in range(2):
-            past = leg_min - legs[i] if side == 0 else legs[i] - leg_max
-            if past > LEG_TOL and past / span > best:
-                best, code = past / span, BOUND_LEGS + 2 * i + side
+        side = leg_past_lane(legs[i], leg_min, leg_max)
+        if side != 0.0:
+            past = leg_min - legs[i] if side < 0.0 else legs[i] - leg_max
+            if past / span > best:
+                best, code = past / span, BOUND_LEGS + 2 * i + (side > 0.0)
     return code
 
 
@@ -317,14 +313,12 @@ def hybrid_add_sample(
     manipulability, phi_e, theta_e, alpha_top, alpha_bottom = scalars
     k = int(acc[A_SEEN])
     joint = False
-    for j in range(N_JOINTS):
-        if hold:
-            joint |= (x[j] < lower[j] - JOINT_TOL) | (x[j] > upper[j] + JOINT_TOL)
-        else:
-            joint |= (x[j] <= lower[j] + JOINT_TOL) | (x[j] >= upper[j] - JOINT_TOL)
+    touching = 0.0 if hold else 1.0
+    for j in range(N_JOINTS):  # `|`, not `or`: no branch per joint
+        joint |= joint_past_lane(x[j], lower[j], upper[j], touching) != 0.0
     leg = False
-    for j in range(N_LEGS):  # `|`, not `or`: no branch per comparison
-        leg |= (legs[j] < leg_min - LEG_TOL) | (legs[j] > leg_max + LEG_TOL)
+    for j in range(N_LEGS):
+        leg |= leg_past_lane(legs[j], leg_min, leg_max) != 0.0
     # counts as floats: whole numbers, exact to 2^53
     acc[A_JOINT_VIOLATIONS] += 1.0 if joint else 0.0
     acc[A_LEG_VIOLATIONS] += 1.0 if leg else 0.0

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from twin.mechanisms.hybrid import JOINT_NAMES
+from twin.mechanisms.limits import LEG_PAST
 from twin.sim.faults import HOLDS, Fault
 from twin.web.viewer.frame_state import FrameState
 from twin.web.viewer.plots import PLOT_DT
@@ -25,8 +26,6 @@ HOLDS_WHAT = {
     "upu3up": "platform top from its held pose",
     "upr4": "pad centre from its held pose",
 }
-#: [m] leg-length tolerance of the limit readout (Table 1's millimetre precision)
-LEG_TOL = 5e-4
 #: [-] tolerance of the state-limit readout, a fraction of each state's range: a state held
 #: on its limit (joint_limits "hold") is within it
 STATE_TOL = 1e-4
@@ -77,13 +76,15 @@ def state_units(fs: FrameState) -> list[tuple[float, str]]:
 def limit_violations(fs: FrameState) -> list[str]:
     """Readable limit violations of the frame's legs and state (empty: all within limits).
 
-    A leg counts beyond its stroke by more than `LEG_TOL`, a state beyond its limit by more
+    A leg counts beyond its stroke as the metrics count it (`leg_past_lane`: by more than
+    `twin.mechanisms.limits.LEG_TOL`), a state beyond its limit by more
     than `STATE_TOL` of its range (a state held on its limit is within it); values print with
     the digits that show the difference."""
     out = []
-    for i in np.flatnonzero(fs.leg_lengths < fs.leg_min - LEG_TOL):
+    past = LEG_PAST(fs.leg_lengths, fs.leg_min, fs.leg_max)
+    for i in np.flatnonzero(past < 0.0):
         out.append(f"leg {i + 1}: {fs.leg_lengths[i]:.4f} m < {fs.leg_min[i]:.4f} m")
-    for i in np.flatnonzero(fs.leg_lengths > fs.leg_max + LEG_TOL):
+    for i in np.flatnonzero(past > 0.0):
         out.append(f"leg {i + 1}: {fs.leg_lengths[i]:.4f} m > {fs.leg_max[i]:.4f} m")
     low, high = (np.asarray(v, float) for v in fs.mechanism.state_limits)
     tol = STATE_TOL * (high - low)
