@@ -81,7 +81,7 @@ def limit_violations(fs: FrameState) -> list[str]:
     than `STATE_TOL` of its range (a state held on its limit is within it); values print with
     the digits that show the difference."""
     out = []
-    past = LEG_PAST(fs.leg_lengths, fs.leg_min, fs.leg_max)
+    past = np.asarray(LEG_PAST(fs.leg_lengths, fs.leg_min, fs.leg_max))
     for i in np.flatnonzero(past < 0.0):
         out.append(f"leg {i + 1}: {fs.leg_lengths[i]:.4f} m < {fs.leg_min[i]:.4f} m")
     for i in np.flatnonzero(past > 0.0):
