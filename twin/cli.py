@@ -312,9 +312,19 @@ def _add_workability(commands: argparse._SubParsersAction[argparse.ArgumentParse
     workability.add_argument("--seeds", type=int, default=3, help="sea seeds per cell or row")
     workability.add_argument("--method", default="cells", choices=("cells", "direct"))
     workability.add_argument(
-        "--heading-strategy", default="fixed:150", metavar="STRATEGY",
+        "--heading-strategy", metavar="STRATEGY",
         help="fixed:DEG (relative heading, Scenario.heading: 180 head seas), best:DEG,DEG,… "
-        "(the best of a set) or record (the record's vessel heading)",
+        "(the best of a set) or record (the record's vessel heading column); default fixed:150",
+    )  # fmt: skip
+    workability.add_argument(
+        "--vessel-heading", type=float, metavar="DEG",
+        help="compass heading the bow points to [deg true], held on every row of a record with "
+        "wave directions (the record strategy without a heading column)",
+    )  # fmt: skip
+    workability.add_argument(
+        "--duplicates", choices=("error", "mean", "first"),
+        help="rows sharing a time: refused naming their lines (default), averaged, or the "
+        "first in the file kept",
     )  # fmt: skip
     workability.add_argument(
         "--spec", type=Path,
@@ -451,20 +461,34 @@ def _workability(args: argparse.Namespace, parser: argparse.ArgumentParser) -> i
     from pydantic import ValidationError
 
     from twin.errors import TwinError
-    from twin.sim.workability import HeadingStrategy, WorkabilitySpec, run_workability
-    from twin.site import read_record
+    from twin.sim.workability import (
+        HeadingStrategy,
+        WorkabilitySpec,
+        read_site_record,
+        run_workability,
+    )
     from twin.validation import explain
 
     try:
         fields = {}
         if args.spec is not None:
             fields = json.loads(read_input(parser, args.spec))
-        given = {"mechanism": args.mechanism, "seeds": args.seeds, "method": args.method,
-                 "heading": HeadingStrategy.parse(args.heading_strategy)}  # fmt: skip
+        given: dict[str, object] = {"mechanism": args.mechanism, "seeds": args.seeds,
+                                    "method": args.method}  # fmt: skip
+        if args.vessel_heading is not None:
+            if args.heading_strategy not in (None, "record"):
+                raise TwinError("--vessel-heading holds the bow at a compass heading (the record "
+                                "strategy); it does not go with --heading-strategy "
+                                f"{args.heading_strategy}")  # fmt: skip
+            given["heading"] = HeadingStrategy(kind="record", vessel_heading=args.vessel_heading)
+        elif args.heading_strategy is not None or "heading" not in fields:
+            given["heading"] = HeadingStrategy.parse(args.heading_strategy or "fixed:150")
+        if args.duplicates is not None:
+            given["duplicates"] = args.duplicates
         if args.planner:
             given["planners"] = args.planner
         spec = WorkabilitySpec(**{**fields, **given})
-        record = read_record(args.record, kind=args.kind)
+        record = read_site_record(args.record, spec, kind=args.kind)
     except ValidationError as exc:  # its message names each bad field
         parser.error(explain(exc))
     except (TwinError, json.JSONDecodeError) as exc:
@@ -476,6 +500,8 @@ def _workability(args: argparse.Namespace, parser: argparse.ArgumentParser) -> i
         )  # fmt: skip
     except ValueError as exc:  # a bad --scheduler address or a record the strategy cannot use
         parser.error(str(exc))
+    for warning in record.warnings():
+        print(f"twin: warning: {warning}", file=sys.stderr)
     written = result.write(args.out)
     for planner, value in result.summary["workability"].items():
         print(f"{planner:>6}: {100 * value:5.1f} % workable")

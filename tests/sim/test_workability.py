@@ -10,7 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
+from tests.figures import fuzz
 from twin.assets import asset_path
 from twin.errors import TwinError
 from twin.sim import workability
@@ -145,7 +148,7 @@ def test_best_heading_is_the_best_of_the_fixed_ones(executor: Executor) -> None:
 
 
 def test_record_heading_strategy(executor: Executor) -> None:
-    with pytest.raises(TwinError, match="needs the record's wave direction and vessel heading"):
+    with pytest.raises(TwinError, match="needs the record's direction and heading"):
         run_workability({**SMALL, "heading": {"kind": "record"}}, RECORD, executor=executor)
     record = hourly([1.0, 2.0], [8.0, 8.0], heading=np.array([0.0, 100.0]))
     spec = {**SMALL, "heading": {"kind": "record"}, "heading_grid": [0.0, 90.0, 180.0, 270.0]}
@@ -171,8 +174,8 @@ def test_outputs_are_json_csv_and_pngs(tmp_path: Path, executor: Executor) -> No
     assert set(data["workability"]) == {"mtmp", "qp"} and data["criterion"].startswith("operable")
     assert data["record"]["kind"] == "forecast"
     written = {p.name for p in result.write(tmp_path)}
-    assert written == {"workability.csv", "workability.json", "monthly.png", "windows.png",
-                       "strip.png", "forecast.png"}  # fmt: skip
+    assert written == {"workability.csv", "workability.json", "months.csv", "monthly.png",
+                       "windows.png", "strip.png", "forecast.png"}  # fmt: skip
     assert all((tmp_path / n).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for n in written
                if n.endswith(".png"))  # fmt: skip
     # each non-operable row names what bound it
@@ -247,7 +250,8 @@ def test_cli_writes_csv_json_and_pngs(tmp_path: Path, capsys: pytest.CaptureFixt
     assert "mtmp:" in printed.out and "Hs < 1.5 m:" in printed.out
     assert "1 skipped" in printed.err
     data = json.loads((out / "workability.json").read_text())
-    assert data["spec"]["heading"] == {"kind": "best", "headings": [150.0, 180.0]}
+    assert data["spec"]["heading"] == {"kind": "best", "headings": [150.0, 180.0],
+                                       "vessel_heading": None}
     assert {"monthly.png", "windows.png", "strip.png", "workability.csv"} <= {
         p.name for p in out.iterdir()
     }
@@ -264,3 +268,198 @@ def test_stop_cancels_the_remaining_chunks(executor: Executor, tmp_path: Path) -
     # stopped at its first chunk, before caching it: a full evaluation runs every run
     again = run_workability(SMALL, RECORD, executor=executor, data_dir=tmp_path)
     assert again.new_runs == again.runs > 2
+
+
+# -- any valid record, headings, months, times ---------------------------------------------------
+
+#: the property tests' spec: SMALL's grid, one planner and seed, so its cells are few (9) and
+#: cached once; conservative lookup (a row reads one cell)
+CHEAP = {**SMALL, "planners": ["mtmp"], "seeds": 1, "window_hours": [1.0, 6.0]}
+#: a record that visits every cell of CHEAP's grid (Hs 1, 2, 3 m × Tp 6, 8, 10 s)
+EVERY_CELL = hourly([1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 3.0, 3.0, 3.0],
+                    [6.0, 8.0, 10.0, 6.0, 8.0, 10.0, 6.0, 8.0, 10.0])  # fmt: skip
+#: a scheduler that cannot be reached: an evaluation that needs a new run fails on it
+NOWHERE = "tcp://127.0.0.1:9"
+
+
+@pytest.fixture(scope="module")
+def cells(tmp_path_factory: pytest.TempPathFactory, executor: Executor) -> Path:
+    """A data dir holding every cell CHEAP can ask for."""
+    data = tmp_path_factory.mktemp("cells")
+    run_workability(CHEAP, EVERY_CELL, executor=executor, data_dir=data)
+    return data
+
+
+def random_record(seed: int, n: int, sea: str, gaps: bool) -> SiteRecord:
+    """n hourly rows from a random start, optionally with random gaps of 1-48 h; Hs calm
+    (0-2.9 m), stormy (above CHEAP's 3 m grid: never operable) or mixed (0-6 m); Tp anywhere in
+    the scenario range."""
+    rng = np.random.default_rng(seed)
+    steps = np.ones(n, dtype=int)
+    if gaps:
+        steps = np.where(rng.random(n) < 0.05, rng.integers(2, 49, n), 1)
+    hours = np.cumsum(steps) - steps[0]
+    start = np.datetime64("2015-01-01T00:00") + int(rng.integers(0, 5 * 8760)) * np.timedelta64(
+        1, "h")  # fmt: skip
+    low, high = {"calm": (0.0, 2.9), "storm": (3.1, 12.0), "mixed": (0.0, 6.0)}[sea]
+    return SiteRecord(hs=rng.uniform(low, high, n), tp=rng.uniform(1.0, 30.0, n),
+                      time=start + hours.astype("timedelta64[h]"))  # fmt: skip
+
+
+@fuzz(25)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 2000),
+       sea=st.sampled_from(["calm", "storm", "mixed"]), gaps=st.booleans())  # fmt: skip
+def test_any_valid_record_completes_with_consistent_figures(
+    cells: Path, seed: int, n: int, sea: str, gaps: bool
+) -> None:
+    """Any valid hourly record (1-2,000 rows, any Hs and Tp, gaps, all storms) gives a result,
+    from cached cells alone: workability is the mean row probability, the threshold the share
+    under each limit, months cover every row once, windows are runs of operable rows no
+    shorter than W and no longer than the operable hours, every row waits or is censored."""
+    record = random_record(seed, n, sea, gaps)
+    result = run_workability(CHEAP, record, scheduler=NOWHERE, data_dir=cells)
+    assert result.new_runs == 0 and len(result.rows) == n
+    summary = result.summary
+    p = result.rows["probability"].to_numpy()
+    assert 0.0 <= summary["workability"]["mtmp"] <= 1.0
+    assert summary["workability"]["mtmp"] == pytest.approx(p.mean())
+    for limit in CHEAP["hs_limits"]:
+        assert summary["threshold"][f"{limit:g}"]["workability"] == pytest.approx(
+            np.mean(record.hs < limit))  # fmt: skip
+    step = 1.0 if n == 1 else float(np.median(np.diff(record.time) / np.timedelta64(1, "h")))
+    months = summary["months"]
+    assert sum(m["hours"] for m in months.values()) == pytest.approx(n * step)
+    assert all(0.0 < m["coverage"] <= 1.0 and m["partial"] == (m["coverage"] < 0.5)
+               for m in months.values())  # fmt: skip
+    operable_hours = float(result.rows["operable"].sum()) * step
+    for w, stats in summary["planners"]["mtmp"]["windows"].items():
+        assert stats["count"] == len(stats["lengths"])
+        assert all(length >= float(w) - 1e-9 for length in stats["lengths"])
+        assert stats["hours_in_windows"] <= operable_hours + 1e-6
+        assert stats["censored_starts"] <= n
+        if stats["count"] == 0:
+            assert stats["wait_mean"] is None and stats["censored_starts"] == n
+    if sea == "storm":
+        assert summary["workability"]["mtmp"] == 0.0
+        assert all(s["count"] == 0 for s in summary["planners"]["mtmp"]["windows"].values())
+
+
+@pytest.mark.parametrize("case", ["one row", "five rows", "no operable hour", "no window"])
+def test_short_and_stormy_records_give_results_and_plots(
+    case: str, cells: Path, tmp_path: Path
+) -> None:
+    """A 1-row or 5-row record, one with no operable hour (Hs 6 m) and one with no window of
+    the longest W: each gives a result, its empty windows stated, every PNG drawn."""
+    hs, tp = {"one row": ([1.0], [8.0]), "five rows": ([1.0, 2.0, 1.0, 3.0, 1.0], [8.0] * 5),
+              "no operable hour": ([6.0] * 10, [8.0] * 10),
+              "no window": ([1.0, 6.0] * 5, [6.0] * 10)}[case]  # fmt: skip
+    result = run_workability(CHEAP, hourly(hs, tp), scheduler=NOWHERE, data_dir=cells)
+    longest = result.summary["planners"]["mtmp"]["windows"]["6"]
+    assert longest["count"] == 0 and longest["lengths"] == [] and longest["wait_mean"] is None
+    written = {p.name for p in result.write(tmp_path, title="my_site.csv")}
+    assert {"monthly.png", "windows.png", "strip.png", "months.csv"} <= written
+    assert all((tmp_path / n).read_bytes()[:4] == b"\x89PNG" for n in written if n.endswith("png"))
+
+
+def test_vessel_heading_turns_the_record_directions_into_relative_headings(
+    executor: Executor,
+) -> None:
+    """A compass vessel heading on a record with wave directions: each row runs at β =
+    ψ − θ − 180°; a record without directions is refused, naming what it lacks."""
+    record = hourly([1.0, 2.0], [8.0, 8.0])  # waves from 270° (west)
+    record.direction = np.array([270.0, 0.0])
+    spec = {**SMALL, "heading": {"kind": "record", "vessel_heading": 340.0},
+            "heading_grid": [0.0, 90.0, 180.0, 270.0]}  # fmt: skip
+    rows = run_workability(spec, record, executor=executor).rows
+    np.testing.assert_allclose(rows["heading"].to_numpy()[:2], [250.0, 160.0])
+    assert rows["cell_heading"].tolist()[:2] == [270.0, 180.0]
+    bare = SiteRecord(hs=[1.0], tp=[8.0], time=np.array(["2024-01-01"], dtype="datetime64[ns]"))
+    with pytest.raises(TwinError, match="lacks direction"):
+        run_workability(spec, bare, executor=executor)
+    with pytest.raises(ValueError, match="only with the record strategy"):
+        HeadingStrategy(kind="fixed", headings=[150.0], vessel_heading=340.0)
+
+
+def test_months_state_their_hours_years_and_partial_coverage(cells: Path, tmp_path: Path) -> None:
+    """Hours per month and the years pooled, in the JSON and months.csv; a month under half
+    covered is partial; the per-row CSV writes UTC times with their zone."""
+    times = np.concatenate([
+        np.datetime64("2023-03-01T00:00") + np.arange(31 * 24) * np.timedelta64(1, "h"),
+        np.datetime64("2024-03-01T00:00") + np.arange(24) * np.timedelta64(1, "h"),
+        np.datetime64("2024-04-01T00:00") + np.arange(38) * np.timedelta64(1, "h"),
+    ])  # fmt: skip
+    record = SiteRecord(hs=np.full(times.size, 1.0), tp=np.full(times.size, 8.0), time=times)
+    result = run_workability(CHEAP, record, scheduler=NOWHERE, data_dir=cells)
+    months = json.loads(json.dumps(result.to_dict()))["months"]
+    assert months["Mar"]["hours"] == 31 * 24 + 24 and months["Mar"]["years"] == [2023, 2024]
+    assert months["Mar"]["coverage"] == pytest.approx((31 * 24 + 24) / (2 * 31 * 24))
+    assert not months["Mar"]["partial"]
+    assert months["Apr"] == {"hours": 38.0, "years": [2024], "calendar_hours": 720.0,
+                             "coverage": pytest.approx(38 / 720), "partial": True}  # fmt: skip
+    assert any("months pool 2 years" in note for note in result.notes)
+    result.write(tmp_path)
+    table = (tmp_path / "months.csv").read_text().splitlines()
+    assert table[0].startswith("month,hours,years,coverage,partial,mtmp,hs<1.5")
+    assert table[2].startswith("Apr,38,2024,")
+    rows = (tmp_path / "workability.csv").read_text().splitlines()
+    assert rows[1].startswith("2023-03-01T00:00Z,")
+
+
+def test_rows_off_the_tp_grid_are_noted(cells: Path) -> None:
+    """Rows whose Tp lies outside the cell grid are counted in the notes on each side."""
+    record = hourly([1.0, 1.0, 1.0, 1.0], [4.0, 8.0, 22.0, 26.0])
+    notes = run_workability(CHEAP, record, scheduler=NOWHERE, data_dir=cells).notes
+    below = "1 rows have Tp below the cell grid's 6 s and take its 6 s cells (nearest in Tp)"
+    assert below in notes
+    assert any(note.startswith("2 rows have Tp above the cell grid's 10 s") for note in notes)
+
+
+def test_hs_limits_are_reported_in_ascending_order() -> None:
+    """Hs limits given in any order are kept and reported ascending; repeats are refused."""
+    assert WorkabilitySpec(hs_limits=[2.0, 1.5, 2.5]).hs_limits == [1.5, 2.0, 2.5]
+    with pytest.raises(ValueError, match="distinct values"):
+        WorkabilitySpec(hs_limits=[2.0, 2.0])
+
+
+def test_read_site_record_requires_only_what_the_strategy_uses(tmp_path: Path) -> None:
+    """A time series of time, Hs and Tp alone serves fixed and best headings; the record
+    strategy asks for directions; a record with no usable row names why, with counts."""
+    path = tmp_path / "hindcast.csv"
+    path.write_text("time,hs,tp\n2024-01-01T00:00Z,1.0,8.0\n2024-01-01T01:00Z,1.5,9.0\n")
+    assert workability.read_site_record(path, {"heading": {"kind": "best"}}).n == 2
+    record_spec = {"heading": {"kind": "record", "vessel_heading": 10.0}}
+    with pytest.raises(TwinError, match=r"columns \['direction'\] missing"):
+        workability.read_site_record(path, record_spec)
+    empty = tmp_path / "empty.csv"
+    empty.write_text("time,hs,tp\n2024-01-01T00:00Z,,8.0\n2024-01-01T01:00Z,1.0,\n")
+    with pytest.raises(TwinError, match=r"no rows left to evaluate \(hs missing: 1, tp missing: 1"):
+        workability.read_site_record(empty, {})
+
+
+def test_cli_vessel_heading_duplicates_and_warnings(
+    tmp_path: Path, cells: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """`--vessel-heading` evaluates a record with directions at a compass heading; duplicate
+    times are refused naming their lines unless `--duplicates` says how to merge them; over 5 %
+    of rows skipped prints a warning naming the reason and count."""
+    from twin.cli import main
+
+    record = tmp_path / "site.csv"
+    record.write_text("time,hs,tp,direction\n2024-03-01T00:00Z,1.0,8.0,210\n"
+                      "2024-03-01T01:00Z,1.0,8.0,210\n2024-03-01T01:00Z,1.0,6.0,210\n"
+                      "2024-03-01T02:00Z,,8.0,210\n")  # fmt: skip
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({k: v for k, v in CHEAP.items() if k != "planners"}))
+    out = tmp_path / "out"
+    base = ["workability", str(record), "--planner", "mtmp", "--spec", str(spec), "--seeds",
+            "1", "--scheduler", NOWHERE, "--data-dir", str(cells), "--out", str(out)]  # fmt: skip
+    with pytest.raises(SystemExit):
+        main([*base, "--vessel-heading", "180"])
+    assert "lines 3, 4 at 2024-03-01T01:00Z" in capsys.readouterr().err
+    assert main([*base, "--vessel-heading", "180", "--duplicates", "first"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: 1 of 3 rows (33.3 %) skipped: hs missing" in err
+    data = json.loads((out / "workability.json").read_text())
+    assert data["spec"]["heading"]["vessel_heading"] == 180.0
+    assert data["spec"]["duplicates"] == "first"
+    assert any("skipped: hs missing" in note for note in data["notes"])

@@ -1,5 +1,7 @@
-"""Site record readers: hand-made NDBC, time-series, Parquet, scatter and forecast files; missing
-values skipped and counted; malformed input named by file, line and column."""
+"""Site record readers: hand-made NDBC (historical and real-time layouts), time-series, Parquet,
+scatter and forecast files, and a real NDBC real-time file; missing values skipped and counted
+only where needed; duplicates and too-fine steps refused; malformed input named by file, line
+and column."""
 
 from __future__ import annotations
 
@@ -32,17 +34,23 @@ def write(tmp_path: Path, name: str, text: str) -> Path:
     return path
 
 
-def test_ndbc_keeps_complete_rows_sorted_and_counts_each_missing_marker(tmp_path: Path) -> None:
+def test_ndbc_keeps_every_row_with_hs_and_tp_and_counts_each_missing_marker(
+    tmp_path: Path,
+) -> None:
+    """Without a direction required, every row with WVHT and DPD is kept (a direction missing on
+    one of them leaves the column out, noted); with it required, that row is skipped as well."""
     record = read_ndbc(write(tmp_path, "b.txt", NDBC))
-    # rows 00:10, 01:10 and 05:10 are complete; sorted by time
-    assert record.n == 3
-    np.testing.assert_allclose(record.hs, [1.20, 1.07, 1.50])
-    np.testing.assert_allclose(record.tp, [9.10, 8.30, 11.00])
-    np.testing.assert_allclose(record.direction, [300.0, 295.0, 0.0])  # 360° is north, 0°
+    assert record.n == 4  # 00:10, 01:10, 04:10 (no MWD) and 05:10, sorted by time
+    np.testing.assert_allclose(record.hs, [1.20, 1.07, 1.40, 1.50])
+    np.testing.assert_allclose(record.tp, [9.10, 8.30, 10.00, 11.00])
+    assert record.direction is None and any("direction missing on 1" in n for n in record.notes)
     assert record.time[0] == np.datetime64("2019-08-01T00:10")
     # the all-missing row counts once, under its first missing column; MM is missing too
-    assert record.skipped == {"WVHT missing": 1, "DPD missing": 1, "MWD missing": 1}
-    assert record.kind == "timeseries" and read_record(tmp_path / "b.txt").n == 3
+    assert record.skipped == {"WVHT missing": 1, "DPD missing": 1}
+    directed = read_ndbc(tmp_path / "b.txt", require=["direction"])
+    assert directed.n == 3 and directed.skipped == {**record.skipped, "MWD missing": 1}
+    np.testing.assert_allclose(directed.direction, [300.0, 295.0, 0.0])  # 360° is north, 0°
+    assert record.kind == "timeseries" and read_record(tmp_path / "b.txt").n == 4
 
 
 def test_ndbc_old_header_with_two_digit_years_and_no_minutes(tmp_path: Path) -> None:
@@ -81,19 +89,22 @@ def test_shipped_ndbc_record_reads_a_month_hourly() -> None:
     assert record.n == 744  # every hour of August 2019
     steps = np.diff(record.time).astype("timedelta64[m]").astype(int)
     assert set(steps.tolist()) == {60}
-    assert record.skipped == {"WVHT missing": 4464 - 744}  # the 10-minute rows in between
+    # six rows an hour, the waves on the hh:10 row: one sea state per hour, no hour lost
+    assert record.skipped == {} and record.direction is not None
 
 
 
 def test_ndbc_without_a_direction_sensor_keeps_its_rows_without_direction(tmp_path: Path) -> None:
-    # every MWD missing (a buoy without directional waves): no direction, not no rows
+    """Every MWD missing (a buoy without directional waves): no direction, not no rows; one MWD
+    present and a direction required: rows missing it are skipped and counted."""
     text = NDBC.replace(" 295 ", " 999 ").replace(" 300 ", " 999 ").replace(" 310 ", " 999 ")
     record = read_ndbc(write(tmp_path, "nodir.txt", text.replace(" 360 ", " 999 ")))
     assert record.direction is None and "no MWD" in record.source
     assert record.hs.tolist() == [1.2, 1.07, 1.4, 1.5]  # sorted by time; WVHT / DPD gaps skipped
     assert record.skipped == {"WVHT missing": 1, "DPD missing": 1}
-    # one MWD present: the column is real, so rows missing it are skipped and counted as before
-    partial = read_ndbc(write(tmp_path, "partial.txt", text))
+    with pytest.raises(TwinError, match="MWD is missing on every row"):
+        read_ndbc(tmp_path / "nodir.txt", require=["direction"])
+    partial = read_ndbc(write(tmp_path, "partial.txt", text), require=["direction"])
     assert partial.direction is not None and partial.direction.tolist() == [360.0 % 360.0]
     assert partial.skipped["MWD missing"] == 3
 
@@ -115,7 +126,11 @@ CSV = """time,hs,tp,direction,heading
 
 
 def test_timeseries_csv_times_in_utc_and_missing_cells_skipped(tmp_path: Path) -> None:
-    record = read_timeseries(write(tmp_path, "s.csv", CSV))
+    """Times in UTC; rows missing Tp skipped; a heading missing where the strategy needs it is
+    a skipped row, where it does not, the column is left out and the row kept."""
+    loose = read_timeseries(write(tmp_path, "s.csv", CSV))
+    assert loose.n == 3 and loose.skipped == {"tp missing": 1} and loose.heading is None
+    record = read_timeseries(tmp_path / "s.csv", require=["direction", "heading"])
     assert record.n == 2 and record.skipped == {"tp missing": 1, "heading missing": 1}
     np.testing.assert_allclose(record.hs, [1.0, 2.5])
     np.testing.assert_allclose(record.heading, [0.0, 45.0])
@@ -123,7 +138,7 @@ def test_timeseries_csv_times_in_utc_and_missing_cells_skipped(tmp_path: Path) -
                                     np.datetime64("2024-01-01T03:00", "ns").item()]  # fmt: skip
     # "02:00+01:00" was 01:00 UTC: its row was skipped for its heading, not misplaced
     forecast = read_forecast(tmp_path / "s.csv")
-    assert forecast.kind == "forecast" and forecast.n == 2
+    assert forecast.kind == "forecast" and forecast.n == 3
 
 
 def test_timeseries_zone_is_converted_to_utc(tmp_path: Path) -> None:
@@ -135,7 +150,7 @@ def test_timeseries_zone_is_converted_to_utc(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("time,hs,tp\n2024-01-01,1,8\n", r"columns \['direction'\] missing"),
+        ("time,hs\n2024-01-01,1\n", r"columns \['tp'\] missing"),
         (
             "time,hs,tp,direction\n2024-01-01,1,8,10\n2024-01-01T01,abc,8,10\n",
             "line 3, column hs: 'abc'",
@@ -226,3 +241,88 @@ def test_the_shipped_forecast_example_is_the_buoys_record_every_3_hours() -> Non
     assert np.array_equal(buoy.hs[at], forecast.hs) and np.array_equal(buoy.tp[at], forecast.tp)
     assert np.array_equal(buoy.direction[at], forecast.direction)
     assert build.build().to_csv(index=False) == path.read_text()
+
+
+#: NDBC's real-time layout (10-minute rows, newest first, MM missing), as in NDBC's realtime2
+#: stdmet files: WVHT + DPD on the hh:10 row, WVHT + MWD on the hh:20 row
+REALTIME = """\
+#YY  MM DD hh mm WDIR WSPD GST  WVHT   DPD   APD MWD   PRES
+#yr  mo dy hr mn degT m/s  m/s     m   sec   sec degT   hPa
+2019 04 02 02 20 120  1.0   MM   1.6    MM    MM 262 1007.8
+2019 04 02 02 10 120  1.0   MM   1.6    15    MM  MM 1007.9
+2019 04 02 02 00  MM  0.0   MM    MM    MM    MM  MM 1007.9
+2019 04 02 01 30 130  2.0   MM    MM    MM    MM  MM 1007.8
+2019 04 02 01 20 120  1.0   MM   1.5    MM    MM 261 1007.8
+2019 04 02 00 50 180  1.0   MM    MM    MM    MM 250 1007.9
+2019 04 02 00 20 240  1.0   MM   1.7    MM    MM 274 1008.0
+2019 04 02 00 10 220  1.0   MM   1.7    15    MM  MM 1008.1
+"""
+
+
+def test_ndbc_realtime_rows_merge_to_one_sea_state_per_hour(tmp_path: Path) -> None:
+    """10-minute rows, newest first: each hour's WVHT and DPD come from one row, MWD from the
+    row nearest it within the hour; an hour with no DPD beside WVHT is skipped and counted."""
+    record = read_record(write(tmp_path, "46097.txt", REALTIME), require=["direction"])
+    assert record.n == 2  # 00 h and 02 h; 01 h has WVHT but no DPD
+    assert record.time.tolist() == [np.datetime64("2019-04-02T00:10", "ns").item(),
+                                    np.datetime64("2019-04-02T02:10", "ns").item()]  # fmt: skip
+    np.testing.assert_allclose(record.hs, [1.7, 1.6])
+    np.testing.assert_allclose(record.tp, [15.0, 15.0])
+    np.testing.assert_allclose(record.direction, [274.0, 262.0])  # hh:20, not hh:50 (40 min)
+    assert record.skipped == {"DPD missing": 1}
+    assert any("8 rows read as 2 hourly sea states" in note for note in record.notes)
+
+
+def test_a_real_ndbc_realtime_file_is_read_to_its_full_hourly_count() -> None:
+    """NDBC 46097's real-time stdmet file of 16 Feb - 2 Apr 2019 (assets/site/README.md): every
+    hour holding a row with both WVHT and DPD, counted here straight from the text, is a sea
+    state, with its MWD from the same hour; under 5 % lost, so no warning."""
+    path = asset_path("site", "46097_realtime_2019_02_04.txt")
+    hours, wave_hours = set(), set()
+    for line in path.read_text().splitlines()[2:]:
+        fields = line.split()
+        hour = tuple(fields[:4])
+        hours.add(hour)
+        if fields[8] != "MM" and fields[9] != "MM":
+            wave_hours.add(hour)
+    record = read_record(path, require=["direction"])
+    assert record.n == len(wave_hours) > 1000
+    assert record.skipped == {"WVHT missing": len(hours) - len(wave_hours)}
+    assert record.warnings() == [] and record.direction is not None
+    assert record.time[0] == np.datetime64("2019-02-16T00:10")
+    assert record.time[-1] == np.datetime64("2019-04-02T13:10")
+    assert np.all(np.diff(record.time) > np.timedelta64(0))
+
+
+def test_duplicate_times_are_refused_by_line_unless_merged(tmp_path: Path) -> None:
+    """Two rows at one time: an error naming both lines; `first` keeps the first in the file,
+    `mean` averages (directions on the circle: 350° and 10° give 0°)."""
+    text = ("time,hs,tp,direction\n2024-01-01T00:00Z,1.0,8.0,350\n2024-01-01T01:00Z,2.0,9.0,0\n"
+            "2024-01-01T00:00Z,3.0,10.0,10\n")  # fmt: skip
+    path = write(tmp_path, "d.csv", text)
+    with pytest.raises(TwinError, match=r"lines 2, 4 at 2024-01-01T00:00Z.*'mean' or 'first'"):
+        read_record(path)
+    first = read_record(path, duplicates="first")
+    assert first.hs.tolist() == [1.0, 2.0]
+    assert any("the first in the file" in n for n in first.notes)
+    mean = read_record(path, duplicates="mean")
+    np.testing.assert_allclose(mean.hs, [2.0, 2.0])
+    np.testing.assert_allclose(mean.tp, [9.0, 9.0])
+    assert min(mean.direction[0], 360.0 - mean.direction[0]) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_rows_closer_than_a_minute_are_refused(tmp_path: Path) -> None:
+    """The finest step is MIN_STEP (60 s): rows 30 s apart are refused naming their lines."""
+    text = "time,hs,tp\n2024-01-01T00:00:00Z,1.0,8.0\n2024-01-01T00:00:30Z,1.0,8.0\n"
+    with pytest.raises(TwinError, match=r"lines 2 and 3 are 30 s apart.*at least 60 s"):
+        read_record(write(tmp_path, "fine.csv", text))
+
+
+def test_a_hindcast_of_hs_and_tp_alone_is_read_and_heavy_losses_warn(tmp_path: Path) -> None:
+    """A time series with only time, Hs and Tp is a record; when more than 5 % of its rows
+    are skipped, a warning names the reason and count."""
+    rows = "".join(f"2024-01-01T{h:02d}:00Z,{'' if h < 3 else 1.0},8.0\n" for h in range(20))
+    record = read_record(write(tmp_path, "h.csv", "time,hs,tp\n" + rows))
+    assert record.n == 17 and record.direction is None
+    assert record.warnings() == ["3 of 20 rows (15.0 %) skipped: hs missing"]
+    assert record.summary()["warnings"] == record.warnings()

@@ -45,6 +45,7 @@ limit but misses the tip-error threshold is limited by the tip error.
 
 from __future__ import annotations
 
+import calendar
 import hashlib
 import io
 import itertools
@@ -68,8 +69,8 @@ from twin.planners import get_planner
 from twin.sim.executor import SWEEP_PRIORITY, Executor
 from twin.sim.scenario import DEFAULT_PLANNER, TP_RANGE, Scenario
 from twin.site.heading import angular_distance, relative_heading
-from twin.site.records import SiteRecord
-from twin.site.windows import regular_series, window_stats
+from twin.site.records import Duplicates, SiteRecord, read_record, utc_column
+from twin.site.windows import record_step, window_stats
 
 #: what a cached cell depends on besides its scenario: the package version and this module's
 #: reduction of a run (bump CELL_FORMAT when `run_summary` changes)
@@ -83,6 +84,8 @@ MAX_RUNS = 2_000_000
 MAX_ROWS = 200_000
 #: a row counts as operable (windows, strips) when its probability reaches this
 OPERABLE_LEVEL = 0.5
+#: a month the record covers for less than this share of its hours is marked partial
+PARTIAL_MONTH = 0.5
 MONTHS = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
 #: Scenario fields `WorkabilitySpec` sets itself (not through `scenario`)
 OWN_FIELDS = {"mechanism", "planner", "hs", "tp", "heading", "seed", "duration", "dt",
@@ -102,7 +105,9 @@ class HeadingStrategy(BaseModel):
         best: each row at every heading of `headings`; the captain takes the one that keeps
             every limit (the row's probability is the largest over them).
         record: the row's own relative heading, from the record's wave direction (from, deg true)
-            and vessel heading (deg true), `twin.site.heading.relative_heading`.
+            and the vessel heading (deg true, where the bow points): `vessel_heading` for every
+            row if given, else the record's `heading` column
+            (`twin.site.heading.relative_heading`).
     """
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
@@ -111,6 +116,11 @@ class HeadingStrategy(BaseModel):
     headings: list[float] = Field(
         [150.0], min_length=1, max_length=36,
         description="[deg] relative headings (Scenario.heading): one for fixed, a set for best",
+    )  # fmt: skip
+    vessel_heading: float | None = Field(
+        None, ge=0.0, le=360.0,
+        description="[deg true] record strategy: the compass heading the bow points to on every "
+        "row (a vessel held on station at a fixed heading); None: the record's heading column",
     )  # fmt: skip
 
     @field_validator("headings")
@@ -128,7 +138,17 @@ class HeadingStrategy(BaseModel):
     def _one_if_fixed(self) -> HeadingStrategy:
         if self.kind == "fixed" and len(self.headings) != 1:
             raise TwinError(f"headings: a fixed strategy has one heading, got {self.headings}")
+        if self.vessel_heading is not None and self.kind != "record":
+            raise TwinError("vessel_heading: only with the record strategy (the bow's compass "
+                            f"heading met by the record's waves), got {self.kind}")  # fmt: skip
         return self
+
+    def needs(self) -> tuple[str, ...]:
+        """The record columns every row must have besides time, Hs and Tp: the wave direction
+        and vessel heading for `record` (the heading not when `vessel_heading` is given)."""
+        if self.kind != "record":
+            return ()
+        return ("direction",) if self.vessel_heading is not None else ("direction", "heading")
 
     @classmethod
     def parse(cls, text: str) -> HeadingStrategy:
@@ -138,6 +158,9 @@ class HeadingStrategy(BaseModel):
             raise TwinError(f"heading strategy {text!r}: allowed fixed:DEG, best:DEG,DEG,… or "
                             "record")  # fmt: skip
         if kind == "record":
+            if rest.strip():
+                raise TwinError(f"heading strategy {text!r}: record takes no headings; a fixed "
+                                "compass heading is --vessel-heading DEG")  # fmt: skip
             return cls(kind="record")
         try:
             headings = [float(v) for v in rest.split(",") if v.strip()]
@@ -149,6 +172,8 @@ class HeadingStrategy(BaseModel):
 
     def label(self) -> str:
         if self.kind == "record":
+            if self.vessel_heading is not None:
+                return f"vessel heading {self.vessel_heading:g}° true"
             return "vessel heading from the record"
         heads = ", ".join(f"{h:g}°" for h in self.headings)
         return f"fixed relative heading {heads}" if self.kind == "fixed" else f"best of {heads}"
@@ -187,7 +212,11 @@ class WorkabilitySpec(BaseModel):
         description="[deg] relative headings of the cells for the record strategy",
     )  # fmt: skip
     hs_limits: list[float] = Field(
-        [1.5, 2.0, 2.5], max_length=12, description="[m] Hs limits of the threshold baseline"
+        [1.5, 2.0, 2.5], max_length=12,
+        description="[m] Hs limits of the threshold baseline (reported in ascending order)",
+    )  # fmt: skip
+    duplicates: Duplicates = Field(
+        "error", description="rows sharing a time: error (naming their lines), mean or first"
     )
     tip_error_threshold: float = Field(
         0.05, gt=0.0, le=10.0, description="[m] largest tip position error of an operable run"
@@ -231,6 +260,13 @@ class WorkabilitySpec(BaseModel):
         if any(v <= 0 for v in values):
             raise ValueError(f"window_hours: each > 0 h, got {values}")
         return values
+
+    @field_validator("hs_limits")
+    @classmethod
+    def _ascending(cls, values: list[float]) -> list[float]:
+        if any(v <= 0 for v in values) or len(set(values)) != len(values):
+            raise ValueError(f"hs_limits: distinct values > 0 m, got {values}")
+        return sorted(values)
 
     @model_validator(mode="after")
     def _consistent(self) -> WorkabilitySpec:
@@ -406,8 +442,9 @@ class WorkabilityResult:
         })  # fmt: skip
 
     def to_csv(self, path: str | Path) -> Path:
+        """The per-row table (`rows_csv`) to `path`."""
         path = Path(path)
-        self.rows.to_csv(path, index=False, float_format="%.6g")
+        rows_csv(self.rows, path)
         return path
 
     def to_json(self, path: str | Path) -> Path:
@@ -415,25 +452,32 @@ class WorkabilityResult:
         path.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
         return path
 
-    def pngs(self) -> dict[str, bytes]:
+    def pngs(self, title: str | None = None) -> dict[str, bytes]:
         """The plots as PNG bytes by file name: `monthly.png` (time series with months),
-        `windows.png`, `strip.png` (time series, forecasts) and `forecast.png` (forecasts)."""
+        `windows.png`, `strip.png` (time series, forecasts) and `forecast.png` (forecasts).
+        `title`: what the plots call the record (e.g. an uploaded file's name); default its
+        source."""
         from twin.sim import workability_plots as plots
 
         out: dict[str, bytes] = {}
-        figures = plots.figures(self)
+        figures = plots.figures(self, title=title)
         for name, figure in figures.items():
             buffer = io.BytesIO()
             figure.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
             out[name] = buffer.getvalue()
         return out
 
-    def write(self, out: str | Path) -> list[Path]:
-        """`workability.csv`, `workability.json` and every PNG into folder `out`."""
+    def write(self, out: str | Path, title: str | None = None) -> list[Path]:
+        """`workability.csv` (per row), `months.csv` (time series: per month, `months_table`),
+        `workability.json` and every PNG (`pngs(title)`) into folder `out`."""
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         written = [self.to_csv(out / "workability.csv"), self.to_json(out / "workability.json")]
-        for name, data in self.pngs().items():
+        if "months" in self.summary:
+            months_table(self.summary).to_csv(out / "months.csv", index=False,
+                                              float_format="%.6g")  # fmt: skip
+            written.append(out / "months.csv")
+        for name, data in self.pngs(title).items():
             (out / name).write_bytes(data)
             written.append(out / name)
         return written
@@ -472,11 +516,8 @@ def run_workability(
     """
     spec = spec if isinstance(spec, WorkabilitySpec) else WorkabilitySpec(**spec)
     start = time.perf_counter()
-    if record.n == 0:
-        raise TwinError("record: no rows left to evaluate (every row was skipped)")
-    if record.n > MAX_ROWS:
-        raise TwinError(f"record: {record.n} rows; allowed at most {MAX_ROWS}")
-    notes: list[str] = []
+    check_record(spec, record)
+    notes = _notes(spec, record)
     betas = _row_headings(spec, record)  # (n, options)
     cell_hs, cell_tp, cell_beta, above, low_hs, upper = _cells(spec, record, betas, notes)
     planners = list(spec.planners or [])
@@ -518,18 +559,76 @@ def run_workability(
                              time.perf_counter() - start, where, notes)  # fmt: skip
 
 
+def read_site_record(
+    path: str | Path, spec: WorkabilitySpec | dict, kind: str | None = None
+) -> SiteRecord:
+    """Read a record for `spec` and check it can be evaluated: every row needs only the columns
+    the heading strategy uses (`HeadingStrategy.needs`), rows sharing a time follow
+    `spec.duplicates`, and the rows skipped are counted by reason (`SiteRecord.skipped`;
+    `SiteRecord.warnings` when over 5 %).
+
+    Raises:
+        TwinError: a malformed file (naming the line), or a record `check_record` refuses.
+    """
+    spec = spec if isinstance(spec, WorkabilitySpec) else WorkabilitySpec(**spec)
+    record = read_record(path, kind, require=spec.heading.needs(), duplicates=spec.duplicates)
+    check_record(spec, record)
+    return record
+
+
+def check_record(spec: WorkabilitySpec, record: SiteRecord) -> None:
+    """TwinError unless `spec` can evaluate `record`: at least one row (else the reasons rows
+    were skipped, with their counts), at most MAX_ROWS, and the columns its heading strategy
+    needs."""
+    if record.n == 0:
+        reasons = ", ".join(f"{reason}: {count}" for reason, count in record.skipped.items())
+        raise TwinError(
+            f"record: no rows left to evaluate ({reasons or 'the file has no rows'}); every row "
+            "needs Hs and Tp, and the record strategy a direction"
+        )
+    if record.n > MAX_ROWS:
+        raise TwinError(f"record: {record.n} rows; allowed at most {MAX_ROWS}")
+    needs = spec.heading.needs()
+    lacking = [c for c in needs if getattr(record, c) is None]
+    if lacking:
+        raise TwinError(
+            f"heading strategy {spec.heading.label()!r} needs the record's {' and '.join(needs)} "
+            f"({record.source or 'the record'} lacks {', '.join(lacking)}); allowed: fixed:DEG, "
+            "best:DEG,DEG,… "
+            "or, with wave directions, a vessel heading (--vessel-heading DEG)"
+        )
+
+
 def _row_headings(spec: WorkabilitySpec, record: SiteRecord) -> np.ndarray:
     """(n, options) relative headings [deg] each row is evaluated at."""
     strategy = spec.heading
     if strategy.kind == "record":
-        if record.direction is None or record.heading is None:
-            raise TwinError(
-                "heading strategy 'record' needs the record's wave direction and vessel heading "
-                f"columns ({record.source} has direction: {record.direction is not None}, "
-                f"heading: {record.heading is not None}); allowed: fixed:DEG or best:DEG,DEG,…"
-            )
-        return np.asarray(relative_heading(record.direction, record.heading)).reshape(-1, 1)
+        check_record(spec, record)  # names what a direct caller's record lacks
+        heading = record.heading if strategy.vessel_heading is None else strategy.vessel_heading
+        beta = relative_heading(record.direction, heading)  # type: ignore[arg-type]
+        return np.asarray(beta, dtype=float).reshape(-1, 1)
     return np.tile(np.asarray(strategy.headings, dtype=float), (record.n, 1))
+
+
+def _notes(spec: WorkabilitySpec, record: SiteRecord) -> list[str]:
+    """What a reader of the result should know about the record: rows skipped over 5 %
+    (`SiteRecord.warnings`), the reader's notes, months pooled over years, and rows whose Tp
+    lies outside the cell grid (they take its nearest edge cell; rows above the Hs grid are
+    noted by `_cells`)."""
+    notes = [*record.warnings(), *record.notes]
+    if record.time is not None:
+        years = sorted(set(pd.DatetimeIndex(record.time).year.tolist()))
+        if len(years) > 1:
+            notes.append(f"months pool {len(years)} years ({years[0]}-{years[-1]}): each month's "
+                         "figure is over that month of every year")  # fmt: skip
+    if spec.method == "cells":
+        low, high = spec.tp_grid[0], spec.tp_grid[-1]
+        below, over = int(np.sum(record.tp < low)), int(np.sum(record.tp > high))
+        for count, side, edge in ((below, "below", low), (over, "above", high)):
+            if count:
+                notes.append(f"{count} rows have Tp {side} the cell grid's {edge:g} s and take "
+                             f"its {edge:g} s cells (nearest in Tp)")  # fmt: skip
+    return notes
 
 
 def _cells(
@@ -687,6 +786,9 @@ def _summarise(spec: WorkabilitySpec, record: SiteRecord, rows: pd.DataFrame) ->
         month = pd.DatetimeIndex(record.time).month.to_numpy()
     out: dict[str, Any] = {"mechanism": spec.mechanism, "heading_strategy": spec.heading.label(),
                            "planners": {}, "threshold": {}}  # fmt: skip
+    if record.time is not None:
+        out["months"] = _months(record)
+        out["years"] = sorted({int(y) for y in pd.DatetimeIndex(record.time).year})
     for limit in spec.hs_limits:
         operable = record.hs < limit  # the estimate users make today
         entry: dict[str, Any] = {"workability": float(np.sum(weight * operable))}
@@ -726,13 +828,64 @@ def _monthly(values: np.ndarray, weight: np.ndarray, month: np.ndarray) -> dict[
     return out
 
 
+def _months(record: SiteRecord) -> dict[str, dict[str, Any]]:
+    """Per calendar month present: the hours the record covers (rows × its time step), the
+    years it pools, the hours those years' months have, the share covered, and whether that
+    share is under PARTIAL_MONTH (a month whose figure rests on under half its time)."""
+    times = np.asarray(record.time, dtype="datetime64[ns]")
+    index = pd.DatetimeIndex(times)
+    step = record_step(times)
+    month_of, year_of = index.month.to_numpy(), index.year.to_numpy()
+    out: dict[str, dict[str, Any]] = {}
+    for month in np.unique(month_of).tolist():
+        mask = month_of == month
+        years = sorted(set(year_of[mask].tolist()))
+        calendar_hours = 24.0 * sum(calendar.monthrange(y, month)[1] for y in years)
+        hours = float(mask.sum()) * step
+        coverage = min(1.0, hours / calendar_hours)
+        out[MONTHS[month - 1]] = {"hours": hours, "years": years,
+                                       "calendar_hours": calendar_hours, "coverage": coverage,
+                                       "partial": coverage < PARTIAL_MONTH}  # fmt: skip
+    return out
+
+
 def _windows(spec: WorkabilitySpec, record: SiteRecord, operable: np.ndarray) -> dict[str, Any]:
-    series = regular_series(record.time, operable)  # type: ignore[arg-type]
+    """Weather windows of each length W on the record's own rows (`twin.site.windows`)."""
+    order = np.argsort(record.time, kind="stable")  # type: ignore[arg-type]
+    times = record.time[order]  # type: ignore[index]
+    step = record_step(times)
     return {
-        f"{w:g}": window_stats(series.operable, series.step_hours, w, times=series.times,
-                               shift=spec.shift).to_dict()
+        f"{w:g}": window_stats(operable[order], step, w, times=times, shift=spec.shift).to_dict()
         for w in spec.window_hours
-    }  # fmt: skip
+    }
+
+
+def rows_csv(rows: pd.DataFrame, target: str | Path | io.TextIOBase | None = None) -> str | None:
+    """A result's per-row table as CSV (`WorkabilityResult.rows`): times in UTC with their zone
+    (`2019-08-01T00:10Z`), floats to 6 significant digits. Written to `target` (a path or an
+    open text file), or returned as text when `target` is None."""
+    table = rows.copy()
+    if "time" in table:
+        table["time"] = utc_column(table["time"].to_numpy()).to_numpy()
+    return table.to_csv(target, index=False, float_format="%.6g")  # type: ignore[arg-type]
+
+
+def months_table(summary: dict[str, Any]) -> pd.DataFrame:
+    """One row per calendar month of a time-series result: hours covered, years pooled,
+    coverage, partial, then the workability [0-1] of each planner and of each Hs limit
+    (`hs<LIMIT>`). Empty for a scatter diagram."""
+    months = summary.get("months", {})
+    table = pd.DataFrame({
+        "month": list(months), "hours": [m["hours"] for m in months.values()],
+        "years": [" ".join(map(str, m["years"])) for m in months.values()],
+        "coverage": [m["coverage"] for m in months.values()],
+        "partial": [m["partial"] for m in months.values()],
+    })  # fmt: skip
+    for planner, entry in summary["planners"].items():
+        table[planner] = [entry.get("monthly", {}).get(m, np.nan) for m in months]
+    for limit, entry in summary["threshold"].items():
+        table[f"hs<{limit}"] = [entry.get("monthly", {}).get(m, np.nan) for m in months]
+    return table
 
 
 def _plain(value: Any) -> Any:

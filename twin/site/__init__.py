@@ -6,7 +6,7 @@ Layer: above `twin.sea` and `twin.vessel` (it speaks their conventions), below `
 
     record = read_record(asset_path("site", "46097h2019_08.txt"))   # NDBC, sniffed
     beta = relative_heading(record.direction, vessel_heading=90.0)  # Scenario.heading [deg]
-    stats = window_stats(operable, step_hours=1.0, min_hours=12.0)
+    stats = window_stats(operable, record_step(record.time), 12.0, times=record.time)
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from twin.site.records import (
     read_scatter,
     read_timeseries,
 )
-from twin.site.windows import WindowStats, regular_series, window_stats
+from twin.site.windows import WindowStats, record_step, window_stats
 
 __all__ = [
     "SiteRecord",
@@ -30,7 +30,7 @@ __all__ = [
     "read_record",
     "read_scatter",
     "read_timeseries",
-    "regular_series",
+    "record_step",
     "relative_heading",
     "vessel_heading_for",
     "wave_from",

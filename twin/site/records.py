@@ -12,10 +12,17 @@ Four inputs, one `SiteRecord`:
   Tp value) or long (`hs`, `tp`, optional `direction`, `occurrence`);
 - `read_forecast`: a time series, as `read_timeseries`, marked as a forecast.
 
-A row with a missing value is skipped and counted by reason (`SiteRecord.skipped`); a value that
-is not a number, a negative Hs or period, a direction outside 0-360°, a short or long line or an
-unreadable time raises `TwinError` naming the file, the line (or row) and the column and saying
-what is allowed. Nothing NaN leaves this module.
+Every row needs Hs and Tp; the direction and the vessel heading only where the caller says so
+(`require`: the heading strategy `record` uses them, `fixed` and `best` do not). A row missing a
+required value is skipped and counted by reason (`SiteRecord.skipped`); an optional column that
+is missing on some kept rows is left out of the record, with a note (`SiteRecord.notes`). A
+value that is not a number, a negative Hs or period, a direction outside 0-360°, a short or long
+line, an unreadable time, two rows at one time (unless `duplicates` is "mean" or "first") or
+rows closer than `MIN_STEP` raises `TwinError` naming the file, the line (or row) and the column
+and saying what is allowed. Nothing NaN leaves this module.
+
+NDBC files with several rows per hour (real-time files: 10-minute rows, newest first, WVHT + DPD
+on one row and WVHT + MWD on another) are read one sea state per clock hour (`_merge_hours`).
 
 Conventions: times are UTC (a time without a zone is read as UTC), stored as naive
 `datetime64[ns]`; directions are compass degrees, clockwise from true north, waves coming *from*
@@ -26,6 +33,7 @@ converts both to `Scenario.heading`).
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -36,6 +44,14 @@ import pandas as pd
 from twin.errors import TwinError
 
 Kind = Literal["timeseries", "scatter", "forecast"]
+#: what to do with rows sharing a time: refuse them, average them, or keep the first in the file
+Duplicates = Literal["error", "mean", "first"]
+DUPLICATES = ("error", "mean", "first")
+#: columns a caller may require on every row besides time, Hs and Tp
+REQUIRABLE = ("direction", "heading")
+#: the finest time step a record may have: rows closer than this are refused (a record is
+#: evaluated row by row, and its windows are measured on its rows, never on a denser grid)
+MIN_STEP = np.timedelta64(60, "s")
 #: what `read_record` accepts as `kind`
 READ_KINDS = ("ndbc", "timeseries", "scatter", "forecast")
 #: NDBC's missing-value markers per column (as text; `MM` in real-time files)
@@ -44,8 +60,8 @@ NDBC_MISSING = {"WVHT": {"99.00", "99.0", "99"}, "DPD": {"99.00", "99.0", "99"},
 #: [bytes] largest record file read (a 10-year hourly CSV is ~4 MB)
 MAX_FILE = 64 * 1024 * 1024
 #: the columns of a time series (required first)
-TIMESERIES_REQUIRED = ("time", "hs", "tp", "direction")
-TIMESERIES_OPTIONAL = ("spreading", "heading")
+TIMESERIES_REQUIRED = ("time", "hs", "tp")
+TIMESERIES_OPTIONAL = ("direction", "spreading", "heading")
 #: the column that makes a CSV time series a forecast when sniffed: when it was issued
 FORECAST_MARKER = "issued"
 #: names of a long scatter table's weight column
@@ -67,7 +83,10 @@ class SiteRecord:
         weight: (n,) [-] occurrence of each row (scatter diagram), or None (every row once).
         kind: "timeseries", "scatter" or "forecast".
         source: where it came from (file name and format).
-        skipped: rows skipped, by reason (e.g. {"WVHT missing": 12}).
+        skipped: rows skipped, by reason (e.g. {"WVHT missing": 12}); for an NDBC file,
+            hours.
+        notes: what the reader did that a user should know (rows merged per hour, duplicates
+            resolved, a column left out).
     """
 
     hs: np.ndarray
@@ -80,6 +99,7 @@ class SiteRecord:
     kind: Kind = "timeseries"
     source: str = ""
     skipped: dict[str, int] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.hs = np.asarray(self.hs, dtype=float)
@@ -113,6 +133,17 @@ class SiteRecord:
         w = np.ones(self.n) if self.weight is None else self.weight
         return w / w.sum()
 
+    def warnings(self, share: float = 0.05) -> list[str]:
+        """One warning per reason when the rows skipped are more than `share` of those read:
+        the reason, its count and the share of all rows it took."""
+        lost = sum(self.skipped.values())
+        read = self.n + lost
+        if read == 0 or lost <= share * read:
+            return []
+        ranked = sorted(self.skipped.items(), key=lambda kv: -kv[1])
+        return [f"{count} of {read} rows ({100 * count / read:.1f} %) skipped: {reason}"
+                for reason, count in ranked]  # fmt: skip
+
     def frame(self) -> pd.DataFrame:
         """The rows as a DataFrame (columns that are None left out)."""
         columns = {name: getattr(self, name) for name in
@@ -127,22 +158,40 @@ class SiteRecord:
             "hs_range": [float(self.hs.min()), float(self.hs.max())] if self.n else None,
             "tp_range": [float(self.tp.min()), float(self.tp.max())] if self.n else None,
             "has_direction": self.direction is not None, "has_heading": self.heading is not None,
-            "has_spreading": self.spreading is not None,
+            "has_spreading": self.spreading is not None, "notes": list(self.notes),
+            "warnings": self.warnings(),
         }  # fmt: skip
         if self.time is not None and self.n:
-            out["start"] = str(pd.Timestamp(self.time.min()).isoformat()) + "Z"
-            out["end"] = str(pd.Timestamp(self.time.max()).isoformat()) + "Z"
+            out["start"] = utc_text(self.time.min())
+            out["end"] = utc_text(self.time.max())
         return out
+
+
+def utc_text(time: Any) -> str:
+    """A time (naive UTC, as a record stores it) as ISO 8601 with its zone: `2019-08-01T00:10Z`."""
+    return pd.Timestamp(time).strftime("%Y-%m-%dT%H:%MZ")
+
+
+def utc_column(times: np.ndarray) -> pd.Series:
+    """Times (naive UTC) as ISO 8601 text with their zone, seconds kept where there are some."""
+    index = pd.DatetimeIndex(np.asarray(times, dtype="datetime64[ns]"))
+    whole = bool(np.all(index.second == 0))
+    return pd.Series(index.strftime("%Y-%m-%dT%H:%MZ" if whole else "%Y-%m-%dT%H:%M:%SZ"))
 
 
 # -- readers --------------------------------------------------------------------------------------
 
 
-def read_record(path: str | Path, kind: str | None = None) -> SiteRecord:
+def read_record(
+    path: str | Path, kind: str | None = None, *, require: Iterable[str] = (),
+    duplicates: Duplicates = "error",
+) -> SiteRecord:  # fmt: skip
     """Read any record: by `kind` ("ndbc", "timeseries", "scatter", "forecast"), else sniffed
     (`.parquet`: a time series; a first line starting `#YY`, `YY` or `YYYY`: NDBC; a CSV with an
     `issued` column (when the forecast was issued): a forecast; a CSV with an `occurrence`-like
     column or numeric column names after `hs`: a scatter table; any other CSV: a time series).
+    `require` ("direction", "heading") and `duplicates` ("error", "mean", "first") go to the
+    time-series readers (`_build`, `_resolve_duplicates`); a scatter table has no times.
 
     Raises:
         TwinError: an unknown kind, a missing file or malformed content (naming it).
@@ -152,17 +201,56 @@ def read_record(path: str | Path, kind: str | None = None) -> SiteRecord:
         raise TwinError(f"kind: got {kind!r}; allowed {', '.join(READ_KINDS)} or None (sniff)")
     if kind is None:
         kind = _sniff(path)
-    reader = {"ndbc": read_ndbc, "timeseries": read_timeseries, "scatter": read_scatter,
-              "forecast": read_forecast}[kind]  # fmt: skip
-    return reader(path)
+    if kind == "scatter":
+        return read_scatter(path)
+    reader = {"ndbc": read_ndbc, "timeseries": read_timeseries, "forecast": read_forecast}[kind]
+    return reader(path, require=require, duplicates=duplicates)
 
 
-def read_ndbc(path: str | Path) -> SiteRecord:
+def read_ndbc(
+    path: str | Path, *, require: Iterable[str] = (), duplicates: Duplicates = "error"
+) -> SiteRecord:
     """An NDBC standard meteorological file: WVHT → hs [m], DPD → tp [s], MWD → direction [deg
-    true, from]. Rows with any of the three missing (`99.00`, `999`, `MM`) are skipped and
-    counted; two-digit years are 19YY (NDBC wrote them until 1998); no minute column: minute 0.
+    true, from]; `99.00`, `999` and `MM` mark a missing value. Two-digit years are 19YY (NDBC
+    wrote them until 1998); no minute column: minute 0. One sea state per clock hour
+    (`_merge_hours`: real-time files split WVHT + DPD and MWD over 10-minute rows); an hour
+    without a row holding both WVHT and DPD is skipped and counted, as is one without MWD when
+    `require` holds "direction". A buoy that reports no MWD at all gives a record without
+    direction.
     """
     path = _check_file(path)
+    require = _required(require)
+    table, lines, names, skipped = _ndbc_table(path)
+    stamp = {}
+    for column, unit in (("YY", "year"), ("YYYY", "year"), ("MM", "month"), ("DD", "day"),
+                         ("hh", "hour"), ("mm", "minute")):  # fmt: skip
+        if column in table:
+            stamp[unit] = _numbers(table[column], path, lines, column, integer=True)
+    if "year" in stamp and names[0] == "YY":
+        stamp["year"] = np.where(stamp["year"] < 100, stamp["year"] + 1900, stamp["year"])
+    stamp.setdefault("minute", np.zeros(len(table)))
+    frame = pd.DataFrame({"time": _times_from_parts(stamp, path, lines), "line": lines})
+    for column, name in (("WVHT", "hs"), ("DPD", "tp"), ("MWD", "direction")):
+        text = table[column].str.strip()
+        absent = text.isin(NDBC_MISSING[column] | {"MM"}).to_numpy()
+        values = _numbers(text.where(~absent, "0"), path, lines, column)
+        _check_ranges({name: values}, path, lines, ~absent, {name: column})
+        frame[name] = np.where(absent, np.nan, values)
+    # a buoy without a directional sensor writes 999 on every row (44005 in 2012): the record
+    # has no direction (fixed or chosen headings still apply) rather than no rows
+    no_direction = bool(frame["direction"].isna().all())
+    if no_direction and "direction" in require:
+        raise TwinError(f"{path.name}: MWD is missing on every row; the heading strategy needs "
+                        "the wave direction (allowed: fixed:DEG or best:DEG,DEG,…)")  # fmt: skip
+    notes: list[str] = []
+    frame = _resolve_duplicates(frame, path, "line", duplicates, notes)
+    frame = _merge_hours(frame, skipped, notes)
+    source = f"{path.name} (NDBC standard meteorological{'; no MWD' if no_direction else ''})"
+    return _build(frame, "timeseries", source, skipped, notes, require, path, {"direction": "MWD"})
+
+
+def _ndbc_table(path: Path) -> tuple[pd.DataFrame, np.ndarray, list[str], dict[str, int]]:
+    """(the data lines as text, their 1-based file lines, the column names, skipped blanks)."""
     with path.open(encoding="utf-8", errors="replace") as handle:
         first, second = handle.readline(), handle.readline()
     names = first.lstrip("#").split()
@@ -197,85 +285,92 @@ def read_ndbc(path: str | Path) -> SiteRecord:
             f"{path.name}, line {lines[i]}: {fields} fields; allowed {len(names)} "
             f"({' '.join(names)})"
         )
-    table, lines = table[~blank], lines[~blank]
-    skipped: dict[str, int] = {}
-    if blank.any():
-        skipped["blank line"] = int(blank.sum())
-    stamp = {}
-    for column, unit in (("YY", "year"), ("YYYY", "year"), ("MM", "month"), ("DD", "day"),
-                         ("hh", "hour"), ("mm", "minute")):  # fmt: skip
-        if column in table:
-            stamp[unit] = _numbers(table[column], path, lines, column, integer=True)
-    if "year" in stamp and names[0] == "YY":
-        stamp["year"] = np.where(stamp["year"] < 100, stamp["year"] + 1900, stamp["year"])
-    stamp.setdefault("minute", np.zeros(len(table)))
-    time = _times_from_parts(stamp, path, lines)
-    values, keep = {}, np.ones(len(table), dtype=bool)
-    columns = [("WVHT", "hs"), ("DPD", "tp"), ("MWD", "direction")]
-    # a buoy without a directional sensor writes 999 on every row (44005 in 2012): the record
-    # has no direction (fixed or chosen headings still apply) rather than no rows
-    no_direction = bool(table["MWD"].str.strip().isin(NDBC_MISSING["MWD"] | {"MM"}).all())
-    if no_direction:
-        columns.pop()
-    for column, name in columns:
-        text = table[column].str.strip()
-        absent = text.isin(NDBC_MISSING[column] | {"MM"}).to_numpy()
-        skipped_here = absent & keep
-        if skipped_here.any():
-            skipped[f"{column} missing"] = int(skipped_here.sum())
-        keep &= ~absent
-        values[name] = _numbers(text.where(~absent, "0"), path, lines, column)
-    _check_ranges(values, path, lines, keep, {"hs": "WVHT", "tp": "DPD", "direction": "MWD"})
-    order = np.argsort(time[keep], kind="stable")
-    direction = None if no_direction else np.mod(values["direction"][keep][order], 360.0)
-    source = f"{path.name} (NDBC standard meteorological{'; no MWD' if no_direction else ''})"
-    return SiteRecord(
-        hs=values["hs"][keep][order], tp=values["tp"][keep][order], direction=direction,
-        time=time[keep][order], kind="timeseries", source=source, skipped=skipped,
-    )  # fmt: skip
+    skipped = {"blank line": int(blank.sum())} if blank.any() else {}
+    return table[~blank], lines[~blank], names, skipped
 
 
-def read_timeseries(path: str | Path, kind: Kind = "timeseries") -> SiteRecord:
+def _merge_hours(frame: pd.DataFrame, skipped: dict[str, int], notes: list[str]) -> pd.DataFrame:
+    """One sea state per clock hour of an NDBC file: WVHT and DPD (and the time) from the hour's
+    earliest row holding both, MWD from the row holding one nearest that row in time within the
+    same hour (the earlier of two as near; the wave row itself when it has MWD). Hours with no
+    row holding both WVHT and DPD are counted in `skipped` by what they lack: "WVHT missing" (no
+    row of the hour has it) or "DPD missing" (no row has it beside WVHT)."""
+    frame = frame.sort_values("time", kind="stable").assign(hour=lambda f: f["time"].dt.floor("h"))
+    wave = frame.dropna(subset=["hs", "tp"]).drop_duplicates("hour", keep="first")
+    hours = frame.groupby("hour", sort=True)["hs"].count()
+    lost = hours.index.difference(pd.DatetimeIndex(wave["hour"]))
+    if len(lost):
+        no_wvht = int((hours.loc[lost] == 0).sum())
+        for reason, count in (("WVHT missing", no_wvht), ("DPD missing", len(lost) - no_wvht)):
+            if count:
+                skipped[reason] = skipped.get(reason, 0) + count
+    directions = frame.dropna(subset=["direction"])[["time", "hour", "direction"]]
+    # merge_asof takes the earlier row on a tie when searching backward first: search both
+    # ways and keep the nearer, earlier on a tie
+    both = [pd.merge_asof(wave.drop(columns="direction"),
+                          directions.rename(columns={"time": "mwd_time"}), left_on="time",
+                          right_on="mwd_time", by="hour", direction=way)
+            for way in ("backward", "forward")]  # fmt: skip
+    gap = [(b["mwd_time"] - b["time"]).abs() for b in both]
+    later = gap[1] < gap[0].fillna(pd.Timedelta.max)
+    merged = both[0].copy()
+    merged.loc[later, "direction"] = both[1].loc[later, "direction"]
+    if frame["hour"].duplicated().any():
+        notes.append(
+            f"{len(frame)} rows read as {len(merged)} hourly sea states (several rows per hour; "
+            "WVHT and DPD from the hour's first row holding both, MWD from the row nearest it "
+            "within the hour)"
+        )
+    return merged.drop(columns=["hour", "mwd_time"])
+
+
+def read_timeseries(
+    path: str | Path, kind: Kind = "timeseries", *, require: Iterable[str] = (),
+    duplicates: Duplicates = "error",
+) -> SiteRecord:  # fmt: skip
     """A CSV or Parquet time series: `time` (ISO 8601; UTC unless it carries a zone), `hs` [m],
-    `tp` [s], `direction` [deg true, from], optional `spreading` [-] (cos-2s s) and `heading`
-    [deg true, the bow's]. Empty cells are missing: their rows are skipped and counted."""
+    `tp` [s], optional `direction` [deg true, from], `spreading` [-] (cos-2s s) and `heading`
+    [deg true, the bow's]. Empty cells are missing: a row missing Hs, Tp or a `require`d column
+    is skipped and counted."""
     path = _check_file(path)
+    require = _required(require)
     table, lines, where = _table(path)
     table.columns = [_column_name(c) for c in table.columns]
-    absent = [c for c in TIMESERIES_REQUIRED if c not in table.columns]
+    absent = [c for c in ("time", "hs", "tp", *require) if c not in table.columns]
     if absent:
         raise TwinError(
             f"{path.name}: columns {absent} missing; a time series has columns "
-            f"{', '.join(TIMESERIES_REQUIRED)} and optionally {', '.join(TIMESERIES_OPTIONAL)}, "
+            f"{', '.join(TIMESERIES_REQUIRED)}, optionally {', '.join(TIMESERIES_OPTIONAL)} (the "
+            f"heading strategy 'record' needs direction, and heading without a vessel heading), "
             f"got {list(table.columns)}"
         )
     columns = [c for c in (*TIMESERIES_REQUIRED, *TIMESERIES_OPTIONAL) if c in table.columns]
     skipped: dict[str, int] = {}
     keep = np.ones(len(table), dtype=bool)
-    for column in columns:
-        empty = _empty(table[column])
-        if (empty & keep).any():
-            skipped[f"{column} missing"] = int((empty & keep).sum())
-        keep &= ~empty
-    values: dict[str, np.ndarray] = {}
+    empty = {c: _empty(table[c]) for c in columns}
+    for column in ("time", "hs", "tp", *require):
+        if (empty[column] & keep).any():
+            skipped[f"{column} missing"] = int((empty[column] & keep).sum())
+        keep &= ~empty[column]
+    frame = pd.DataFrame({"line": lines[keep]})
     for column in columns[1:]:
-        values[column] = _numbers(table[column].where(keep, "0"), path, lines, column, where)
-    _check_ranges(values, path, lines, keep, {c: c for c in values}, where)
+        present = keep & ~empty[column]
+        values = _numbers(table[column].where(present, "0"), path, lines, column, where)
+        _check_ranges({column: values}, path, lines, present, {column: column}, where)
+        frame[column] = np.where(empty[column], np.nan, values)[keep]
     time = _parse_times(table["time"].where(keep, "1970-01-01"), path, lines, where)
-    order = np.argsort(time[keep], kind="stable")
-    return SiteRecord(
-        hs=values["hs"][keep][order], tp=values["tp"][keep][order], time=time[keep][order],
-        direction=np.mod(values["direction"][keep][order], 360.0),
-        spreading=values["spreading"][keep][order] if "spreading" in values else None,
-        heading=np.mod(values["heading"][keep][order], 360.0) if "heading" in values else None,
-        kind=kind, source=f"{path.name} ({kind})", skipped=skipped,
-    )  # fmt: skip
+    frame.insert(0, "time", time[keep])
+    notes: list[str] = []
+    frame = _resolve_duplicates(frame, path, where, duplicates, notes)
+    return _build(frame, kind, f"{path.name} ({kind})", skipped, notes, require, path)
 
 
-def read_forecast(path: str | Path) -> SiteRecord:
+def read_forecast(
+    path: str | Path, *, require: Iterable[str] = (), duplicates: Duplicates = "error"
+) -> SiteRecord:
     """A forecast: a time series (`read_timeseries`'s columns, and optionally `issued`, when it
     was issued, which read_record's sniffing recognises; not otherwise read), kind "forecast"."""
-    return read_timeseries(path, kind="forecast")
+    return read_timeseries(path, kind="forecast", require=require, duplicates=duplicates)
 
 
 def read_scatter(path: str | Path) -> SiteRecord:
@@ -342,6 +437,100 @@ def read_scatter(path: str | Path) -> SiteRecord:
 
 
 # -- helpers --------------------------------------------------------------------------------------
+
+
+def _required(require: Iterable[str]) -> tuple[str, ...]:
+    require = tuple(require)
+    unknown = [c for c in require if c not in REQUIRABLE]
+    if unknown:
+        raise TwinError(f"require: {unknown}; allowed {', '.join(REQUIRABLE)}")
+    return require
+
+
+def _resolve_duplicates(
+    frame: pd.DataFrame, path: Path, where: str, how: Duplicates, notes: list[str]
+) -> pd.DataFrame:
+    """Rows sharing a time: an error naming their lines ("error"), their mean ("mean": missing
+    values left out, directions and headings averaged on the circle) or the first in the file
+    ("first"). `frame` is in file order with columns time, line and values (NaN: missing)."""
+    if how not in DUPLICATES:
+        raise TwinError(f"duplicates: got {how!r}; allowed {', '.join(DUPLICATES)}")
+    repeated = frame["time"].duplicated(keep=False).to_numpy()
+    if not repeated.any():
+        return frame
+    groups = frame[repeated].groupby("time", sort=True)["line"].apply(list)
+    if how == "error":
+        named = "; ".join(f"{where}s {', '.join(map(str, v))} at {utc_text(t)}"
+                          for t, v in groups.head(5).items())  # fmt: skip
+        raise TwinError(
+            f"{path.name}: {len(groups)} times appear on more than one row ({named}"
+            f"{'; …' if len(groups) > 5 else ''}); allowed one row per time, or duplicates "
+            "'mean' or 'first' (--duplicates)"
+        )
+    notes.append(f"{int(repeated.sum())} rows share {len(groups)} times: "
+                 f"{'averaged' if how == 'mean' else 'the first in the file kept'}")  # fmt: skip
+    if how == "first":
+        return frame.drop_duplicates("time", keep="first")
+    circular = [c for c in ("direction", "heading") if c in frame]
+    radians = np.deg2rad(frame[circular])
+    parts = frame.drop(columns=circular).assign(
+        **{f"{c}_x": np.cos(radians[c]) for c in circular},
+        **{f"{c}_y": np.sin(radians[c]) for c in circular},
+    )  # fmt: skip
+    mean = parts.groupby("time", sort=False).agg(
+        {c: "first" if c == "line" else "mean" for c in parts.columns if c != "time"}
+    ).reset_index()  # fmt: skip
+    for c in circular:
+        mean[c] = np.mod(np.rad2deg(np.arctan2(mean.pop(f"{c}_y"), mean.pop(f"{c}_x"))), 360.0)
+    return mean
+
+
+def _build(
+    frame: pd.DataFrame, kind: Kind, source: str, skipped: dict[str, int], notes: list[str],
+    require: tuple[str, ...], path: Path, names: dict[str, str] | None = None,
+) -> SiteRecord:  # fmt: skip
+    """The record of a time-series frame (time, line, hs, tp, optional columns; NaN missing):
+    rows missing a required column skipped and counted (under the file's column `names`), an
+    optional column missing on some kept row left out (noted), sorted by time, rows closer than
+    MIN_STEP refused."""
+    for column in require:
+        absent = frame[column].isna()
+        if absent.any():
+            reason = f"{(names or {}).get(column, column)} missing"
+            skipped[reason] = skipped.get(reason, 0) + int(absent.sum())
+            frame = frame[~absent.to_numpy()]
+    optional = {}
+    for column in ("direction", "spreading", "heading"):
+        if column not in frame:
+            continue
+        absent = frame[column].isna()
+        if absent.all():
+            continue
+        if absent.any():
+            notes.append(f"{column} missing on {int(absent.sum())} of {len(frame)} rows: left out "
+                         "of the record (the heading strategy does not need it)")  # fmt: skip
+            continue
+        optional[column] = frame[column].to_numpy(float)
+    order = np.argsort(frame["time"].to_numpy(), kind="stable")
+    time = frame["time"].to_numpy(dtype="datetime64[ns]")[order]
+    close = np.flatnonzero(np.diff(time) < MIN_STEP)
+    if close.size:
+        i = int(close[0])
+        lines = frame["line"].to_numpy()[order]
+        raise TwinError(
+            f"{path.name}: lines {lines[i]} and {lines[i + 1]} are "
+            f"{(time[i + 1] - time[i]) / np.timedelta64(1, 's'):g} s apart ({close.size} such "
+            f"pairs); allowed at least {MIN_STEP / np.timedelta64(1, 's'):g} s between rows "
+            "(average them to one row per minute or coarser)"
+        )
+    for name in ("direction", "heading"):
+        if name in optional:
+            optional[name] = np.mod(optional[name], 360.0)
+    return SiteRecord(
+        hs=frame["hs"].to_numpy(float)[order], tp=frame["tp"].to_numpy(float)[order], time=time,
+        **{k: v[order] for k, v in optional.items()}, kind=kind, source=source, skipped=skipped,
+        notes=notes,
+    )  # fmt: skip
 
 
 def _check_file(path: str | Path) -> Path:

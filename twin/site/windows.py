@@ -1,14 +1,17 @@
-"""Weather windows of an operable / not series on a regular time step.
+"""Weather windows of a record's operable / not rows, measured on the rows themselves.
 
-A *window* is a run of consecutive operable steps, optionally only within a daily work shift
-(e.g. 07-19 h: a step counts only if it starts within the shift, so a window never spans the
-night). Its length is its steps × the time step. The *waiting time* for a window of W hours,
-from a start time t, is the time until the earliest step s ≥ t from which W hours are operable
-(0 if the window is open at t); start times with no such s before the record ends are left out
-and counted (`censored`).
+Each row stands for one time step of the record (`record_step`: its median spacing) from its
+time. A *window* is a run of operable rows, each within 1.5 steps of the one before (a longer
+gap is unknown weather and ends the run), optionally only within a daily work shift (e.g.
+07-19 h: a row counts only if it starts within the shift, so a window never spans the night).
+Its length is from its first row's time to its last row's time plus one step. The *waiting
+time* for a window of W hours, from a row, is the time until the earliest row from which W
+hours are operable (0 if the window is open at that row); rows with no such row before the
+record ends are left out and counted (`censored`). Memory and work are proportional to the
+rows: no regular grid is built, so a record's spacing cannot make it larger.
 
-    series = regular_series(times, operable)          # gaps become not operable
-    stats = window_stats(series.operable, 1.0, 12.0, times=series.times, shift=(7, 19))
+    step = record_step(times)
+    stats = window_stats(operable, step, 12.0, times=times, shift=(7, 19))
 """
 
 from __future__ import annotations
@@ -24,53 +27,19 @@ from twin.errors import TwinError
 
 #: percentiles of the waiting time reported
 PERCENTILES = (10, 50, 90)
+#: [h] the step of a record with a single row (or all rows at one time)
+DEFAULT_STEP_HOURS = 1.0
+#: a gap longer than this many steps between two rows ends a window
+GAP_STEPS = 1.5
 
 
-@dataclass(frozen=True)
-class RegularSeries:
-    """Attributes:
-    times: (m,) datetime64[ns], regular at `step_hours` from the first time to the last.
-    operable: (m,) bool; False where the record had no row (a gap) or was not operable.
-    observed: (m,) bool; True where the record had a row.
-    step_hours: [h] the step.
-    """
-
-    times: np.ndarray
-    operable: np.ndarray
-    observed: np.ndarray
-    step_hours: float
-
-
-def regular_series(
-    times: np.ndarray, operable: np.ndarray, step_hours: float | None = None
-) -> RegularSeries:
-    """Put a record's operable flags on a regular grid: the step is `step_hours` or the record's
-    median spacing; each row goes to its nearest grid time; grid times without a row are not
-    operable (unknown weather is no window). Rows that share a grid time: operable only if all
-    are."""
-    times = np.asarray(times, dtype="datetime64[ns]")
-    operable = np.asarray(operable, dtype=bool)
-    if times.shape != operable.shape or times.ndim != 1 or times.size == 0:
-        raise TwinError("times and operable: one non-empty row each, the same length")
-    order = np.argsort(times, kind="stable")
-    times, operable = times[order], operable[order]
-    ns = times.astype(np.int64)
-    if step_hours is None:
-        gaps = np.diff(ns)
-        gaps = gaps[gaps > 0]
-        step_ns = int(np.median(gaps)) if gaps.size else 3_600_000_000_000
-    else:
-        if not math.isfinite(step_hours) or step_hours <= 0:
-            raise TwinError(f"step_hours: got {step_hours!r}; allowed > 0")
-        step_ns = round(step_hours * 3.6e12)
-    index = np.rint((ns - ns[0]) / step_ns).astype(np.int64)
-    m = int(index[-1]) + 1
-    ok = np.ones(m, dtype=bool)
-    observed = np.zeros(m, dtype=bool)
-    np.logical_and.at(ok, index, operable)
-    observed[index] = True
-    grid = ns[0] + np.arange(m, dtype=np.int64) * step_ns
-    return RegularSeries(grid.astype("datetime64[ns]"), ok & observed, observed, step_ns / 3.6e12)
+def record_step(times: np.ndarray) -> float:
+    """[h] a record's time step: the median spacing of its sorted times (DEFAULT_STEP_HOURS for
+    one row)."""
+    ns = np.sort(np.asarray(times, dtype="datetime64[ns]")).astype(np.int64)
+    gaps = np.diff(ns)
+    gaps = gaps[gaps > 0]
+    return float(np.median(gaps)) / 3.6e12 if gaps.size else DEFAULT_STEP_HOURS
 
 
 @dataclass(frozen=True)
@@ -123,24 +92,26 @@ def window_stats(
     times: np.ndarray | None = None,
     shift: tuple[int, int] | None = None,
 ) -> WindowStats:
-    """Windows of at least `min_hours` [h] and the waiting time for one.
+    """Windows of at least `min_hours` [h] and the waiting time for one (module docstring).
 
     Args:
-        operable: (m,) bool, one per step of a regular series.
-        step_hours: [h] the step (> 0).
-        min_hours: [h] W, > 0; a window needs ceil(W / step) steps.
-        times: (m,) datetime64 of the steps; needed with `shift`.
-        shift: (start, end) hours of the day, 0 ≤ start < end ≤ 24: a step counts only if its
+        operable: (n,) bool, one per row, in time order.
+        step_hours: [h] the time a row stands for (> 0), e.g. `record_step(times)`.
+        min_hours: [h] W, > 0.
+        times: (n,) datetime64 of the rows, increasing; None: rows every `step_hours`. Needed
+            with `shift`.
+        shift: (start, end) hours of the day, 0 ≤ start < end ≤ 24: a row counts only if its
             time of day lies in [start, end).
 
     Raises:
-        TwinError: a bad step, W or shift, or a shift without times.
+        TwinError: a bad step, W or shift, a shift without times, or times out of order.
     """
     ok = np.asarray(operable, dtype=bool).copy()
     if not math.isfinite(step_hours) or step_hours <= 0:
         raise TwinError(f"step_hours: got {step_hours!r}; allowed > 0")
     if not math.isfinite(min_hours) or min_hours <= 0:
         raise TwinError(f"min_hours: got {min_hours!r}; allowed > 0")
+    hours = _row_hours(ok.size, step_hours, times)
     if shift is not None:
         start, end = shift
         if not 0 <= start < end <= 24:
@@ -148,24 +119,39 @@ def window_stats(
                             "end ≤ 24")  # fmt: skip
         if times is None:
             raise TwinError("shift: needs the times of the steps")
-        hours = pd.DatetimeIndex(np.asarray(times, dtype="datetime64[ns]"))
-        hour = hours.hour + hours.minute / 60.0
-        ok &= np.asarray((hour >= start) & (hour < end))
-    need = max(1, math.ceil(min_hours / step_hours - 1e-9))
-    if ok.size == 0:
+        stamps = pd.DatetimeIndex(np.asarray(times, dtype="datetime64[ns]"))
+        of_day = stamps.hour + stamps.minute / 60.0
+        ok &= np.asarray((of_day >= start) & (of_day < end))
+    n = ok.size
+    if n == 0:
         return WindowStats(float(min_hours), float(step_hours), shift, np.zeros(0), np.zeros(0), 0)
-    # operable steps ahead of each step, itself included (a run's length from here): the
-    # distance to the next not-operable step, a reverse running minimum
-    steps = np.arange(ok.size)
-    next_bad = np.minimum.accumulate(np.where(ok, ok.size, steps)[::-1])[::-1]
-    ahead = next_bad - steps
-    starts = np.flatnonzero(ok & np.concatenate([[True], ~ok[:-1]]))
+    rows = np.arange(n)
+    # row k + 1 continues row k's run if both are operable and no gap lies between them
+    joined = ok[:-1] & ok[1:] & (np.diff(hours) < GAP_STEPS * step_hours)
+    ends = ok & np.concatenate([~joined, [True]])
+    starts = ok & np.concatenate([[True], ~joined])
+    # each row's run end: the first end at or after it, a reverse running minimum
+    run_end = np.minimum.accumulate(np.where(ends, rows, n)[::-1])[::-1]
+    ahead = np.where(ok, hours[np.minimum(run_end, n - 1)] - hours + step_hours, 0.0)
     runs = ahead[starts]
-    lengths = runs[runs >= need] * step_hours
-    # the earliest step ≥ i that opens a W-hour window: a reverse running minimum
-    opens = np.where(ahead >= need, np.arange(ok.size), ok.size)
+    tolerance = 1e-6 * min(step_hours, min_hours)  # float noise of the hours, not a step
+    lengths = runs[runs >= min_hours - tolerance]
+    # the earliest row at or after each row that opens a W-hour window
+    opens = np.where(ahead >= min_hours - tolerance, rows, n)
     next_open = np.minimum.accumulate(opens[::-1])[::-1]
-    found = next_open < ok.size
-    waits = (next_open[found] - np.flatnonzero(found)) * step_hours
+    found = next_open < n
+    waits = hours[next_open[found]] - hours[found]
     return WindowStats(float(min_hours), float(step_hours), shift, lengths.astype(float),
                        waits.astype(float), int((~found).sum()))  # fmt: skip
+
+
+def _row_hours(n: int, step_hours: float, times: np.ndarray | None) -> np.ndarray:
+    """[h] each row's time from the first row's (rows every step without times)."""
+    if times is None:
+        return np.arange(n) * step_hours
+    ns = np.asarray(times, dtype="datetime64[ns]").astype(np.int64)
+    if ns.shape != (n,):
+        raise TwinError(f"times: {ns.shape} for {n} rows; allowed one time per row")
+    if np.any(np.diff(ns) < 0):
+        raise TwinError("times: out of order; allowed increasing times, one per row")
+    return (ns - ns[0]) / 3.6e12 if n else np.zeros(0)
