@@ -21,7 +21,7 @@ from tests.figures import record
 from tests.web.support import SAME_ORIGIN, TOKEN, access, wait_for
 from twin.sim.live import LiveSession
 from twin.web import RunStore, create_app
-from twin.web.access import FAILURE_BURST, Access
+from twin.web.access import FAILURE_BURST
 from twin.web.server import listen, uvicorn_config
 
 
@@ -39,24 +39,41 @@ def _patch(client: TestClient, token: str, **headers: str) -> int:
 
 def test_wrong_tokens_from_an_address_never_refuse_the_right_one(client: TestClient) -> None:
     """The red team's lock-out: ten wrong PATCHes made the holder's right one a 429."""
-    codes = [_patch(client, f"guess-{i:02d}-0000000000") for i in range(3 * FAILURE_BURST)]
+    codes = [_patch(client, f"guess-{i % 2:02d}-0000000000") for i in range(3 * FAILURE_BURST)]
     assert 429 in codes  # the guesser is limited …
     assert _patch(client, TOKEN) == 200  # … the holder, from the same address, is not
     record("attack30_lockout", wrong=len(codes), refused_429=codes.count(429), holder=200)
 
 
+def test_wrong_tokens_sharing_the_holders_prefix_never_refuse_it(client: TestClient) -> None:
+    """Issue 43: 15 wrong tokens that share the holder's first 4 (or more) characters, each
+    sent again past its burst, locked the holder out when the limit was keyed on a prefix."""
+    wrong = [TOKEN[:8] + f"{i:02d}" + "x" * (len(TOKEN) - 10) for i in range(15)]
+    codes = [_patch(client, guess) for guess in wrong for _ in range(FAILURE_BURST + 1)]
+    assert codes.count(429) == len(wrong)  # each wrong token is limited on its own …
+    assert _patch(client, TOKEN) == 200  # … and the holder's is never among them
+    record("attack43_prefix_lockout", wrong=len(codes), refused_429=codes.count(429), holder=200)
+
+
 def test_the_same_wrong_token_again_and_again_is_limited(client: TestClient) -> None:
+    """One wrong token is compared `FAILURE_BURST` times, then refused before comparison."""
     codes = [_patch(client, "wrong-wrong-wrong-1") for _ in range(FAILURE_BURST + 2)]
     assert codes[:FAILURE_BURST] == [401] * FAILURE_BURST
     assert codes[-1] == 429
 
 
-def test_failure_keys_separate_clients_and_failures() -> None:
-    key = Access.failure_key
-    assert key("1.2.3.4", "abcdXYZ") == key("1.2.3.4", b"abcdQQQ")  # same prefix: same bucket
+def test_failure_keys_separate_clients_and_whole_tokens() -> None:
+    """The key is the address and a keyed hash of the whole token: tokens sharing a prefix,
+    or differing in their last byte, have keys of their own; no key shows its token, and
+    another policy (another server process) keys the same token differently."""
+    key = access(TOKEN).failure_key
+    assert key("1.2.3.4", "abcdXYZ") == key("1.2.3.4", b"abcdXYZ")
+    assert key("1.2.3.4", "abcdXYZ") != key("1.2.3.4", "abcdQQQ")  # same prefix: own bucket
+    assert key("1.2.3.4", TOKEN[:-1] + "?") != key("1.2.3.4", TOKEN)
     assert key("1.2.3.4", "abcdXYZ") != key("1.2.3.5", "abcdXYZ")
-    assert key("1.2.3.4", "abcdXYZ") != key("1.2.3.4", TOKEN)
     assert key("1.2.3.4", None) == key("1.2.3.4", "")  # no token: a failure kind of its own
+    assert "abcd" not in key("1.2.3.4", "abcdXYZ") and "61626364" not in key("1.2.3.4", "abcd")
+    assert access(TOKEN).failure_key("1.2.3.4", "abcdXYZ") != key("1.2.3.4", "abcdXYZ")
 
 
 def test_a_non_utf8_origin_is_400_not_500(tmp_path: Path) -> None:

@@ -14,11 +14,13 @@
   token check. Its Host header is never used to decide what is same-origin.
 - **Token** (REST POST, PATCH and DELETE; the viewer's controls): if set, at least
   `MIN_TOKEN` characters, compared in constant time. Wrong tokens are limited per (client
-  address, the failure: the first `FAILURE_PREFIX` characters of the token sent, or "none"):
-  past `failure_burst` wrong ones a client is refused (429) for a while before its next guess
-  with that prefix is even compared. The right token has a prefix of its own, which only its
-  holder knows, so nobody else's failures, from the same address, a NAT or a proxy, ever
-  refuse it (issue 30: ten wrong PATCHes from an address made the holder's right one a 429).
+  address, the failure: a keyed hash of the whole token sent, HMAC-SHA256 under a key drawn
+  at random when the policy is made, or "none"): past `failure_burst` tries of one wrong token
+  a client is refused (429) for a while before that token is even compared again. The right
+  token is never counted as a failure, and no other token shares its key, so nobody else's
+  failures, from the same address, a NAT or a proxy, ever refuse it (issue 30: ten wrong
+  PATCHes from an address made the holder's right one a 429; issue 43: fifteen wrong tokens
+  sharing its first 4 characters did, when the key was a 4-character prefix).
   The client address is the socket's, unless the server names trusted proxies
   (`--forwarded-allow-ips`): a made-up X-Forwarded-For picks no address.
 
@@ -30,9 +32,11 @@ answers nor drive the twin.
 
 from __future__ import annotations
 
+import hashlib
 import hmac
 import ipaddress
 import math
+import secrets
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from urllib.parse import urlsplit
@@ -51,9 +55,6 @@ MIN_TOKEN = 16
 #: failed token attempts a client may make at once, then [1/s] how fast it gets more
 FAILURE_BURST = 10
 FAILURE_RATE = 0.2
-#: characters of a wrong token that key its failure limit (a quarter of the shortest token:
-#: the right token's bucket is out of reach of anyone who does not know a quarter of it)
-FAILURE_PREFIX = 4
 #: the scope key the middleware sets on a request it let through
 GRANTED = "twin.access"
 #: what a private server's GETs need the token for: stored runs, series, sweeps, heatmaps,
@@ -127,6 +128,10 @@ class Access:
     failure_rate: float = FAILURE_RATE
     private: bool = False
     _token: bytes | None = field(init=False, repr=False, compare=False)
+    #: the failure keys' HMAC key: random per policy, so a key says nothing of its token
+    _failure_secret: bytes = field(
+        init=False, repr=False, compare=False, default_factory=lambda: secrets.token_bytes(32)
+    )
 
     def __post_init__(self) -> None:
         if self.token is not None and len(self.token) < MIN_TOKEN:
@@ -222,14 +227,14 @@ class Access:
         """A fresh per-client limit of failed token attempts (keyed by `failure_key`)."""
         return RateLimit(self.failure_rate, self.failure_burst)
 
-    @staticmethod
-    def failure_key(client: str, given: str | bytes | None) -> str:
-        """The failure limit's key of a token attempt: the client and the failure (the first
-        `FAILURE_PREFIX` characters of the token sent, "none" without one)."""
+    def failure_key(self, client: str, given: str | bytes | None) -> str:
+        """The failure limit's key of a token attempt: the client and the failure (HMAC-SHA256
+        of the whole token sent under this policy's random key, "none" without one)."""
         if isinstance(given, str):
             given = given.encode("utf-8", "replace")
-        kind = given[:FAILURE_PREFIX].hex() if given else "none"
-        return f"{client} {kind}"
+        if not given:
+            return f"{client} none"
+        return f"{client} {hmac.new(self._failure_secret, given, hashlib.sha256).hexdigest()}"
 
 
 def _client(scope: Scope) -> str:
