@@ -48,6 +48,17 @@ async function init() {
   } catch (e) { $("status").textContent = e.message; $("status").className = "bad"; }
 }
 $("mechanism").addEventListener("change", fillPlanners);
+// the heading inputs of the chosen strategy: relative heading(s), or the bow's compass heading
+function showStrategy() {
+  const compass = $("strategy").value === "compass";
+  $("relative").hidden = compass; $("compass").hidden = !compass;
+}
+$("strategy").addEventListener("change", showStrategy);
+function heading() {
+  if ($("strategy").value === "compass") return { kind: "record", vessel_heading: Number($("vessel-heading").value) };
+  const headings = $("heading").value.split(",").map((v) => v.trim()).filter((v) => v).map(Number);
+  return { kind: $("strategy").value, headings };
+}
 // the request's body; an uploaded file (read here, at submission) is sent as record_csv
 async function body() {
   const file = $("upload").files[0], upload = file ? await file.text() : null;
@@ -55,9 +66,12 @@ async function body() {
   const out = {
     mechanism: $("mechanism").value, planners: chosen, seeds: Number($("seeds").value),
     duration: Number($("duration").value), method: $("method").value,
-    heading: { kind: "fixed", headings: [Number($("heading").value)] },
+    heading: heading(), duplicates: $("duplicates").value,
   };
-  if (upload !== null) { out.record_csv = upload; if ($("kind").value) out.record_kind = $("kind").value; }
+  if (upload !== null) {
+    out.record_csv = upload; out.record_name = file.name;
+    if ($("kind").value) out.record_kind = $("kind").value;
+  }
   else out.record = $("record").value;
   return out;
 }
@@ -90,6 +104,18 @@ async function poll() {
   show(job);
 }
 
+// a file fetched with the token (a --private server wants it on reads too), saved by the browser
+async function download(path, name) {
+  const headers = {};
+  if ($("token").value) headers.Authorization = "Bearer " + $("token").value;
+  try {
+    const response = await fetch(path, { headers });
+    if (!response.ok) throw new Error(`${path}: ${response.status}`);
+    const link = el("a"); link.href = URL.createObjectURL(await response.blob()); link.download = name;
+    link.click(); URL.revokeObjectURL(link.href);
+  } catch (e) { $("notes").textContent = e.message; }
+}
+
 // a PNG fetched with the token (a --private server wants it on reads too), shown as a blob URL
 async function loadPlot(img, path) {
   const headers = {};
@@ -110,7 +136,14 @@ function show(job) {
     return row([name, pct(p.workability), pct(p.operable_share), share === null ? "–" : `${limit} (${pct(share)})`]);
   }));
   $("threshold").textContent = "Hs-threshold estimate: " + Object.entries(r.threshold)
+    .sort(([a], [b]) => Number(a) - Number(b))
     .map(([limit, t]) => `Hs < ${limit} m: ${pct(t.workability)}`).join(" · ");
+  // rows skipped over 5 %: each reason and count, where it cannot be missed
+  $("warnings").replaceChildren(...(r.record.warnings || []).map((w) => el("li", "warning: " + w)));
+  $("rows-csv").href = base + "rows.csv";
+  $("rows-csv").onclick = (event) => { event.preventDefault(); download(base + "rows.csv", "workability_rows.csv"); };
+  $("months").replaceChildren(...Object.entries(r.months || {}).map(([m, s]) => row(
+    [m, s.hours.toFixed(0), s.years.join(", "), pct(s.coverage), s.partial ? "partial" : ""])));
   const windows = [];
   for (const [name, p] of Object.entries(r.planners)) {
     for (const [w, s] of Object.entries(p.windows || {})) {
@@ -139,7 +172,7 @@ function show(job) {
     $("steps").replaceChildren(...[...byTime.values()].map(({ s, by }) => row(
       [s.time, num(s.hs), num(s.tp)].concat(names.flatMap((n) => [pct(by[n]?.probability), by[n]?.limiting || "–"])))));
   }
-  $("notes").textContent = (r.notes || []).join(" ");
+  $("notes").textContent = (r.notes || []).filter((n) => !(r.record.warnings || []).includes(n)).join(" ");
   $("results").hidden = false;
 }
 
