@@ -234,23 +234,39 @@ def so3_log_lane(R: np.ndarray, w_out: np.ndarray) -> None:
         w_out[0], w_out[1], w_out[2] = sign * a0 * theta, sign * a1 * theta, sign * a2 * theta
 
 
+@register_inline
+def rpy_of_entries(
+    r00: float, r10: float, r20: float, r21: float, r22: float
+) -> tuple[float, float, float]:
+    """(roll, pitch, yaw) [rad] of a rotation from the five entries `matrix_to_rpy` reads
+    (R[0, 0], R[1, 0], R[2, 0], R[2, 1], R[2, 2]), pitch ∈ (−π/2, π/2): the one statement of
+    the inverse of seed 000 eq (3) for the lanes, which often hold only those entries."""
+    return (math.atan2(r21, r22), math.atan2(-r20, math.hypot(r21, r22)),
+            math.atan2(r10, r00))  # fmt: skip
+
+
 @register_borrowing
 def matrix_to_rpy_lane(R: np.ndarray, out: np.ndarray) -> None:
     """[roll, pitch, yaw] [rad] of R (3, 3) on pitch ∈ (−π/2, π/2) (`twin.spatial.matrix_to_rpy`);
     written to out (3,)."""
-    out[0] = math.atan2(R[2, 1], R[2, 2])
-    out[1] = math.atan2(-R[2, 0], math.hypot(R[2, 1], R[2, 2]))
-    out[2] = math.atan2(R[1, 0], R[0, 0])
+    out[0], out[1], out[2] = rpy_of_entries(R[0, 0], R[1, 0], R[2, 0], R[2, 1], R[2, 2])
+
+
+@register_inline
+def rodrigues_coefficients(theta: float) -> tuple[float, float, float]:
+    """(a, b, c) = (sin θ / θ, (1 − cos θ) / θ², (θ − sin θ) / θ³) of a rotation angle θ ≥ 0
+    [rad], by their Taylor series below 1e-8: exp(K) = I + a K + b K² (Rodrigues) and the SE(3)
+    exponential's V = I + b K + c K² (Lynch & Park eq (3.88)), K = skew(ω) with |ω| = θ."""
+    if theta < 1e-8:
+        return 1.0 - theta**2 / 6.0, 0.5 - theta**2 / 24.0, 1.0 / 6.0 - theta**2 / 120.0
+    return (math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta**2,
+            (theta - math.sin(theta)) / theta**3)  # fmt: skip
 
 
 @register_borrowing
 def so3_exp_lane(w0: float, w1: float, w2: float, R_out: np.ndarray) -> None:
     """Rodrigues (`twin.spatial.so3_exp`): rotation vector [rad] → R_out (3, 3)."""
-    theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-    if theta < 1e-8:
-        a, b = 1.0 - theta**2 / 6.0, 0.5 - theta**2 / 24.0
-    else:
-        a, b = math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta**2
+    a, b, _ = rodrigues_coefficients(math.sqrt(w0 * w0 + w1 * w1 + w2 * w2))
     # I + a K + b K², K = skew(w), K² = w wᵀ − |w|² I
     R_out[0, 0] = 1.0 + b * (-w2 * w2 - w1 * w1)
     R_out[1, 1] = 1.0 + b * (-w2 * w2 - w0 * w0)

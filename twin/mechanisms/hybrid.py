@@ -19,7 +19,14 @@ from twin.mechanisms.gangway import Gangway, gangway_tip_lane
 from twin.mechanisms.legs import LegLayout
 from twin.mechanisms.limits import JOINT_PAST
 from twin.mechanisms.stewart import StewartPlatform
-from twin.spatial import pose_to_transform, se3_exp, skew, transform_to_pose
+from twin.spatial import (
+    pose_to_transform,
+    rodrigues_coefficients,
+    rpy_of_entries,
+    se3_exp,
+    skew,
+    transform_to_pose,
+)
 from twin.validation import as_array
 
 DEG = np.pi / 180.0
@@ -231,15 +238,7 @@ def integrate_hybrid(
     """
     vx, vy, vz = v[0] * dt, v[1] * dt, v[2] * dt
     wx, wy, wz = v[3] * dt, v[4] * dt, v[5] * dt
-    theta = math.sqrt(wx * wx + wy * wy + wz * wz)
-    if theta < 1e-8:
-        a = 1.0 - theta**2 / 6.0
-        b = 0.5 - theta**2 / 24.0
-        c = 1.0 / 6.0 - theta**2 / 120.0
-    else:
-        a = math.sin(theta) / theta
-        b = (1.0 - math.cos(theta)) / theta**2
-        c = (theta - math.sin(theta)) / theta**3
+    a, b, c = rodrigues_coefficients(math.sqrt(wx * wx + wy * wy + wz * wz))
     # S = skew(ω dt), S² = [k_ij]; exp(S) = I + a S + b S² = [e_ij], V = I + b S + c S²
     # (scalars, not arrays: numba would put a (3, 3) on the heap at every call)
     k00, k11, k22 = -wz * wz - wy * wy, -wz * wz - wx * wx, -wy * wy - wx * wx
@@ -261,7 +260,5 @@ def integrate_hybrid(
     p2 = R[2, 0] * t0 + R[2, 1] * t1 + R[2, 2] * t2 + x[2]
     q1, q2, d3 = x[6] + v[6] * dt, x[7] + v[7] * dt, x[8] + v[8] * dt
     x_out[0], x_out[1], x_out[2] = p0, p1, p2
-    x_out[3] = math.atan2(n21, n22)  # twin.spatial.matrix_to_rpy
-    x_out[4] = math.atan2(-n20, math.hypot(n21, n22))
-    x_out[5] = math.atan2(n10, n00)
+    x_out[3], x_out[4], x_out[5] = rpy_of_entries(n00, n10, n20, n21, n22)
     x_out[6], x_out[7], x_out[8] = q1, q2, d3

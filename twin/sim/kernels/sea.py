@@ -44,7 +44,7 @@ from functools import cache
 import numpy as np
 
 from twin.compiled import compile_runner, prange, register_borrowing
-from twin.spatial import rpy_to_matrix_lane
+from twin.spatial import rpy_of_entries, rpy_to_matrix_lane
 
 #: samples per block: the span of the table P_jm = e^{−iω_j m dt}
 BLOCK = 64
@@ -78,9 +78,7 @@ def mount_lane(
     r0, r1, r2 = lever_arm[0], lever_arm[1], lever_arm[2]
     for i in range(3):  # the position first: the angles below are read from R, not motion
         out[i] = motion[i] + R[i, 0] * r0 + R[i, 1] * r1 + R[i, 2] * r2
-    out[3] = math.atan2(y2, R[2, 2])
-    out[4] = math.atan2(-x2, math.hypot(y2, R[2, 2]))
-    out[5] = math.atan2(x1, x0)
+    out[3], out[4], out[5] = rpy_of_entries(x0, x1, x2, y2, R[2, 2])
 
 
 @register_borrowing
