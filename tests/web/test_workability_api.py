@@ -286,3 +286,233 @@ def test_a_job_posted_while_the_server_warms_up_runs_once_attached(tmp_path: Pat
             finally:
                 session.stop()
     assert job["status"] == "done", job["error"]
+
+
+# -- issue 43: uploads priced before they are parsed, read within bounds, stored as columns ----
+
+
+def upload(record_csv: str, **fields: Any) -> dict[str, Any]:
+    """TINY's request on an uploaded record."""
+    return {**TINY, "record": None, "record_csv": record_csv, **fields}
+
+
+def stored_jobs(client: TestClient) -> int:
+    """Workability jobs in the app's store."""
+    jobs = WorkabilityStore(client.app.state.services.store.path)  # type: ignore[attr-defined]
+    try:
+        return len(jobs._read("SELECT id FROM workability"))
+    finally:
+        jobs.close()
+
+
+def wide_scatter(columns: int) -> str:
+    """A wide scatter table of `columns` Tp columns and one Hs row (issue 43: 20,000 columns,
+    91 KB, took 20 s to parse; 50,000 took 158 s)."""
+    tps = [f"{4 + 16 * i / columns:.5f}" for i in range(columns)]
+    return "hs," + ",".join(tps) + "\n1.0," + ",".join("1" for _ in tps) + "\n"
+
+
+def test_a_wide_scatter_table_is_refused_before_it_is_parsed(client: TestClient) -> None:
+    """Finding 1: a 20,000-column scatter upload is a 422 naming `MAX_COLUMNS`, from the text
+    scan alone (no parser, no job stored); 200 Tp columns are still read."""
+    before = stored_jobs(client)
+    response = client.post("/api/workability", json=upload(wide_scatter(20_000)))
+    assert response.status_code == 422, response.text
+    message = response.json()["message"]
+    assert "MAX_COLUMNS" in message and "20001 columns" in message
+    assert stored_jobs(client) == before
+    ok = client.post("/api/workability", json=upload(wide_scatter(200)))
+    assert ok.status_code == 202, ok.text
+    assert client.delete(ok.headers["location"]).status_code == 204
+
+
+def test_a_record_whose_reading_goes_over_its_budget_is_refused(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Finding 1: a reading over its wall-clock budget is a 422 naming the budget, answered
+    when the budget ends (the child that read it is replaced; the next upload is read)."""
+    from twin.web import workability_jobs
+    from twin.web.upload_worker import Budget
+
+    monkeypatch.setattr(workability_jobs, "READ_BUDGET", Budget(cpu=1.0, wall=0.001))
+    response = client.post("/api/workability", json=upload(hourly_record(2_000)))
+    assert response.status_code == 422, response.text
+    assert "budget of 0.001 s" in response.json()["message"]
+    monkeypatch.undo()
+    again = client.post("/api/workability", json=upload(hourly_record(48)))
+    assert again.status_code == 202, again.text
+    assert client.delete(again.headers["location"]).status_code == 204
+
+
+def test_rows_a_nanosecond_apart_are_refused_at_submission(client: TestClient) -> None:
+    """Finding 2: 101 rows 1 ns apart and one a minute later asked for a 6e10-step time grid
+    in the server process; now a 422 at submission (the reader's finest step, or the grid's
+    `MAX_GRID_STEPS`), before any job."""
+    times = [f"2020-01-01T00:00:00.{i:09d}" for i in range(101)] + ["2020-01-01T00:01:00"]
+    text = "time,hs,tp\n" + "".join(f"{t},1.0,8.0\n" for t in times)
+    response = client.post("/api/workability", json=upload(text))
+    assert response.status_code == 422, response.text
+    message = response.json()["message"]
+    assert "MAX_GRID_STEPS" in message or "apart" in message
+
+
+def test_a_header_only_or_nul_record_is_422_at_submission(client: TestClient) -> None:
+    """Finding 5 and issue 38 item 4: a record without a usable row is a 422 with the reasons
+    (not a 202 that fails later), a NUL character a 422 naming its line."""
+    empty = client.post("/api/workability", json=upload("time,hs,tp,direction\n"))
+    assert empty.status_code == 422, empty.text
+    assert "no usable rows" in empty.json()["message"]
+    skipped = "time,hs,tp,direction\n" + "".join(
+        f"2020-01-01T{h:02d}:00,,8.0,270\n" for h in range(5))  # fmt: skip
+    none_left = client.post("/api/workability", json=upload(skipped))
+    assert none_left.status_code == 422, none_left.text
+    assert "no usable rows" in none_left.json()["message"]
+    assert "hs" in none_left.json()["message"] and "5" in none_left.json()["message"]
+    with_nul = FORECAST.replace("0.5,8.0", "0.5\x00,8.0", 1)
+    nul = client.post("/api/workability", json=upload(with_nul))
+    assert nul.status_code == 422, nul.text
+    assert "NUL character on line 2" in nul.json()["message"]
+
+
+def test_a_job_over_its_row_headings_is_refused_naming_the_limit() -> None:
+    """Finding 3: 200,000 rows judged at 36 headings (7.2M row-headings, 16 s of GIL in the
+    server for its unique alone) is over `MAX_ROW_WORK`; a year hourly at 36 is not."""
+    from twin.sim.workability import HeadingStrategy
+    from twin.web.routers.workability import MAX_ROW_WORK, over_limits
+
+    headings = HeadingStrategy.parse("best:" + ",".join(str(10 * i) for i in range(36)))
+    best = WorkabilitySpec(planners=["mtmp"], heading=headings)
+    errors = over_limits(best, 200_000)
+    assert errors and "MAX_ROW_WORK" in errors[0]["msg"] and 200_000 * 36 > MAX_ROW_WORK
+    assert not any("MAX_ROW_WORK" in e["msg"] for e in over_limits(best, 8_760))
+
+
+def test_the_evaluation_runs_as_a_task_not_in_the_runners_thread(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Finding 3: a job's evaluation (the unique over row-headings, the per-row loop, the
+    summary, the plots) runs as a task on the executor, a worker process on a server's
+    cluster, never on the thread of the server's runner."""
+    import threading
+
+    from twin.sim import workability
+
+    threads: list[str] = []
+    original = workability.run_workability
+
+    def recorded(*args: Any, **kwargs: Any) -> Any:
+        threads.append(threading.current_thread().name)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(workability, "run_workability", recorded)
+    job = wait_finished(client, client.post("/api/workability", json=TINY).headers["location"])
+    assert job["status"] == "done", job["error"]
+    assert threads and all(not name.startswith("twin-") for name in threads), threads
+
+
+def test_an_attempt_counts_when_the_job_is_picked_up_before_any_reading(
+    tmp_path: Path, executor: Executor, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Finding 1: the attempt was counted only after the upload was parsed, so a server killed
+    mid-parse never counted it and `MAX_ATTEMPTS` never tripped; now it counts first."""
+    import threading
+
+    from twin.web.workability_jobs import WorkabilityRunner
+
+    jobs = WorkabilityStore(tmp_path / "runs.sqlite")
+    spec = WorkabilitySpec(**{k: v for k, v in TINY.items() if k != "record"})
+    job_id = jobs.create(spec.model_dump(mode="json"), {"name": SHIPPED}, 8).id
+    reading, release = threading.Event(), threading.Event()
+    original = WorkabilityStore.request
+
+    def held(self: WorkabilityStore, job: str) -> Any:  # the job's input read: held here
+        reading.set()
+        release.wait(10)
+        raise RuntimeError("the server was killed")
+
+    monkeypatch.setattr(WorkabilityStore, "request", held)
+    runner = WorkabilityRunner(jobs)
+    runner.executor = executor
+    worker = threading.Thread(target=runner.execute, args=(job_id,))
+    worker.start()
+    try:
+        assert reading.wait(10)
+        attempts = jobs._read("SELECT attempts FROM workability WHERE id = ?", (job_id,))
+        assert attempts[0]["attempts"] == 1
+    finally:
+        release.set()
+        worker.join(10)
+        monkeypatch.setattr(WorkabilityStore, "request", original)
+    jobs.close()
+
+
+def test_a_cancelled_jobs_upload_is_deleted_and_only_its_columns_are_stored(
+    client: TestClient,
+) -> None:
+    """Finding 4: a job stored its whole upload (padding in an ignored column included) and
+    kept it after a cancel; now it stores the columns read and lets them go when cancelled."""
+    padded = "time,hs,tp,direction,notes\n" + "".join(
+        f"2020-01-{1 + h // 24:02d}T{h % 24:02d}:00,1.0,8.0,270,{'x' * 2000}\n"
+        for h in range(200))  # fmt: skip
+    assert len(padded) > 400_000
+    jobs = WorkabilityStore(client.app.state.services.store.path)  # type: ignore[attr-defined]
+    location = client.post("/api/workability", json=upload(padded)).headers["location"]
+    job_id = location.rsplit("/", 1)[1]
+    size = jobs._read("SELECT size, LENGTH(upload) AS up FROM workability WHERE id = ?",
+                      (job_id,))[0]  # fmt: skip
+    assert size["up"] is not None and size["size"] < 20_000  # 200 rows' columns, not 400 kB
+    client.post(location + "/cancel")
+    after = jobs._read("SELECT size, upload FROM workability WHERE id = ?", (job_id,))[0]
+    assert after["upload"] is None and after["size"] < size["size"]
+    jobs.close()
+
+
+def test_uploads_count_against_the_store_quota(tmp_path: Path, executor: Executor) -> None:
+    """Finding 4: 80 submit-and-cancel cycles took a 300 MB store to 453 MB; now each job's
+    size counts against --max-store and each job as a run against --max-runs (a 507)."""
+    from twin.web.store import Quota
+
+    store = RunStore(tmp_path / "runs.sqlite", Quota(max_runs=3))
+    app = create_app(LiveSession(), store, access=access(), executor=executor)
+    with TestClient(app) as client:
+        codes = []
+        for _ in range(5):
+            answer = client.post("/api/workability", json=upload(hourly_record(100)))
+            codes.append(answer.status_code)
+            if answer.status_code == 202:
+                client.post(answer.headers["location"] + "/cancel")
+        assert codes == [202, 202, 202, 507, 507], codes
+        assert "--max-runs" in client.post(
+            "/api/workability", json=upload(hourly_record(100))).json()["detail"]  # fmt: skip
+        assert store.usage()[1] == 3
+    store.close()
+    small = RunStore(tmp_path / "small.sqlite", Quota(max_bytes=30_000))  # 2 such uploads
+    with TestClient(create_app(LiveSession(), small, access=access(), executor=executor)) as c:
+        codes = [c.post("/api/workability", json=upload(hourly_record(2_000))).status_code
+                 for _ in range(3)]  # fmt: skip
+        assert codes == [202, 202, 507] and small.usage()[0] <= 30_000, (codes, small.usage())
+    small.close()
+
+
+def test_rows_csv_has_a_line_per_row_and_planner(client: TestClient) -> None:
+    """Issue 38 item 4: GET …/rows.csv is the per-row table: one line per record row and
+    planner, with each row's probability and whether it is operable; 409 until done."""
+    import csv
+
+    response = client.post("/api/workability", json=upload(FORECAST, record_kind="forecast"))
+    location = response.headers["location"]
+    job = wait_finished(client, location)
+    assert job["status"] == "done", job["error"]
+    assert job["rows"] is True
+    table = client.get(location + "/rows.csv")
+    assert table.status_code == 200 and table.headers["content-type"].startswith("text/csv")
+    rows = list(csv.DictReader(io.StringIO(table.text)))
+    assert len(rows) == 8 * len(TINY["planners"])  # type: ignore[arg-type]
+    assert [float(r["hs"]) for r in rows] == [s["hs"] for s in job["result"]["steps"]]
+    assert all(r["operable"] in ("True", "False") for r in rows)
+    plain = client.get(location + "/rows.csv", headers={"Accept-Encoding": "identity"})
+    assert plain.text == table.text
+    queued = client.post("/api/workability", json={**TINY, "method": "direct", "seeds": 3,
+                                                   "duration": 10.0})  # fmt: skip
+    assert client.get(queued.headers["location"] + "/rows.csv").status_code == 409
+    client.delete(queued.headers["location"])

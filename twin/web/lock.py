@@ -6,6 +6,11 @@ would write the other's progress backwards. `twin serve` takes an exclusive `flo
 (exit 2), naming the process that holds it. The kernel drops the lock when its holder exits,
 however it exits (SIGKILL included), so a crash never leaves a stale lock behind; the pid
 written into the file is only there to be named.
+
+A server that stops keeps the lock until its process is gone (`hold_until_exit`), not merely
+until its shutdown code has run: a process still ending (issue 43: one whose parse held the GIL
+lived on for 160 s after "Finished server process") must not share the directory with a new
+server that has already taken it.
 """
 
 from __future__ import annotations
@@ -75,6 +80,12 @@ class DataDirLock:
         os.fsync(fd)
         self._fd = fd
         return self
+
+    def hold_until_exit(self) -> None:
+        """Keep the lock for the rest of this process's life: the kernel drops it when the
+        process ends, however it ends (the descriptor is close-on-exec, so no child started
+        after this keeps it either). `release` does nothing after this."""
+        self._fd = None
 
     def release(self) -> None:
         """Let the lock go (idempotent); the file stays, empty of meaning until the next."""

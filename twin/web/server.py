@@ -10,7 +10,10 @@ CPU to this process; or `--scheduler tcp://HOST:PORT`), started once; the
 run store, the live session, the viewer and the REST app. Stop (Ctrl-C, SIGTERM, `docker
 stop`): requests still waiting for a run answer 503 at once, the runs' futures are cancelled
 and their runs left queued for the next start, and the process exits within seconds
-(`GRACEFUL` for open connections, `executor.CLOSE_TIMEOUT` for the workers).
+(`GRACEFUL` for open connections, `executor.CLOSE_TIMEOUT` for the workers). SIGTERM also arms
+a timer in the kernel (`STOP_DEADLINE`): whatever is still in flight then (a thread holding the
+GIL, a stuck close), SIGALRM's default action ends the process. The data directory's lock is
+held until the process is gone (`DataDirLock.hold_until_exit`).
 """
 
 from __future__ import annotations
@@ -56,6 +59,9 @@ DATABASE = "runs.sqlite"
 log = logging.getLogger("twin.web.server")
 #: [s] how long open requests may take to finish once the server is told to stop
 GRACEFUL = 3
+#: [s] after SIGTERM, the process ends by then whatever it is doing (issue 43: a parse that
+#: held the GIL kept one alive for 160 s); under `docker stop`'s 10 s before its SIGKILL
+STOP_DEADLINE = 9.5
 
 __all__ = ["DATABASE", "GRACEFUL", "Terminated", "is_loopback", "serve", "url", "uvicorn_config"]
 
@@ -82,6 +88,8 @@ class _Uvicorn(uvicorn.Server):
 
     def handle_exit(self, sig: int, frame: FrameType | None) -> None:
         self._stopping.set()
+        if sig == signal.SIGTERM:
+            stop_deadline()
         super().handle_exit(sig, frame)
 
     async def startup(self, sockets: list[socket.socket] | None = None) -> None:
@@ -248,7 +256,19 @@ def quiet_resource_tracker() -> None:
         os.environ["PYTHONWARNINGS"] = ",".join(filter(None, (current, TRACKER_WARNING)))
 
 
+def stop_deadline(seconds: float = STOP_DEADLINE) -> None:
+    """End this process `seconds` from now, whatever it is doing then: a kernel timer whose
+    signal (SIGALRM) keeps its default action, which needs neither the GIL nor any thread
+    of this process (a Python handler would wait for both). Main thread only (signals); a
+    deadline already set stays (uvicorn hands SIGTERM on once it has stopped)."""
+    main = threading.current_thread() is threading.main_thread()
+    if main and signal.getitimer(signal.ITIMER_REAL)[0] == 0.0:
+        signal.signal(signal.SIGALRM, signal.SIG_DFL)
+        signal.setitimer(signal.ITIMER_REAL, seconds)
+
+
 def _terminate(sig: int, frame: FrameType | None) -> None:
+    stop_deadline()
     raise Terminated(f"signal {sig}")
 
 
@@ -374,7 +394,8 @@ class _Held:
     the REST port's socket and, on the main thread, SIGTERM (raising `Terminated`); then the
     run store and the start-up, once `serve` has made them. Leaving the `with` block closes
     them in this order: the socket, the start-up (viewer, session, executor: newest first),
-    the store, the lock, and SIGTERM goes back to its previous handler."""
+    the store, and SIGTERM goes back to its previous handler; the lock stays held until the
+    process ends."""
 
     def __init__(self, data_dir: str | Path, host: str, port: int) -> None:
         self.data_dir, self.host, self.port = data_dir, host, port
@@ -408,7 +429,7 @@ class _Held:
             self.startup.stop()
         if self.store is not None:
             self.store.close()
-        self.lock.release()
+        self.lock.hold_until_exit()  # the kernel lets it go with the process
         if self.main:
             signal.signal(signal.SIGTERM, self.previous)
 

@@ -204,8 +204,11 @@ class BoundedWorker:
             TwinError: the function raised one (its message).
             OverBudget: over the CPU, memory or wall budget (the child is replaced).
             WorkerBusy: no child was free within `wait`.
-            RuntimeError: any other exception in the child (its type and message).
+            RuntimeError: any other exception in the child (its type and message), or the
+                worker is closed.
         """
+        if self._closed:
+            raise RuntimeError("the upload worker is closed")
         wait = budget.wall if wait is None else wait
         try:
             child = self._idle.get(timeout=wait)
@@ -250,3 +253,5 @@ class BoundedWorker:
             children, self._children = list(self._children), set()
         for child in children:
             child.kill()
+        while not self._idle.empty():
+            self._idle.get_nowait()

@@ -83,9 +83,11 @@ _COLUMNS = "id, created, finished, status, done, total, spec, record, result, er
 _WAS_CANCELLED = f"(status = 'failed' AND error LIKE '{CANCELLED}%')"
 #: columns added after the table's first version: added to an older file when it is opened
 _ADDED = {"size": "INTEGER NOT NULL DEFAULT 0", "upload": "BLOB"}
-#: [bytes] what a job holds: its fields, its upload, its result and its files
+#: [bytes] what a job holds once its upload is gone: its fields, its result and its files
+#: (SQLite computes a SET from the row as it was, so this is the size of a row whose upload the
+#: same UPDATE drops)
 _SIZE = (
-    "LENGTH(spec) + LENGTH(record) + COALESCE(LENGTH(upload), 0) + COALESCE(LENGTH(result), 0)"
+    "LENGTH(spec) + LENGTH(record) + COALESCE(LENGTH(result), 0)"
     " + (SELECT COALESCE(SUM(LENGTH(png)), 0) FROM workability_plots p"
     f" WHERE p.id = workability.id) + {ROW_OVERHEAD}"
 )
