@@ -104,27 +104,29 @@ async function poll() {
   show(job);
 }
 
-// a file fetched with the token (a --private server wants it on reads too), saved by the browser
-async function download(path, name) {
+// a file fetched with the token (a --private server wants it on reads too), as a blob
+async function fetchBlob(path) {
   const headers = {};
   if ($("token").value) headers.Authorization = "Bearer " + $("token").value;
+  const response = await fetch(path, { headers });
+  if (!response.ok) throw new Error(`${path}: ${response.status}`);
+  return response.blob();
+}
+
+// a file saved by the browser under `name`
+async function download(path, name) {
   try {
-    const response = await fetch(path, { headers });
-    if (!response.ok) throw new Error(`${path}: ${response.status}`);
-    const link = el("a"); link.href = URL.createObjectURL(await response.blob()); link.download = name;
+    const link = el("a"); link.href = URL.createObjectURL(await fetchBlob(path)); link.download = name;
     link.click(); URL.revokeObjectURL(link.href);
   } catch (e) { $("notes").textContent = e.message; }
 }
 
-// a PNG fetched with the token (a --private server wants it on reads too), shown as a blob URL
+// a PNG shown as a blob URL
 async function loadPlot(img, path) {
-  const headers = {};
-  if ($("token").value) headers.Authorization = "Bearer " + $("token").value;
   try {
-    const response = await fetch(path, { headers });
-    if (!response.ok) throw new Error(`${path}: ${response.status}`);
+    const blob = await fetchBlob(path);
     if (img.src.startsWith("blob:")) URL.revokeObjectURL(img.src);
-    img.src = URL.createObjectURL(await response.blob());
+    img.src = URL.createObjectURL(blob);
   } catch (e) { $("notes").textContent = e.message; }
 }
 

@@ -463,3 +463,22 @@ def test_cli_vessel_heading_duplicates_and_warnings(
     assert data["spec"]["heading"]["vessel_heading"] == 180.0
     assert data["spec"]["duplicates"] == "first"
     assert any("skipped: hs missing" in note for note in data["notes"])
+
+
+def test_plots_carry_the_given_title_a_colour_bar_and_utc(cells: Path) -> None:
+    """Each figure is titled by the name given (an upload's file name); the strip has a colour
+    bar and a UTC time axis; partial months are labelled so; Hs limits appear ascending."""
+    from twin.sim import workability_plots as plots
+
+    record = hourly([1.0, 2.0, 1.0, 3.0], [8.0, 8.0, 6.0, 10.0])
+    result = run_workability({**CHEAP, "hs_limits": [2.5, 1.5]}, record, scheduler=NOWHERE,
+                             data_dir=cells)  # fmt: skip
+    figures = plots.figures(result, title="my_site.csv")
+    assert all(f.axes[0].get_title().startswith("my_site.csv:") for f in figures.values())
+    strip = figures["strip.png"]
+    assert len(strip.axes) == 2 and strip.axes[1].get_ylabel() == "P(operable)"
+    assert "UTC" in strip.axes[0].get_xlabel()
+    monthly = figures["monthly.png"].axes[0]
+    assert all("partial" in tick.get_text() for tick in monthly.get_xticklabels())
+    labels = [text.get_text() for text in monthly.get_legend().get_texts()]
+    assert labels.index("Hs < 1.5 m (50 %)") < labels.index("Hs < 2.5 m (75 %)")

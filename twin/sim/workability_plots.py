@@ -22,9 +22,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
+from matplotlib.artist import Artist
 from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 
+from twin.sim.workability import PARTIAL_MONTH
 from twin.site.windows import record_step
 
 if TYPE_CHECKING:
@@ -79,11 +82,13 @@ def monthly(result: WorkabilityResult, title: str | None = None) -> Figure:
     x = np.arange(len(groups))
     width = 0.8 / len(planners)
     partial = [bool(months.get(g, {}).get("partial")) for g in groups]
+    handles: list[Artist] = []
     for k, planner in enumerate(planners):
         entry = summary["planners"][planner]
-        bars = ax.bar(x - 0.4 + width * (k + 0.5), values(entry), width,
-                      color=COLOURS[k % len(COLOURS)],
-                      label=f"{planner.upper()} ({100 * entry['workability']:.0f} %)")  # fmt: skip
+        colour = COLOURS[k % len(COLOURS)]
+        bars = ax.bar(x - 0.4 + width * (k + 0.5), values(entry), width, color=colour)
+        share = 100 * entry["workability"]
+        handles.append(Patch(color=colour, label=f"{planner.upper()} ({share:.0f} %)"))
         for bar, thin in zip(bars, partial, strict=True):
             if thin:  # a month under half covered: its bar is a sample, not a month
                 bar.set_hatch("//")
@@ -92,13 +97,18 @@ def monthly(result: WorkabilityResult, title: str | None = None) -> Figure:
             ax.bar_label(bars, fmt="%.0f", fontsize=8, padding=1)
     for k, (limit, entry) in enumerate(summary["threshold"].items()):
         # a line across each month's bars: the estimate the bars are read against
-        ax.hlines(values(entry), x - 0.45, x + 0.45, colors="black", linewidth=1.4,
-                  linestyles=DASHES[k % len(DASHES)],
-                  label=f"Hs < {limit} m ({100 * entry['workability']:.0f} %)")  # fmt: skip
+        share = 100 * entry["workability"]
+        handles.append(ax.hlines(values(entry), x - 0.45, x + 0.45, colors="black",
+                                 linewidth=1.4, linestyles=DASHES[k % len(DASHES)],
+                                 label=f"Hs < {limit} m ({share:.0f} %)"))  # fmt: skip
+    if any(partial):
+        below = f"partial month (< {100 * PARTIAL_MONTH:.0f} % covered)"
+        handles.append(Patch(facecolor="white", edgecolor="black", hatch="//", label=below))
     ax.set_xticks(x, [_month_label(g, months.get(g)) for g in groups], fontsize=8)
     ax.set_ylim(0, 109)
     ax.set_ylabel("workability [%]")
-    ax.legend(fontsize=9, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+    ax.legend(handles=handles, fontsize=9, loc="upper left", bbox_to_anchor=(1.0, 1.0),
+              frameon=False)  # fmt: skip
     years = summary.get("years", [])
     pooled = f"\nmonths pooled over {len(years)} years ({years[0]}-{years[-1]})" \
         if len(years) > 1 else ""  # fmt: skip
@@ -196,7 +206,7 @@ def forecast(result: WorkabilityResult, title: str | None = None) -> Figure:
     figure = Figure(figsize=(10.0, 1.6 + 0.6 * len(planners)), layout="constrained")
     ax = figure.subplots()
     roomy = len(times) <= 24  # cells wide enough for the constraint under the figure
-    size = 8 if len(times) <= 24 else 6 if len(times) <= 48 else 0
+    size = 8 if len(times) <= 24 else 7 if len(times) <= 48 else 0
     for k, planner in enumerate(planners):
         group = rows[rows["planner"] == planner].set_index("time").reindex(times)
         p = group["probability"].to_numpy(dtype=float)
