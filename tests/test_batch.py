@@ -7,7 +7,7 @@ import pytest
 
 from twin.batch import LaneBatch
 from twin.mechanisms import HybridBoardingSystem
-from twin.planners.allocation import REACHABLE_RANGE
+from twin.planners.allocation_step import REACHABLE_RANGE
 from twin.planners.limits import VELOCITY_LIMIT
 
 H = HybridBoardingSystem()

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from twin.mechanisms.hybrid import HybridBoardingSystem
-from twin.planners.differential import DIFFERENTIAL_PARAMETERS, DifferentialPlanner
+from twin.planners.differential import DifferentialPlanner
+from twin.planners.families import DIFFERENTIAL_PARAMETERS
 from twin.planners.limits import VelocityLimit
 from twin.planners.parameters import PlannerParameters
 from twin.planners.registry import HYBRID_RATE_LIMITS, PLANNERS, PlannerSpec

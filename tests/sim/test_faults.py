@@ -121,7 +121,7 @@ def test_a_near_singular_jacobian_is_damped_and_flagged() -> None:
 
 def _epsilon_row(sim: Simulation) -> int:
     """The prm row holding ε: the offset of the field `epsilon` of the differential record."""
-    from twin.planners.differential import DIFFERENTIAL_PARAMETERS
+    from twin.planners.families import DIFFERENTIAL_PARAMETERS
 
     del sim  # Unused: every differential lane's row has the same fields.
     return DIFFERENTIAL_PARAMETERS.fields["epsilon"][1] // 8

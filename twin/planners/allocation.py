@@ -18,19 +18,17 @@ simulation integrates every planner the same way. The step is written once, on o
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
-from twin.batch import LaneBatch
-from twin.compiled import register_borrowing
 from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.planners.allocation_step import REACHABLE_RANGE, allocation_step
+from twin.planners.families import ALLOCATION_METHODS, ALLOCATION_PARAMETERS
 from twin.planners.parameters import (
     KIND_ALLOCATION,
     ROW_SIZE,
-    family_dtype,
     parameter_row,
     refuse,
 )
@@ -53,20 +51,6 @@ def reachable_range(mechanism: HybridBoardingSystem, pose: np.ndarray) -> np.nda
     limits = [float(stewart.leg_min), float(stewart.leg_max)]
     return REACHABLE_RANGE([state.vectors, state.lengths], limits, [(3,)])[0]  # the lane's
 
-
-#: Methods, as a row's `method` names them
-METHODS = {"conv1": 0, "conv2": 1, "dwa": 2}
-
-#: The allocation family's lane parameters (`family_dtype`), written by
-#: `AllocationPlanner.pack` after its reset: the method (`METHODS`); DWA's normalisers, the
-#: Stewart manipulability [-] and the reachable range Δx, Δy, Δz [m] at the working state;
-#: ᴮT_P(0) and ᴮT_E(0)⁻¹ rows 0-2 row-major (ᴮR | ᴮp [m]), the platform and the inverse tip
-#: pose at reset; the platform yaw at reset [rad] (the slew joint takes the yaw, dwa); the
-#: gangway joints at reset [rad, rad, m] (conv1 keeps them).
-ALLOCATION_PARAMETERS = family_dtype(
-    (("method", 1), ("manip_mid", 1), ("range_mid", 3), ("T_P0", 12), ("T_E0_inv", 12),
-     ("yaw0", 1), ("q0", 3))
-)  # fmt: skip
 
 
 class AllocationStart(NamedTuple):
@@ -147,13 +131,13 @@ class AllocationPlanner:
             TwinError: not reset, or an unknown method.
         """
         start = self.start
-        if self.method not in METHODS:
-            raise refuse(f"the method {self.method!r}; allowed: {list(METHODS)}")
+        if self.method not in ALLOCATION_METHODS:
+            raise refuse(f"the method {self.method!r}; allowed: {list(ALLOCATION_METHODS)}")
         lanes = np.shape(start.T_P0)[:-2]
         rows = np.empty((*lanes, ROW_SIZE))
         rows[...] = parameter_row(KIND_ALLOCATION, hold)
         record = rows.view(ALLOCATION_PARAMETERS)[..., 0]  # (...) records, each a row by name
-        record["method"] = METHODS[self.method]
+        record["method"] = ALLOCATION_METHODS[self.method]
         record["manip_mid"], record["range_mid"] = start.manip_mid, start.range_mid
         record["T_P0"] = start.T_P0[..., :3, :].reshape(*lanes, 12)
         record["T_E0_inv"] = start.T_E0_inv[..., :3, :].reshape(*lanes, 12)
@@ -186,9 +170,6 @@ class AllocationPlanner:
             TwinError: not reset, an unknown method, xi not (..., 9) or not finite, or a
                 target that is not finite.
         """
-        # imported here: the step module imports this one (its parameter record)
-        from twin.planners.allocation_step import allocation_step
-
         rows = self.rows(False)
         velocity, diagnostics, following = allocation_step(
             self.mechanism, rows, self._share, xi, target, dt
@@ -196,60 +177,3 @@ class AllocationPlanner:
         if self.method == "dwa":
             self._share = following  # used at the next step: t − 1 in seed 004
         return PlannerOutput(velocity=velocity, diagnostics=diagnostics)
-
-
-# ---------------------------------------------------------------------------------------------
-# One lane (floats and small arrays, compiled by numba into the engine's kernel,
-# `twin.compiled`; plain Python without numba)
-# ---------------------------------------------------------------------------------------------
-
-
-@register_borrowing
-def reachable_range_lane(
-    vectors: np.ndarray, lengths: np.ndarray, leg_min: float, leg_max: float, out: np.ndarray
-) -> None:
-    r"""Δx_p, Δy_p, Δz_p [m] into out (3,): per position axis, the length of the interval of
-    offsets s (other five pose coordinates held) whose six legs stay inside their stroke —
-    seed 004 §3.1 c's "space search" in closed form (`reachable_range`, one lane).
-
-    Leg i at offset s along axis k has |l_i + s e_k|² = s² + 2 b s + c, b = l_i,k, c = |l_i|²:
-    l_max bounds s to −b ± sqrt(b² − c + l_max²); l_min cuts out −b ± sqrt(b² − c + l_min²),
-    on one side of s = 0 for a feasible pose. Zero when the pose itself is outside.
-
-    Args:
-        vectors: (6, 3) [m] leg vectors in B; lengths: (6,) [m]
-            (`twin.mechanisms.legs.leg_vectors_lane`).
-        leg_min, leg_max: [m] the leg stroke (Table 1).
-    """
-    inside = True
-    for i in range(6):
-        inside = inside and lengths[i] >= leg_min and lengths[i] <= leg_max
-    for k in range(3):
-        upper_min, lower_max = math.inf, -math.inf
-        for i in range(6):
-            b = vectors[i, k]
-            c = lengths[i] ** 2
-            reach = math.sqrt(max(b**2 - c + leg_max**2, 0.0))
-            upper, lower = -b + reach, -b - reach
-            hole = b**2 - c + leg_min**2
-            if hole > 0:
-                half = math.sqrt(hole)
-                if -b > 0:
-                    upper = min(upper, -b - half)
-                else:
-                    lower = max(lower, -b + half)
-            upper_min = min(upper_min, upper)
-            lower_max = max(lower_max, lower)
-        out[k] = max(upper_min - lower_max, 0.0) if inside else 0.0
-
-
-def _reachable_range_batch(
-    vectors: np.ndarray, lengths: np.ndarray, leg_min: float, leg_max: float, out: np.ndarray
-) -> None:
-    """`reachable_range_lane` over legs vectors (N, 6, 3), lengths (N, 6) into out (N, 3)."""
-    for k in range(vectors.shape[0]):
-        reachable_range_lane(vectors[k], lengths[k], leg_min, leg_max, out[k])
-
-
-#: the lane over a batch of poses: what `reachable_range` calls
-REACHABLE_RANGE = LaneBatch(_reachable_range_batch, cores=(2, 1))

@@ -14,7 +14,7 @@ between the Stewart platform and the gangway and solves the gangway's analytic i
 come from the Stewart manipulability (seed 004 §3.1 b) and the closed-form reachable range
 (seed 004 §3.1 c) of the previous step's pose, carried in the lane's `memory`.
 
-A lane's parameters are `twin.planners.allocation.ALLOCATION_PARAMETERS`, read by name
+A lane's parameters are `twin.planners.families.ALLOCATION_PARAMETERS`, read by name
 (written by `AllocationPlanner.pack` after its reset); the hybrid system's constants are
 `twin.mechanisms.hybrid.HYBRID_CONSTANTS`, read by name.
 
@@ -24,6 +24,7 @@ A lane's parameters are `twin.planners.allocation.ALLOCATION_PARAMETERS`, read b
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,12 +33,7 @@ from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.gangway import gangway_inverse_lane
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS, HybridBoardingSystem
 from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
-from twin.planners.allocation import (
-    ALLOCATION_PARAMETERS,
-    METHODS,
-    AllocationPlanner,
-    reachable_range_lane,
-)
+from twin.planners.families import ALLOCATION_METHODS, ALLOCATION_PARAMETERS
 from twin.planners.lane_rows import (
     D_POSITION_SHARE,
     FAULT_PLANNER,
@@ -59,8 +55,12 @@ from twin.spatial import (
 )
 from twin.validation import as_array
 
-#: Methods (a row's `method`), as `twin.planners.allocation.METHODS` numbers them.
-METHOD_CONV1, METHOD_CONV2, METHOD_DWA = METHODS["conv1"], METHODS["conv2"], METHODS["dwa"]
+if TYPE_CHECKING:  # the object imports this module: its step sits below it
+    from twin.planners.allocation import AllocationPlanner
+
+#: Methods (a row's `method`), as `twin.planners.families.ALLOCATION_METHODS` numbers them.
+METHOD_CONV1, METHOD_CONV2, METHOD_DWA = (ALLOCATION_METHODS["conv1"], ALLOCATION_METHODS["conv2"],
+                                          ALLOCATION_METHODS["dwa"])  # fmt: skip
 #: memory rows: DWA's position shares (3).
 M_SHARE = 0
 
@@ -117,6 +117,7 @@ def compose_lane(
 def predicted_target_lane(
     target: np.ndarray, dt: float, E: np.ndarray, R_out: np.ndarray, p_out: np.ndarray
 ) -> None:
+
     """The target one dt ahead, T_a = [exp(ω dt) R_d, p_d + v dt] (seed 004 §1): R_out (3, 3),
     p_out (3,) [m] in B, from the target row (18,) (R_d row-major); E (3, 3) scratch."""
     w = TARGET_W
@@ -374,3 +375,60 @@ def allocation_step(
         [xi, targets, rows, shares], [const, float(dt)], [(9,), (3,), (3,), (6,)]
     )
     return velocity, {"task_error": error, "position_share": share}, following
+
+
+# ---------------------------------------------------------------------------------------------
+# One lane (floats and small arrays, compiled by numba into the engine's kernel,
+# `twin.compiled`; plain Python without numba)
+# ---------------------------------------------------------------------------------------------
+
+
+@register_borrowing
+def reachable_range_lane(
+    vectors: np.ndarray, lengths: np.ndarray, leg_min: float, leg_max: float, out: np.ndarray
+) -> None:
+    r"""Δx_p, Δy_p, Δz_p [m] into out (3,): per position axis, the length of the interval of
+    offsets s (other five pose coordinates held) whose six legs stay inside their stroke —
+    seed 004 §3.1 c's "space search" in closed form (`reachable_range`, one lane).
+
+    Leg i at offset s along axis k has |l_i + s e_k|² = s² + 2 b s + c, b = l_i,k, c = |l_i|²:
+    l_max bounds s to −b ± sqrt(b² − c + l_max²); l_min cuts out −b ± sqrt(b² − c + l_min²),
+    on one side of s = 0 for a feasible pose. Zero when the pose itself is outside.
+
+    Args:
+        vectors: (6, 3) [m] leg vectors in B; lengths: (6,) [m]
+            (`twin.mechanisms.legs.leg_vectors_lane`).
+        leg_min, leg_max: [m] the leg stroke (Table 1).
+    """
+    inside = True
+    for i in range(6):
+        inside = inside and lengths[i] >= leg_min and lengths[i] <= leg_max
+    for k in range(3):
+        upper_min, lower_max = math.inf, -math.inf
+        for i in range(6):
+            b = vectors[i, k]
+            c = lengths[i] ** 2
+            reach = math.sqrt(max(b**2 - c + leg_max**2, 0.0))
+            upper, lower = -b + reach, -b - reach
+            hole = b**2 - c + leg_min**2
+            if hole > 0:
+                half = math.sqrt(hole)
+                if -b > 0:
+                    upper = min(upper, -b - half)
+                else:
+                    lower = max(lower, -b + half)
+            upper_min = min(upper_min, upper)
+            lower_max = max(lower_max, lower)
+        out[k] = max(upper_min - lower_max, 0.0) if inside else 0.0
+
+
+def _reachable_range_batch(
+    vectors: np.ndarray, lengths: np.ndarray, leg_min: float, leg_max: float, out: np.ndarray
+) -> None:
+    """`reachable_range_lane` over legs vectors (N, 6, 3), lengths (N, 6) into out (N, 3)."""
+    for k in range(vectors.shape[0]):
+        reachable_range_lane(vectors[k], lengths[k], leg_min, leg_max, out[k])
+
+
+#: the lane over a batch of poses: what `reachable_range` calls
+REACHABLE_RANGE = LaneBatch(_reachable_range_batch, cores=(2, 1))

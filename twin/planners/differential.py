@@ -16,10 +16,11 @@ from typing import Any
 
 import numpy as np
 
+from twin.planners.differential_step import differential_step
+from twin.planners.families import DIFFERENTIAL_PARAMETERS
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.parameters import (
     KIND_DIFFERENTIAL,
-    family_dtype,
     pack_part,
     parameter_record,
     parameter_row,
@@ -27,25 +28,6 @@ from twin.planners.parameters import (
 )
 from twin.planners.target import PlannerOutput, TipTarget
 from twin.planners.tasks import JointPostureTask, TipPoseTask
-
-#: The differential family's lane parameters (`family_dtype`), written by the parts' `pack`:
-#: k_e [1/s] (eq (34), `TipPoseTask`); the β split β^l per joint (eqs (27)-(30), 1 without
-#: weights, `BetaSplit`); the joint-limit weights' scale (1, k_c on the telescope, eq (37)),
-#: on/off and the limits [m, rad] (`JointLimitWeights`); the posture task's joint (−1: none),
-#: k_a [1/s] and q̃ (eqs (39)-(40), `JointPostureTask`); Algorithm 1 on/off, σ [rad], q̇1,max
-#: [rad/s], the slew limits [rad] and yaw_hold [-] (`SlewPriority`); λ_max and ε of the damped
-#: solve (`weighted_pinv`); λ of eq (34); the rate limit on/off and its maxima [m/s, rad/s]
-#: (`VelocityLimit`).
-DIFFERENTIAL_PARAMETERS = family_dtype(
-    (
-        ("gain", 1), ("split", 9), ("scale", 9),
-        ("posture_index", 1), ("posture_gain", 1), ("posture_set", 1),
-        ("slew", 1), ("sigma", 1), ("slew_rate", 1), ("q1_min", 1), ("q1_max", 1),
-        ("damping", 1), ("epsilon", 1), ("secondary", 1),
-        ("joint_limits", 1), ("rate_limited", 1), ("rate", 9), ("yaw_hold", 1),
-        ("lower", 9), ("upper", 9),
-    )
-)  # fmt: skip
 
 
 @dataclass
@@ -88,9 +70,6 @@ class DifferentialPlanner:
             TwinError: xi not (..., 9) or not finite; a part without `pack`, or one the
                 compiled kernel cannot run (`pack`).
         """
-        # imported here: the step module imports this one (its parameter record)
-        from twin.planners.differential_step import differential_step
-
         return differential_step(self, xi, target, dt)
 
     def pack(self, hold: bool) -> np.ndarray:

@@ -39,13 +39,14 @@ below s_max·9·eps dropped), so damping = 0 on a rank-deficient J_W gives its n
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS
-from twin.planners.differential import DIFFERENTIAL_PARAMETERS, DifferentialPlanner
+from twin.planners.families import DIFFERENTIAL_PARAMETERS
 from twin.planners.gains import proportional_gain
 from twin.planners.lane_rows import (
     D_DAMPING,
@@ -71,10 +72,13 @@ from twin.planners.weights import joint_limit_weight_lane
 from twin.spatial import rpy_to_matrix_lane
 from twin.validation import as_array
 
+if TYPE_CHECKING:  # the object imports this module: its step sits below it
+    from twin.planners.differential import DifferentialPlanner
+
 
 def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
     """A differential planner as its lane's row (N_PARAMETERS,): its `pack(hold)`, which
-    writes `twin.planners.differential.DIFFERENTIAL_PARAMETERS` by name.
+    writes `twin.planners.families.DIFFERENTIAL_PARAMETERS` by name.
 
     Raises:
         TwinError: the planner has no `pack`, or a part it refuses (`DifferentialPlanner.pack`).

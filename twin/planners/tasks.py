@@ -83,7 +83,7 @@ class TipPoseTask:
 
     def pack(self, record: np.void) -> None:
         """Write k_e into a differential parameter record's `gain`
-        (`twin.planners.differential.DIFFERENTIAL_PARAMETERS`).
+        (`twin.planners.families.DIFFERENTIAL_PARAMETERS`).
 
         Raises:
             TwinError: the mechanism is not a `HybridBoardingSystem`.

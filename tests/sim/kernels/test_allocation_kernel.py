@@ -22,13 +22,9 @@ from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
 from twin.planners import HYBRID_RATE_LIMITS
 from twin.planners import allocation_step as ak
-from twin.planners.allocation import (
-    ALLOCATION_PARAMETERS,
-    METHODS,
-    AllocationPlanner,
-    reachable_range,
-    reachable_range_lane,
-)
+from twin.planners.allocation import AllocationPlanner, reachable_range
+from twin.planners.allocation_step import reachable_range_lane
+from twin.planners.families import ALLOCATION_METHODS, ALLOCATION_PARAMETERS
 from twin.planners.target import TipTarget
 from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.kernels import layout as lay
@@ -104,7 +100,7 @@ def test_pack_round_trip(method: str, hold: bool, base: BaseSamples) -> None:
     assert prm[lay.P_KIND] == lay.KIND_ALLOCATION
     assert prm[lay.P_HOLD] == (1.0 if hold else 0.0)
     record = prm.view(ALLOCATION_PARAMETERS)[0]
-    assert record["method"] == METHODS[method]
+    assert record["method"] == ALLOCATION_METHODS[method]
     manip_mid, range_mid = planner.start.manip_mid, planner.start.range_mid
     assert record["manip_mid"] == manip_mid
     np.testing.assert_array_equal(record["range_mid"], range_mid)

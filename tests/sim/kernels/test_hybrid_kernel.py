@@ -41,7 +41,8 @@ from twin.mechanisms.hybrid import (
 from twin.mechanisms.legs import leg_lengths_lane
 from twin.planners import PlannerParameters, get_planner
 from twin.planners import differential_step as ds
-from twin.planners.differential import DIFFERENTIAL_PARAMETERS, DifferentialPlanner
+from twin.planners.differential import DifferentialPlanner
+from twin.planners.families import DIFFERENTIAL_PARAMETERS
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.linalg import cholesky_lane, smallest_eigenvalue_bound
 from twin.planners.registry import HYBRID_RATE_LIMITS

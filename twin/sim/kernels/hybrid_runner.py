@@ -35,9 +35,7 @@ from typing import Any
 import numpy as np
 
 from twin.compiled import compile_runner, prange, register_borrowing
-from twin.planners.allocation import ALLOCATION_PARAMETERS
 from twin.planners.allocation_step import allocation_velocity, allocation_work
-from twin.planners.differential import DIFFERENTIAL_PARAMETERS
 from twin.planners.differential_step import (
     NEEDS_SVD,
     W_ERROR,
@@ -45,6 +43,7 @@ from twin.planners.differential_step import (
     differential_velocity,
     differential_work,
 )
+from twin.planners.families import ALLOCATION_PARAMETERS, DIFFERENTIAL_PARAMETERS
 from twin.planners.qp_step import qp_lane_work, qp_velocity
 from twin.sim.kernels.hybrid import guarded_step, limit_work
 from twin.sim.kernels.layout import (
