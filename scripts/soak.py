@@ -3,6 +3,8 @@
     python scripts/soak.py                 # 30 minutes, 100 viewers, a 5,000-connection slowloris
     python scripts/soak.py --short         # the CI form: under 60 s, 10 viewers, 500 connections
     python scripts/soak.py --minutes 5 --json soak.json
+    python scripts/soak.py --uploads       # issue 43: the five workability-upload attacks, each
+                                           # alone, health and RSS measured during each
 
 One server (`python -m twin.cli serve`, token mode, a local cluster of `--workers` workers, in
 its own process group and data directory) is driven, all at once, by:
@@ -26,6 +28,18 @@ opened afterwards and every run the soak was told was accepted (and did not dele
 it. Checks (exit 1 if one fails): health p99 < 1 s, the server's RSS under `--rss-bound` MB,
 nothing accepted lost, the attack refused, SIGTERM within 10 s. The figures print as a table
 (docs/reliability.md's issue-30 rows come from it) and, with `--json`, go to a file.
+
+`--uploads` (issue 43) is a bounded soak of its own: the same server (token mode, 2 workers),
+then each upload attack alone, /api/health polled every 0.05 s and the server's RSS every
+0.2 s while it lasts: (1) wide scatter tables of 20,000, 50,000 and 400,000 Tp columns;
+(2) 101 rows 1 ns apart and one 60 ms later (a 6e7-step grid); (3) a 150,000-row record at 24
+headings (accepted: its evaluation runs on a worker) and a 200,000-row one at 36 (refused);
+(4) 80 submit-and-cancel cycles of a 2 MB padded record under a 50 MB `--max-store`;
+(5) 15 wrong tokens sharing the holder's first 8 characters, each sent 11 times, then the
+holder's; a header-only, a 2-row and a NUL record. Each must be refused or bounded (a
+request answered within `UPLOAD_ANSWER` s), health p99 ≤ `UPLOAD_HEALTH_P99` s and the RSS
+growth ≤ `UPLOAD_RSS_GROWTH` MB during it; then SIGTERM with a 400,000-column upload in flight
+must end the server within 10 s, its data directory locked until it is gone.
 """
 
 from __future__ import annotations
@@ -62,6 +76,14 @@ RECOVERY = 15.0
 STOP_BUDGET = 10.0
 #: [s] the p99 of /api/health the server must stay under
 HEALTH_P99 = 1.0
+#: issue 43's bounds during each upload attack: [s] health p99, [MB] RSS growth, [s] an
+#: upload's answer
+UPLOAD_HEALTH_P99 = 0.1
+UPLOAD_RSS_GROWTH = 200.0
+UPLOAD_ANSWER = 1.0
+#: a tiny evaluation (1 planner, 1 seed, 2 s runs, 8 cells per heading)
+UPLOAD_SPEC = {"planners": ["mtmp"], "seeds": 1, "duration": 2.0, "hs_grid": [1.0, 2.0, 3.0, 4.0],
+               "tp_grid": [8.0, 12.0], "window_hours": [6.0]}  # fmt: skip
 
 
 def free_port() -> int:
@@ -73,7 +95,9 @@ def free_port() -> int:
 class Soak:
     """The server under test and what was measured."""
 
-    def __init__(self, folder: Path, workers: int, worker_nice: int = 0) -> None:
+    def __init__(
+        self, folder: Path, workers: int, worker_nice: int = 0, options: tuple[str, ...] = ()
+    ) -> None:
         self.port, self.viser_port = free_port(), free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.data = folder / "data"
@@ -82,7 +106,7 @@ class Soak:
             sys.executable, "-m", "twin.cli", "serve", "--host", "127.0.0.1",
             "--port", str(self.port), "--viser-port", str(self.viser_port),
             "--data-dir", str(self.data), "--workers", str(workers),
-            "--worker-nice", str(worker_nice),
+            "--worker-nice", str(worker_nice), *options,
         ]  # fmt: skip
         with self.log_path.open("wb") as log:
             self.process = subprocess.Popen(
@@ -528,9 +552,227 @@ def _summarise(soak: Soak, stopped: float | None, args: argparse.Namespace) -> N
         soak.failures.append(f"server RSS {max(soak.rss):.0f} MB over {args.rss_bound} MB")
 
 
+# -- issue 43: the workability-upload attacks -------------------------------------------------
+
+
+class Watch:
+    """/api/health every 0.05 s and the server's RSS every 0.2 s, kept with their times, so
+    each attack's window can be cut out of them."""
+
+    def __init__(self, soak: Soak) -> None:
+        self.soak = soak
+        self.health: list[tuple[float, float]] = []  # (time, latency; inf: failed)
+        self.rss: list[tuple[float, float]] = []  # (time, MB)
+        self.threads = [threading.Thread(target=f, daemon=True) for f in (self._poll, self._rss)]
+        for thread in self.threads:
+            thread.start()
+
+    def _poll(self) -> None:
+        with httpx.Client(base_url=self.soak.url, timeout=30) as http:
+            while not self.soak.stop.is_set():
+                start = time.perf_counter()
+                try:
+                    ok = http.get("/api/health").status_code == 200
+                except httpx.HTTPError:
+                    ok = False
+                elapsed = time.perf_counter() - start
+                self.health.append((time.monotonic(), elapsed if ok else float("inf")))
+                self.soak.stop.wait(0.05)
+
+    def _rss(self) -> None:
+        process = psutil.Process(self.soak.process.pid)
+        while not self.soak.stop.is_set():
+            try:
+                self.rss.append((time.monotonic(), process.memory_info().rss / 2**20))
+            except psutil.Error:
+                return
+            self.soak.stop.wait(0.2)
+
+    def window(self, start: float, end: float) -> dict[str, Any]:
+        """Health p99 [s], polls, failures and the RSS growth [MB] between `start` and `end`."""
+        latencies = [h for t, h in self.health if start <= t <= end]
+        rss = [m for t, m in self.rss if start <= t <= end] or [0.0]
+        before = [m for t, m in self.rss if t <= start] or rss[:1]
+        finite = [h for h in latencies if np.isfinite(h)]
+        return {
+            "health_polls": len(latencies),
+            "health_failed": len(latencies) - len(finite),
+            "health_p99_s": round(float(np.percentile(latencies, 99)), 4) if latencies else None,
+            "rss_growth_mb": round(max(rss) - before[-1], 1),
+        }
+
+
+def _post_upload(soak: Soak, text: str, **fields: Any) -> tuple[int, float, str, str]:
+    """POST a workability upload (after the rate limit's waits): (status, [s] to the answer,
+    its message, its Location)."""
+    body = {**UPLOAD_SPEC, "record_csv": text, **fields}
+    start = time.perf_counter()
+    while True:
+        answer = httpx.post(f"{soak.url}/api/workability", json=body, headers=AUTH, timeout=60)
+        if answer.status_code != 429:
+            break
+        time.sleep(float(answer.headers.get("retry-after", "1")))  # the rate limit: wait
+        start = time.perf_counter()
+    detail = answer.json().get("message") or answer.json().get("detail") or ""
+    location = answer.headers.get("location", "")
+    return answer.status_code, time.perf_counter() - start, str(detail)[:160], location
+
+
+def _wide(columns: int) -> str:
+    tps = ",".join(f"{4 + 16 * i / columns:.6f}" for i in range(columns))
+    return "hs," + tps + "\n1.0," + ",".join("1" for _ in range(columns)) + "\n"
+
+
+def _hourly(rows: int, pad: int = 0) -> str:
+    """`rows` hourly rows from 2000-01-01 in the shortest form (`time,hs,tp`); `pad`
+    characters of an ignored column on each."""
+    times = np.datetime64("2000-01-01T00", "h") + np.arange(rows)
+    hs = (0.5 + 2.5 * (np.arange(rows) % 24) / 24).round(1)
+    extra = "," + "x" * pad if pad else ""
+    head = "time,hs,tp" + (",notes" if pad else "")
+    lines = (f"{t},{h},9{extra}\n" for t, h in zip(times.astype(str), hs, strict=True))
+    return head + "\n" + "".join(lines)
+
+
+def _attack_wide(soak: Soak) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for columns in (20_000, 50_000, 400_000):
+        status, took, _, _ = _post_upload(soak, _wide(columns))
+        out[f"wide_{columns}"] = {"status": status, "answer_s": round(took, 3)}
+        if status != 422 or took > UPLOAD_ANSWER:
+            soak.failures.append(f"wide scatter of {columns} columns: {status} in {took:.2f} s")
+    return out
+
+
+def _attack_grid(soak: Soak) -> dict[str, Any]:
+    times = [f"2020-01-01T00:00:00.{i:09d}" for i in range(101)] + ["2020-01-01T00:00:00.060"]
+    status, took, message, _ = _post_upload(soak, "time,hs,tp\n" + "".join(
+        f"{t},1.0,8.0\n" for t in times))  # fmt: skip
+    if status != 422 or took > UPLOAD_ANSWER:
+        soak.failures.append(f"ns-apart rows: {status} in {took:.2f} s ({message})")
+    return {"status": status, "answer_s": round(took, 3), "message": message}
+
+
+def _attack_rows(soak: Soak) -> dict[str, Any]:
+    best = {"kind": "best", "headings": [15.0 * i for i in range(24)]}
+    status, took, _, location = _post_upload(soak, _hourly(150_000), heading=best)
+    out: dict[str, Any] = {"accepted": {"status": status, "answer_s": round(took, 3)}}
+    if status == 202:  # its evaluation runs on a worker, health watched meanwhile
+        deadline, job = time.monotonic() + 600, {"status": "queued"}
+        while time.monotonic() < deadline and job["status"] in ("queued", "running"):
+            time.sleep(0.5)
+            job = httpx.get(soak.url + location, timeout=30).json()
+        out["accepted"]["job"] = job["status"]
+        out["accepted"]["job_s"] = round(time.monotonic() - deadline + 600)
+    else:
+        soak.failures.append(f"150,000 rows at 24 headings: {status} (to be accepted)")
+    widest = {"kind": "best", "headings": [10.0 * i for i in range(36)]}
+    status, took, message, _ = _post_upload(soak, _hourly(200_000), heading=widest)
+    out["refused"] = {"status": status, "answer_s": round(took, 3), "message": message}
+    if status != 422 or "MAX_ROW_WORK" not in message:
+        soak.failures.append(f"200,000 rows at 36 headings: {status} ({message})")
+    return out
+
+
+def _attack_disk(soak: Soak) -> dict[str, Any]:
+    padded = _hourly(1_000, pad=2_000)  # 2 MB, 1,000 rows' columns
+    codes: Counter[int] = Counter()
+    for _ in range(80):
+        status, _, _, location = _post_upload(soak, padded)
+        codes[status] += 1
+        if status == 202:
+            httpx.post(f"{soak.url}{location}/cancel", headers=AUTH, timeout=30)
+    with sqlite3.connect(soak.data / "runs.sqlite", timeout=10) as db:
+        stored = db.execute("SELECT COALESCE(SUM(size), 0), COALESCE(SUM(LENGTH(upload)), 0) "
+                            "FROM workability").fetchone()  # fmt: skip
+    size = sum(f.stat().st_size for f in soak.data.glob("runs.sqlite*"))
+    out = {"statuses": dict(codes), "store_mb": round(size / 2**20, 1),
+           "counted_mb": round(stored[0] / 2**20, 2), "uploads_left_bytes": stored[1]}  # fmt: skip
+    if size > 50 * 2**20 or stored[1]:
+        soak.failures.append(f"80 submit-and-cancel cycles: store {size / 2**20:.0f} MB, "
+                             f"{stored[1]} bytes of uploads left")  # fmt: skip
+    return out
+
+
+def _attack_tokens(soak: Soak) -> dict[str, Any]:
+    wrong = [TOKEN[:8] + f"{i:02d}" + "x" * (len(TOKEN) - 10) for i in range(15)]
+    codes: Counter[int] = Counter()
+    for guess in wrong:
+        for _ in range(11):
+            answer = httpx.post(f"{soak.url}/api/workability/x/cancel", timeout=30,
+                                headers={"Authorization": f"Bearer {guess}"})  # fmt: skip
+            codes[answer.status_code] += 1
+    holder = httpx.post(f"{soak.url}/api/workability/x/cancel", headers=AUTH, timeout=30)
+    bad = {name: _post_upload(soak, text)[:3:2] for name, text in (
+        ("header_only", "time,hs,tp\n"), ("two_rows", "time,hs,tp\n2020-01-01T00,1,8\n"
+         "2020-01-01T01,1,8\n"), ("nul", "time,hs,tp\n2020-01-01T00,1\x00,8\n"))}  # fmt: skip
+    if holder.status_code == 429 or bad["header_only"][0] != 422 or bad["nul"][0] != 422:
+        soak.failures.append(f"tokens: holder {holder.status_code}; bad records {bad}")
+    return {"wrong": dict(codes), "holder": holder.status_code,
+            "records": {k: v[0] for k, v in bad.items()}}  # fmt: skip
+
+
+def _sigterm_with_an_upload_in_flight(soak: Soak) -> dict[str, Any]:
+    sender = threading.Thread(target=_post_upload, args=(soak, _wide(400_000)), daemon=True)
+    sender.start()
+    time.sleep(0.3)
+    start = time.monotonic()
+    soak.process.send_signal(signal.SIGTERM)
+    free_while_alive = False
+    while soak.process.poll() is None and time.monotonic() - start < 30:
+        from twin.web.lock import DataDirBusy, DataDirLock
+
+        try:
+            DataDirLock(soak.data).acquire().release()
+            free_while_alive = soak.process.poll() is None
+        except DataDirBusy:
+            pass
+        time.sleep(0.05)
+    stopped = time.monotonic() - start
+    if stopped > STOP_BUDGET or free_while_alive:
+        soak.failures.append(f"SIGTERM: {stopped:.1f} s, lock free while alive {free_while_alive}")
+    return {"exit_s": round(stopped, 1), "lock_free_while_alive": free_while_alive}
+
+
+def upload_attacks(args: argparse.Namespace) -> dict[str, Any]:
+    """Issue 43's five attacks, each alone, then SIGTERM with one in flight (module doc)."""
+    with tempfile.TemporaryDirectory(prefix="twin-soak-uploads-") as folder:
+        soak = Soak(Path(folder), args.workers, args.worker_nice,
+                    ("--max-store", str(50 * 2**20)))  # fmt: skip
+        try:
+            soak.figures["startup_s"] = round(soak.wait_ready(), 1)
+            _post_upload(soak, _hourly(48))  # the reading children are warm
+            watch = Watch(soak)
+            time.sleep(2.0)
+            attacks = {"1_wide_scatter": _attack_wide, "2_ns_grid": _attack_grid,
+                       "3_rows_by_headings": _attack_rows, "4_disk": _attack_disk,
+                       "5_tokens_and_bad_records": _attack_tokens}  # fmt: skip
+            for name, attack in attacks.items():
+                start = time.monotonic()
+                figures = attack(soak)
+                window = watch.window(start, time.monotonic())
+                soak.figures[name] = {**figures, **window, "s": round(time.monotonic() - start)}
+                if window["health_p99_s"] is None or window["health_p99_s"] > UPLOAD_HEALTH_P99:
+                    soak.failures.append(f"{name}: health p99 {window['health_p99_s']} s")
+                if window["rss_growth_mb"] > UPLOAD_RSS_GROWTH:
+                    soak.failures.append(f"{name}: RSS grew {window['rss_growth_mb']} MB")
+            soak.stop.set()
+            soak.figures["sigterm_upload_in_flight"] = _sigterm_with_an_upload_in_flight(soak)
+        finally:
+            soak.stop.set()
+            if soak.process.poll() is None:
+                os.killpg(soak.process.pid, signal.SIGKILL)
+                soak.process.wait(10)
+    soak.figures["load_average"] = round(os.getloadavg()[0], 1)
+    soak.figures["checks_failed"] = soak.failures
+    return soak.figures
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--short", action="store_true", help="the CI form: under 60 s")
+    parser.add_argument("--uploads", action="store_true",
+                        help="issue 43's workability-upload attacks instead")  # fmt: skip
     parser.add_argument("--minutes", type=float, default=30.0, help="load time (default 30)")
     parser.add_argument("--viewers", type=int, help="viewer websocket clients (100; short 10)")
     parser.add_argument("--slowloris", type=int, help="slow connections (5000; short 500)")
@@ -553,7 +795,7 @@ def main() -> int:
     args.slowloris = args.slowloris if args.slowloris is not None else (
         500 if args.short else 5000
     )
-    figures = soak_once(args)
+    figures = upload_attacks(args) if args.uploads else soak_once(args)
     log = os.environ.get("TWIN_RELIABILITY_LOG")  # scripts/reliability.py renders them
     if log:
         with open(log, "a", encoding="utf-8") as out:

@@ -12,7 +12,7 @@ from twin.web.upload_records import (
     MAX_GRID_STEPS,
     MAX_LINES,
     UploadRefused,
-    check_record,
+    check_grid,
     pack_record,
     prescan,
     unpack_record,
@@ -52,20 +52,12 @@ def test_a_grid_denser_than_the_rows_is_refused() -> None:
     ns = np.concatenate([np.arange(101), [1_000_000_000]]).astype("datetime64[ns]")
     dense = SiteRecord(hs=np.ones(102), tp=np.full(102, 8.0), time=ns)
     with pytest.raises(UploadRefused, match="MAX_GRID_STEPS") as refused:
-        check_record(dense)
+        check_grid(dense)
     assert refused.value.limit == "MAX_GRID_STEPS"
     hours = np.arange(8760 - 720).astype("timedelta64[h]") + np.datetime64("2020-01-01", "ns")
     hours[4000:] += np.timedelta64(720, "h")
-    check_record(SiteRecord(hs=np.ones(hours.size), tp=np.full(hours.size, 8.0), time=hours))
+    check_grid(SiteRecord(hs=np.ones(hours.size), tp=np.full(hours.size, 8.0), time=hours))
     assert MAX_GRID_STEPS > 8760
-
-
-def test_a_record_without_rows_is_refused_with_the_reasons() -> None:
-    """Issue 38 item 4: 0 usable rows names why each row was skipped."""
-    empty = SiteRecord(hs=np.zeros(0), tp=np.zeros(0), time=np.zeros(0, "datetime64[ns]"),
-                       skipped={"hs missing": 5, "tp missing": 2})  # fmt: skip
-    with pytest.raises(UploadRefused, match=r"no usable rows.*hs missing: 5, tp missing: 2"):
-        check_record(empty)
 
 
 def test_packed_columns_read_back_equal() -> None:

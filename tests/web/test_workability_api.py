@@ -361,12 +361,12 @@ def test_a_header_only_or_nul_record_is_422_at_submission(client: TestClient) ->
     (not a 202 that fails later), a NUL character a 422 naming its line."""
     empty = client.post("/api/workability", json=upload("time,hs,tp,direction\n"))
     assert empty.status_code == 422, empty.text
-    assert "no usable rows" in empty.json()["message"]
+    assert "no rows left to evaluate" in empty.json()["message"]
     skipped = "time,hs,tp,direction\n" + "".join(
         f"2020-01-01T{h:02d}:00,,8.0,270\n" for h in range(5))  # fmt: skip
     none_left = client.post("/api/workability", json=upload(skipped))
     assert none_left.status_code == 422, none_left.text
-    assert "no usable rows" in none_left.json()["message"]
+    assert "no rows left to evaluate" in none_left.json()["message"]
     assert "hs" in none_left.json()["message"] and "5" in none_left.json()["message"]
     with_nul = FORECAST.replace("0.5,8.0", "0.5\x00,8.0", 1)
     nul = client.post("/api/workability", json=upload(with_nul))

@@ -8,10 +8,11 @@ Three steps, each cheaper than the next and each able to refuse:
    anything else (a 50,000-column scatter table cost pandas 158 s of CPU in its column
    de-duplication, quadratic in the columns).
 2. `parse_record` (in a `twin.web.upload_worker.BoundedWorker` child, within its CPU, memory and
-   wall budget): the CLI's readers (`twin.site.read_record`) on the text, then the record's own
-   checks: at least one usable row (else the reasons the rows were skipped), and a time grid of
-   at most `MAX_GRID_STEPS` steps (span / median step: 101 rows 1 ns apart and one a minute
-   later asked for a 6e10-step grid).
+   wall budget): the CLI's reading of a record for a spec (`twin.sim.workability.
+   read_site_record`: the columns its heading strategy needs, its duplicates rule, at least one
+   usable row, else the reasons the rows were skipped), then a time grid of at most
+   `MAX_GRID_STEPS` steps (`check_grid`: span / median step; 101 rows 1 ns apart and one a
+   minute later asked for a 6e10-step grid).
 3. `pack_record` / `unpack_record`: what is stored for the job is the record's columns (float64
    and datetime64 arrays, compressed), never the text: a column the reader ignored, padding
    included, costs nothing on disk.
@@ -25,7 +26,6 @@ import dataclasses
 import io
 import json
 import tempfile
-from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,7 +34,8 @@ import numpy as np
 
 from twin.assets import asset_path
 from twin.errors import TwinError
-from twin.site import SiteRecord, read_record
+from twin.sim.workability import read_site_record
+from twin.site import SiteRecord
 
 #: most lines an uploaded record may have: 5 years of hourly rows, or a year of 10-minute ones,
 #: with room to spare (the readers keep at most `twin.sim.workability.MAX_ROWS` = 200,000 rows)
@@ -54,10 +55,10 @@ _ARRAYS = ("hs", "tp", "time", "direction", "spreading", "heading", "weight")
 
 
 class UploadRefused(TwinError):
-    """An upload over a limit or without a usable row (a 422 naming the limit).
+    """An upload over a limit (a 422 naming the limit).
 
     Attributes:
-        limit: the limit's name ("MAX_LINES", …) or "rows".
+        limit: the limit's name ("MAX_LINES", …), or "text" for a NUL character.
     """
 
     def __init__(self, message: str, limit: str) -> None:
@@ -108,36 +109,31 @@ def prescan(text: str, field: str = "record_csv") -> Scan:
     return Scan(len(text.encode()), lines, columns)
 
 
-def parse_record(
-    text: str, kind: str | None, name: str, require: Iterable[str] = ()
-) -> dict[str, Any]:
-    """Read an uploaded record's text as the CLI reads a file named `name` (a task for a
-    bounded child): `{"blob": pack_record(record), "summary": record.summary()}`.
+def parse_record(text: str, kind: str | None, name: str, spec: dict[str, Any]) -> dict[str, Any]:
+    """Read an uploaded record's text as the CLI reads a file named `name` for the
+    `WorkabilitySpec` fields `spec` (a task for a bounded child): `{"blob":
+    pack_record(record), "summary": record.summary()}`.
 
     Raises:
-        TwinError: the reader's message (naming the line and column), or `UploadRefused`: no
-            usable row (with the reasons rows were skipped) or a grid over `MAX_GRID_STEPS`.
+        TwinError: the reader's message (naming the line and column), no usable row (with the
+            reasons rows were skipped), or `UploadRefused`: a grid over `MAX_GRID_STEPS`.
     """
     with tempfile.TemporaryDirectory(prefix="twin-upload-") as folder:
         path = Path(folder) / name
         path.write_text(text, encoding="utf-8")
-        record = read_record(path, kind=kind, require=tuple(require))
-    check_record(record)
+        record = read_site_record(path, spec, kind)
+    check_grid(record)
     return {"blob": pack_record(record), "summary": record.summary()}
 
 
-def check_record(record: SiteRecord) -> None:
-    """A record a job can evaluate: at least one row, and a regular grid of its times of at
-    most `MAX_GRID_STEPS` steps.
+def check_grid(record: SiteRecord) -> None:
+    """A record whose regular grid of times (span / median step + 1) has at most
+    `MAX_GRID_STEPS` steps: whatever builds a per-step series from it stays proportional to a
+    bound, not to how close two rows can be.
 
     Raises:
-        UploadRefused: naming what is wrong (the skipped rows by reason; the grid's steps).
+        UploadRefused: naming the grid's steps and the limit.
     """
-    if record.n == 0:
-        reasons = ", ".join(f"{reason}: {count}" for reason, count in record.skipped.items())
-        why = f"every row was skipped ({reasons})" if reasons else "it has no data rows"
-        raise UploadRefused(f"record: no usable rows: {why}; a record needs rows with Hs and "
-                            "Tp (and what the heading strategy uses)", "rows")  # fmt: skip
     if record.time is None or record.n < 2:
         return
     ns = np.sort(record.time.astype(np.int64))
@@ -186,7 +182,7 @@ def shipped_records() -> list[str]:
     return sorted(p.name for p in folder.iterdir() if p.is_file() and p.name not in _NOT_RECORDS)
 
 
-def read_shipped(name: str, require: tuple[str, ...] = ()) -> dict[str, Any]:
+def read_shipped(name: str, spec: dict[str, Any]) -> dict[str, Any]:
     """A shipped record read as an upload is (`twin.web.upload_records.parse_record`'s
     answer), by its name (a task for a bounded child).
 
@@ -199,6 +195,5 @@ def read_shipped(name: str, require: tuple[str, ...] = ()) -> dict[str, Any]:
             f"record: {name!r} is not a shipped record; allowed {names} "
             "(GET /api/workability/records), or upload one as record_csv"
         )
-    record = read_record(asset_path("site", name), require=require)
-    check_record(record)
+    record = read_site_record(asset_path("site", name), spec)
     return {"blob": pack_record(record), "summary": record.summary()}

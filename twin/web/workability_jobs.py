@@ -62,8 +62,9 @@ MAX_STEPS = 500
 #: hourly record takes 0.25 s on one core; the request answers within `READ_BUDGET.wall` of
 #: a child being free
 READ_BUDGET = Budget(cpu=1.0, wall=0.9)
-#: [s] how long a submission waits for a free reading child (two, busy or starting) before a 503
-READ_WAIT = 5.0
+#: [s] how long a submission waits for a free reading child (two, busy or starting: a child
+#: imports the simulation layer's reader in about 5 s) before a 503
+READ_WAIT = 10.0
 def load_record(source: dict[str, Any]) -> SiteRecord:
     """A record from a job stored without its columns (before issue 43): `{"name": NAME}`
     (shipped) or `{"csv": TEXT, "kind": K}`, read where it is called (a worker's task).
@@ -72,7 +73,7 @@ def load_record(source: dict[str, Any]) -> SiteRecord:
         TwinError: an unknown name, or malformed content (the reader's message, with its line).
     """
     if "name" in source:
-        return unpack_record(read_shipped(source["name"])["blob"])
+        return unpack_record(read_shipped(source["name"], {})["blob"])
     with tempfile.TemporaryDirectory(prefix="twin-record-") as folder:
         path = Path(folder) / DEFAULT_NAME
         path.write_text(source["csv"], encoding="utf-8")
@@ -95,16 +96,16 @@ def forecast_steps(result: Any) -> dict[str, Any]:
     return {"steps": steps}
 
 
-def rows_csv(result: Any) -> bytes:
-    """A result's per-row table (`WorkabilityResult.to_csv`), gzip-compressed."""
-    with tempfile.TemporaryDirectory(prefix="twin-rows-") as folder:
-        path = result.to_csv(Path(folder) / "rows.csv")
-        return gzip.compress(path.read_bytes(), compresslevel=6)
+def packed_rows(result: Any) -> bytes:
+    """A result's per-row table (`twin.sim.workability.rows_csv`), gzip-compressed."""
+    from twin.sim.workability import rows_csv
+
+    return gzip.compress(str(rows_csv(result.rows)).encode(), compresslevel=6)
 
 
 def evaluate_job(
     fields: dict[str, Any], record: bytes | dict[str, Any], *, data_dir: str, where: str,
-    topic: str, job: str, stop_event: str,
+    topic: str, job: str, stop_event: str, title: str | None = None,
 ) -> dict[str, Any]:  # fmt: skip
     """One job, a task on a worker of the executor: its result (with `forecast_steps`), its
     PNG plots and `ROWS_FILE` by name.
@@ -118,6 +119,7 @@ def evaluate_job(
         topic: the Dask event topic progress goes to, as {"job", "done", "total"}.
         job: the job's id, in the progress reports.
         stop_event: the Dask `Event` whose setting stops it after the chunk in hand.
+        title: what the plots call the record (an uploaded file's name); None: its source.
     """
     from distributed import Event, worker_client
 
@@ -133,7 +135,7 @@ def evaluate_job(
             on_progress=lambda done, total: report(topic, {"job": job, "done": done,
                                                             "total": total}),
         )  # fmt: skip
-    files = {**result.pngs(), ROWS_FILE: rows_csv(result)}
+    files = {**result.pngs(title=title), ROWS_FILE: packed_rows(result)}
     return {"result": {**result.to_dict(), **forecast_steps(result)}, "files": files}
 
 
@@ -160,17 +162,17 @@ class WorkabilityRunner(QueuedJobs):
         self._reader_lock = threading.Lock()
 
     # -- reading records at submission ------------------------------------------------------
-    def read(self, source: dict[str, Any], require: tuple[str, ...]) -> dict[str, Any]:
-        """Read a request's record within `READ_BUDGET` in a child process: `{"blob", "summary"}`
-        (`twin.web.upload_records.parse_record`). `source`: `{"name": …}` or `{"csv": text,
-        "kind": …, "upload": file name}`.
+    def read(self, source: dict[str, Any], spec: dict[str, Any]) -> dict[str, Any]:
+        """Read a request's record for the `WorkabilitySpec` fields `spec` within `READ_BUDGET`
+        in a child process: `{"blob", "summary"}` (`twin.web.upload_records.parse_record`).
+        `source`: `{"name": …}` or `{"csv": text, "kind": …, "upload": file name}`.
 
         Raises:
             TwinError: the record is malformed, unknown, over a limit (`UploadRefused`) or over
                 its budget (`OverBudget`); `WorkerBusy`: no child was free.
         """
         if "name" in source:
-            return self._reader_worker().call("read_shipped", source["name"], require,
+            return self._reader_worker().call("read_shipped", source["name"], spec,
                                               budget=READ_BUDGET, wait=READ_WAIT)  # fmt: skip
         text = source["csv"]
         size = len(text.encode())
@@ -178,7 +180,7 @@ class WorkabilityRunner(QueuedJobs):
             raise TwinError(f"record_csv: {size} bytes; allowed at most {MAX_RECORD_BYTES}")
         prescan(text)  # priced before any parser sees it
         return self._reader_worker().call(
-            "parse_record", text, source.get("kind"), source["upload"], require,
+            "parse_record", text, source.get("kind"), source["upload"], spec,
             budget=READ_BUDGET, wait=READ_WAIT,
         )  # fmt: skip
 
@@ -190,7 +192,13 @@ class WorkabilityRunner(QueuedJobs):
 
     # -- jobs --------------------------------------------------------------------------------
     def start(self, executor: Any) -> list[str]:
+        """Start on `executor` (`QueuedJobs.start`), listening for its jobs' progress; on a
+        cluster (a server's), the reading children start now rather than at the first upload."""
+        from twin.sim.executor import IN_PROCESS
+
         executor.client.subscribe_topic(self.topic, self._on_report)
+        if executor.where != IN_PROCESS:
+            self._reader_worker()
         return super().start(executor)
 
     def shutdown(self, timeout: float = 2.0) -> None:
@@ -228,7 +236,7 @@ class WorkabilityRunner(QueuedJobs):
         future = self.executor.submit(
             evaluate_job, fields, upload if upload is not None else source,
             data_dir=str(self.data_dir), where=self.executor.where, topic=self.topic,
-            job=job_id, stop_event=flag,
+            job=job_id, stop_event=flag, title=source.get("upload"),
         )  # fmt: skip
         try:
             while True:

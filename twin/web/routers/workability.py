@@ -238,9 +238,8 @@ async def create_workability(
     store = runner.store
     admission.admit(request, "workability", await run_in_threadpool(store.pending))  # first
     source = body.source()
-    require = ("direction", "heading") if spec.heading.kind == "record" else ()
     try:
-        read = await run_in_threadpool(runner.read, source, require)
+        read = await run_in_threadpool(runner.read, source, spec.model_dump(mode="json"))
     except WorkerBusy as exc:
         raise HTTPException(503, str(exc), headers={"Retry-After": "2"}) from None
     except TwinError as exc:  # the reader's message names the line; a limit names itself
