@@ -482,3 +482,13 @@ def test_plots_carry_the_given_title_a_colour_bar_and_utc(cells: Path) -> None:
     assert all("partial" in tick.get_text() for tick in monthly.get_xticklabels())
     labels = [text.get_text() for text in monthly.get_legend().get_texts()]
     assert labels.index("Hs < 1.5 m (50 %)") < labels.index("Hs < 2.5 m (75 %)")
+
+
+def test_a_sparse_record_never_covers_more_than_a_month(cells: Path) -> None:
+    """Two rows six years apart (a step of six years): each month reports at most its own
+    hours, fully covered, pooled over both years."""
+    times = np.array(["2024-01-01T00:00", "2030-01-01T00:00"], dtype="datetime64[ns]")
+    record = SiteRecord(hs=[1.0, 2.0], tp=[8.0, 8.0], time=times)
+    months = run_workability(CHEAP, record, scheduler=NOWHERE, data_dir=cells).summary["months"]
+    assert months["Jan"]["hours"] == months["Jan"]["calendar_hours"] == 2 * 31 * 24.0
+    assert months["Jan"]["years"] == [2024, 2030] and not months["Jan"]["partial"]

@@ -829,9 +829,9 @@ def _monthly(values: np.ndarray, weight: np.ndarray, month: np.ndarray) -> dict[
 
 
 def _months(record: SiteRecord) -> dict[str, dict[str, Any]]:
-    """Per calendar month present: the hours the record covers (rows × its time step), the
-    years it pools, the hours those years' months have, the share covered, and whether that
-    share is under PARTIAL_MONTH (a month whose figure rests on under half its time)."""
+    """Per calendar month present: the hours the record covers (rows × its time step, at most
+    the month's), the years it pools, the hours those years' months have, the share covered,
+    and whether that share is under PARTIAL_MONTH (a figure resting on under half its time)."""
     times = np.asarray(record.time, dtype="datetime64[ns]")
     index = pd.DatetimeIndex(times)
     step = record_step(times)
@@ -841,11 +841,13 @@ def _months(record: SiteRecord) -> dict[str, dict[str, Any]]:
         mask = month_of == month
         years = sorted(set(year_of[mask].tolist()))
         calendar_hours = 24.0 * sum(calendar.monthrange(y, month)[1] for y in years)
-        hours = float(mask.sum()) * step
-        coverage = min(1.0, hours / calendar_hours)
+        # a sparse record's step can exceed a month (two rows years apart): never more hours
+        # than the month has
+        hours = min(float(mask.sum()) * step, calendar_hours)
+        coverage = hours / calendar_hours
         out[MONTHS[month - 1]] = {"hours": hours, "years": years,
-                                       "calendar_hours": calendar_hours, "coverage": coverage,
-                                       "partial": coverage < PARTIAL_MONTH}  # fmt: skip
+                                  "calendar_hours": calendar_hours, "coverage": coverage,
+                                  "partial": coverage < PARTIAL_MONTH}  # fmt: skip
     return out
 
 
