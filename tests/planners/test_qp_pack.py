@@ -12,9 +12,9 @@ import pytest
 from twin.errors import TwinError
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import HYBRID_RATE_LIMITS
-from twin.planners.families import DIFFERENTIAL_PARAMETERS
+from twin.planners.families import DIFFERENTIAL_PARAMETERS, QP_PARAMETERS
 from twin.planners.parameters import parameter_record
-from twin.planners.qp import QP_PARAMETERS, JointLimit, QPPlanner, qp_planner
+from twin.planners.qp import JointLimit, QPPlanner, qp_planner
 from twin.planners.tasks import PlatformYawTask
 
 H = HybridBoardingSystem()

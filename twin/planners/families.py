@@ -39,3 +39,22 @@ ALLOCATION_PARAMETERS = family_dtype(
     (("method", 1), ("manip_mid", 1), ("range_mid", 3), ("T_P0", 12), ("T_E0_inv", 12),
      ("yaw0", 1), ("q0", 3))
 )  # fmt: skip
+
+#: smallest w_j of the regularisation's β split (β = 0 or 1 freezes a joint, not divides by 0)
+MIN_SPLIT = 1e-6
+
+#: The qp family's lane parameters (`family_dtype`), written by name by `QPPlanner.pack` and
+#: its parts' `pack`: k_e [1/s] (`TipPoseTask`); w_o, the position weight of level 1, w_s and
+#: μ; the β split w_j (9, `BetaSplit`); the posture task's joint (−1: none), k_a [1/s] and q̃
+#: (`JointPostureTask`); the yaw term on/off and its yaw_hold (`PlatformYawTask`); the leg
+#: dampers' gain and margin [m] (`LegStrokeLimit`), the Table 6 dampers' [m | rad]
+#: (`JointLimit`); the rate box (9) [m/s, rad/s] (`RateLimit`); the solver (index into
+#: `SOLVERS`: 0, the compiled one the engine runs).
+QP_PARAMETERS = family_dtype(
+    (
+        ("gain", 1), ("orientation", 1), ("position", 1), ("secondary", 1), ("damping", 1),
+        ("split", 9), ("posture_index", 1), ("posture_gain", 1), ("posture_set", 1),
+        ("yaw", 1), ("yaw_hold", 1), ("leg_gain", 1), ("leg_margin", 1), ("joint_gain", 1),
+        ("joint_margin", 1), ("rate", 9), ("solver", 1),
+    )
+)  # fmt: skip

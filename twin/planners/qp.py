@@ -56,18 +56,20 @@ from typing import NamedTuple
 import daqp
 import numpy as np
 
-from twin.compiled import register_borrowing, register_jitable
 from twin.errors import TwinError
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS, N_HYBRID_CONSTANTS, HybridBoardingSystem
-from twin.planners.active_set import INF, OPTIMAL, qp_work, solve_dense_qp
+from twin.planners.active_set import INF
+from twin.planners.families import QP_PARAMETERS
 from twin.planners.lane_rows import D_QP_ACTIVE, D_QP_LEVEL, N_HYBRID_DIAGNOSTICS
 from twin.planners.parameters import (
     KIND_QP,
-    family_dtype,
     pack_part,
     parameter_record,
     parameter_row,
+    refuse,
 )
+from twin.planners.qp_levels import N_POSITION, SLACK_WEIGHT, levels_work, solve_levels_lane
+from twin.planners.qp_step import COUNT_ACTIVE, LIMIT_ROWS, N_QP_ROWS, QP_PROBLEM, QP_STEP
 from twin.planners.target import PlannerOutput, TipTarget
 from twin.planners.tasks import JointPostureTask, PlatformYawTask, TipPoseTask, target_rows
 from twin.planners.weights import BetaSplit
@@ -76,33 +78,6 @@ from twin.validation import as_array
 #: solvers `solve_levels` can call: the compiled Goldfarb-Idnani method the engine runs
 #: (`twin.planners.active_set`), DAQP directly, or a library through qpsolvers (for comparison)
 SOLVERS = ("active_set", "daqp", "proxqp", "quadprog")
-#: weight of the limit slacks of level 2 (against the task terms, of order 1)
-SLACK_WEIGHT = 1e6
-#: smallest w_j of the regularisation's β split (β = 0 or 1 freezes a joint, not divides by 0)
-MIN_SPLIT = 1e-6
-
-#: The qp family's lane parameters (`family_dtype`), written by name by `QPPlanner.pack` and
-#: its parts' `pack`: k_e [1/s] (`TipPoseTask`); w_o, the position weight of level 1, w_s and
-#: μ; the β split w_j (9, `BetaSplit`); the posture task's joint (−1: none), k_a [1/s] and q̃
-#: (`JointPostureTask`); the yaw term on/off and its yaw_hold (`PlatformYawTask`); the leg
-#: dampers' gain and margin [m] (`LegStrokeLimit`), the Table 6 dampers' [m | rad]
-#: (`JointLimit`); the rate box (9) [m/s, rad/s] (`RateLimit`); the solver (index into
-#: `SOLVERS`: 0, the compiled one the engine runs).
-QP_PARAMETERS = family_dtype(
-    (
-        ("gain", 1), ("orientation", 1), ("position", 1), ("secondary", 1), ("damping", 1),
-        ("split", 9), ("posture_index", 1), ("posture_gain", 1), ("posture_set", 1),
-        ("yaw", 1), ("yaw_hold", 1), ("leg_gain", 1), ("leg_margin", 1), ("joint_gain", 1),
-        ("joint_margin", 1), ("rate", 9), ("solver", 1),
-    )
-)  # fmt: skip
-
-
-def refuse(what: str) -> TwinError:
-    """The error of a `pack()` whose part or value the qp lane cannot assemble."""
-    return TwinError(f"planner: the qp kernel cannot run {what}")
-
-
 def pack_damper(limit: LegStrokeLimit | JointLimit, record: np.record, name: str) -> None:
     """Write a velocity-damper limit's gain and margin into the `QP_PARAMETERS` record's
     `<name>_gain`, `<name>_margin`.
@@ -149,9 +124,6 @@ def lane_rows(
     Raises:
         TwinError: xi not (..., 9) or not finite, dt not > 0, or a limit `pack` refuses.
     """
-    # imported here: the step module imports this one (its parameter record)
-    from twin.planners.qp_step import LIMIT_ROWS, N_QP_ROWS
-
     xi, dt = as_array(xi, "xi", (9,)), checked_dt(dt)
     row = parameter_row(KIND_QP, False)
     record = parameter_record(row, QP_PARAMETERS)
@@ -376,9 +348,6 @@ class QPPlanner:
             TwinError: xi not (..., 9) or not finite, dt not finite and > 0, or a planner
                 `pack` refuses (`lane`).
         """
-        # imported here: the step module imports this one (its parameter record)
-        from twin.planners.qp_step import N_QP_ROWS, QP_PROBLEM
-
         xi, dt = as_array(xi, "xi", (9,)), checked_dt(dt)
         row, const = self.lane()
         n = 9 + N_QP_ROWS
@@ -470,9 +439,6 @@ class QPPlanner:
             velocity, level = solution.velocity, float(solution.level)
             active = float(count_active(problem, velocity))
         else:
-            # imported here: the step module imports this one (its parameter record)
-            from twin.planners.qp_step import QP_STEP
-
             row, const = self.lane()
             velocity, diag = QP_STEP(
                 [as_array(xi, "xi", (9,)), target_rows(target)], [row, const, checked_dt(dt)],
@@ -544,96 +510,10 @@ def count_active(problem: QPProblem, v: np.ndarray) -> int:
     """Limit rows and rate bounds of a `QPPlanner.problem` at their bound at v (9,) (to
     `twin.planners.qp_step.ACTIVE_TOL`, relative to the bound's size): the engine's own count,
     `count_active_lane` (through `COUNT_ACTIVE`); 0 for a non-finite v."""
-    # imported here: the step module imports this one (its parameter record)
-    from twin.planners.qp_step import COUNT_ACTIVE
-
     if not np.all(np.isfinite(v)):
         return 0
     A, lower, upper = problem.A, problem.lower, problem.upper
     return int(COUNT_ACTIVE([v, A, lower, upper], [], [()])[0])
-
-
-#: the position rows of a `QPProblem` (its first rows, equalities at level 0)
-N_POSITION = 3
-
-
-@register_jitable
-def levels_work(n: int, m: int) -> tuple:
-    """Scratch for `solve_levels_lane` on n rates and m limit rows: H₁ (n, n), f₁ (n,), level
-    2's H₂ (n + m, n + m), f₂ (n + m,), A₂ (2m, n + m), box (2, n + m), row bounds (2, 2m),
-    z (n + m,), and the solver's (`qp_work`)."""
-    n2 = n + m
-    return (
-        np.empty((n, n)), np.empty(n), np.empty((n2, n2)), np.empty(n2),
-        np.empty((2 * m, n2)), np.empty((2, n2)), np.empty((2, 2 * m)), np.empty(n2),
-        qp_work(n2, 2 * m),
-    )  # fmt: skip
-
-
-@register_borrowing
-def solve_levels_lane(
-    H: np.ndarray, f: np.ndarray, A: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-    rho: float, work: tuple, v: np.ndarray,
-) -> int:  # fmt: skip
-    """`solve_levels` on one problem's arrays (`QPProblem`'s layout: A (3 + m, n), lower and
-    upper (n + 3 + m,)) with the compiled Goldfarb-Idnani method (`solve_dense_qp`): writes v
-    (n,) (NaN when no level is solved or the problem is not finite) and returns the level.
-    `work` from `levels_work(n, m)`."""
-    n, p = f.shape[0], N_POSITION
-    m = A.shape[0] - p
-    H1, f1, H2, f2, A2, box2, rows2, z, solver = work
-    finite = True
-    for j in range(n):
-        finite = finite and math.isfinite(f[j])
-    for j in range(lower.shape[0]):
-        finite = finite and math.isfinite(lower[j]) and math.isfinite(upper[j])
-    if not finite:
-        for j in range(n):
-            v[j] = math.nan
-        return 0
-    # level 0: the rate box, the position rows (equalities), the limit rows
-    status = solve_dense_qp(H, f, A, lower[:n], upper[:n], lower[n:], upper[n:], p, solver, v)
-    if status == OPTIMAL:
-        return 0
-    # level 1: the position a term of weight rho, H₁ = H + rho J_pᵀJ_p, f₁ = f − rho J_pᵀb_p
-    for i in range(n):
-        s = 0.0
-        for a in range(p):
-            s += A[a, i] * upper[n + a]
-        f1[i] = f[i] - rho * s
-        for j in range(n):
-            s = 0.0
-            for a in range(p):
-                s += A[a, i] * A[a, j]
-            H1[i, j] = H[i, j] + rho * s
-    status = solve_dense_qp(H1, f1, A[p:], lower[:n], upper[:n], lower[n + p :],
-                            upper[n + p :], 0, solver, v)  # fmt: skip
-    if status == OPTIMAL:
-        return 1
-    # level 2: z = [v; s], low − s ≤ C v ≤ high + s, s ≥ 0, cost + SLACK_WEIGHT |s|²
-    n2 = n + m
-    for i in range(n2):
-        f2[i] = f1[i] if i < n else 0.0
-        for j in range(n2):
-            H2[i, j] = H1[i, j] if i < n and j < n else 0.0
-        if i >= n:
-            H2[i, i] = SLACK_WEIGHT
-            box2[0, i], box2[1, i] = 0.0, INF
-        else:
-            box2[0, i], box2[1, i] = lower[i], upper[i]
-    for i in range(m):
-        for j in range(n2):
-            c = A[p + i, j] if j < n else 0.0
-            A2[i, j] = c
-            A2[m + i, j] = c
-        A2[i, n + i] = 1.0  # C v + s ≥ low
-        A2[m + i, n + i] = -1.0  # C v − s ≤ high
-        rows2[0, i], rows2[1, i] = lower[n + p + i], INF
-        rows2[0, m + i], rows2[1, m + i] = -INF, upper[n + p + i]
-    status = solve_dense_qp(H2, f2, A2, box2[0], box2[1], rows2[0], rows2[1], 0, solver, z)
-    for j in range(n):
-        v[j] = z[j] if status == OPTIMAL else math.nan
-    return 2
 
 
 def solve_levels(problem: QPProblem, solver: str = "active_set") -> QPSolution:

@@ -6,7 +6,7 @@ writes its matrices for one lane from floats and small arrays (`qp_problem_lane`
 `problem`, `step` and limits' `rows` run these lanes over a batch, `QP_PROBLEM`, `QP_STEP`,
 `LIMIT_ROWS`, `COUNT_ACTIVE`; checked against finite differences and the terms' own
 definitions in tests/planners/test_qp.py), and solves them with the object's own default
-solver, `twin.planners.qp.solve_levels_lane` (Goldfarb-Idnani, `twin.planners.active_set`):
+solver, `twin.planners.qp_levels.solve_levels_lane` (Goldfarb-Idnani, `twin.planners.active_set`):
 one statement of the math and no library call. `qp_velocity` is
 the step of a qp lane in `twin.sim.kernels.hybrid_runner.run_hybrid_qp`, whose guard
 (`limit_scale_lane` in `hold` mode) and integration every hybrid family shares. Its scratch is
@@ -22,33 +22,30 @@ The matrices (one lane; the layout `QPProblem` keeps):
 - lower, upper (9 + N_QP_ROWS,): the rate box (9), b_p twice (the position is an equality),
   the velocity-damper bounds (15).
 
-The lane's knobs are its `twin.planners.qp.QP_PARAMETERS` record (written by `QPPlanner.pack`),
+The lane's knobs are its `twin.planners.families.QP_PARAMETERS` record (written by `QPPlanner.pack`),
 the mechanism's its `twin.mechanisms.hybrid.HYBRID_CONSTANTS` record, both read by name.
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS
+from twin.planners.families import MIN_SPLIT, QP_PARAMETERS
 from twin.planners.gains import proportional_gain
 from twin.planners.lane_rows import D_QP_ACTIVE, D_QP_LEVEL, FAULT_INFEASIBLE
-from twin.planners.parameters import KIND_QP, parameter_record
-from twin.planners.qp import (
-    MIN_SPLIT,
-    N_POSITION,
-    QP_PARAMETERS,
-    QPPlanner,
-    levels_work,
-    refuse,
-    solve_levels_lane,
-)
+from twin.planners.parameters import KIND_QP, parameter_record, refuse
+from twin.planners.qp_levels import N_POSITION, levels_work, solve_levels_lane
 from twin.planners.tasks import tip_task_lane
 from twin.spatial import rpy_to_matrix_lane
+
+if TYPE_CHECKING:  # the object imports this module: its step sits below it
+    from twin.planners.qp import QPPlanner
 
 #: rows of A: the position (3), the legs (6), Table 6 (9)
 N_QP_ROWS = 18

@@ -169,7 +169,7 @@ class PlatformYawTask:
 
     def pack(self, record: np.void) -> None:
         """Write the yaw term into a qp parameter record's `yaw` (1: on) and `yaw_hold`
-        (`twin.planners.qp.QP_PARAMETERS`).
+        (`twin.planners.families.QP_PARAMETERS`).
 
         Raises:
             TwinError: a record without a yaw term (a family other than qp), a yaw term there

@@ -16,9 +16,9 @@ from twin.errors import TwinError
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import HYBRID_RATE_LIMITS, PlannerParameters, TipTarget, get_planner
 from twin.planners import qp_step as kq
+from twin.planners.families import QP_PARAMETERS
 from twin.planners.parameters import parameter_record
 from twin.planners.qp import (
-    QP_PARAMETERS,
     JointLimit,
     LegStrokeLimit,
     QPPlanner,
