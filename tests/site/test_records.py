@@ -326,3 +326,20 @@ def test_a_hindcast_of_hs_and_tp_alone_is_read_and_heavy_losses_warn(tmp_path: P
     assert record.n == 17 and record.direction is None
     assert record.warnings() == ["3 of 20 rows (15.0 %) skipped: hs missing"]
     assert record.summary()["warnings"] == record.warnings()
+
+
+def test_a_year_with_one_mwd_keeps_every_hour_unless_direction_is_needed(tmp_path: Path) -> None:
+    """44005's 2012 with MWD written on one row only (issue 38 finding 2): without a direction
+    required every hour with WVHT and DPD is kept, no warning; required, the year shrinks to
+    that one row and the warning names the reason and its count."""
+    lines = asset_path("site", "44005h2012.txt").read_text().splitlines(keepends=True)
+    fields = lines[1].split()
+    mwd = lines[0].split().index("MWD")
+    fields[mwd] = "270"
+    lines[1] = " ".join(fields) + "\n"
+    path = write(tmp_path, "44005_one_mwd.txt", "".join(lines))
+    loose = read_record(path)
+    assert loose.n == 8318 and loose.direction is None and loose.warnings() == []
+    strict = read_record(path, require=["direction"])
+    assert strict.n == 1 and strict.skipped["MWD missing"] == 8317
+    assert strict.warnings()[0].startswith("8317 of 8347 rows (99.6 %) skipped: MWD missing")
