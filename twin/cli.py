@@ -500,8 +500,9 @@ def _workability(args: argparse.Namespace, parser: argparse.ArgumentParser) -> i
         )  # fmt: skip
     except ValueError as exc:  # a bad --scheduler address or a record the strategy cannot use
         parser.error(str(exc))
-    for warning in record.warnings():
-        print(f"twin: warning: {warning}", file=sys.stderr)
+    warnings = record.warnings()  # rows skipped over 5 %: said first, as warnings
+    for note in result.notes:
+        print(f"twin: {'warning' if note in warnings else 'note'}: {note}", file=sys.stderr)
     written = result.write(args.out)
     for planner, value in result.summary["workability"].items():
         print(f"{planner:>6}: {100 * value:5.1f} % workable")
