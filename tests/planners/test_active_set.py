@@ -1,7 +1,8 @@
 """The compiled Goldfarb-Idnani solver (twin.planners.active_set) and the levels it solves
-(`twin.planners.qp_levels.solve_levels_lane`) give DAQP's solutions and levels: on the `qp` planner's
-own problems recorded from 200 s runs (as scripts/qp_solvers.py records them), and on random
-strictly convex QPs; it reports infeasible constraints and a Hessian that is not convex."""
+(`twin.planners.qp_levels.solve_levels_lane`) give DAQP's solutions and levels: on the `qp`
+planner's own problems recorded from 200 s runs (as scripts/qp_solvers.py records them), and on
+random strictly convex QPs; it reports infeasible constraints and a Hessian that is not
+convex."""
 
 from __future__ import annotations
 

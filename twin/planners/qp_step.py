@@ -22,8 +22,9 @@ The matrices (one lane; the layout `QPProblem` keeps):
 - lower, upper (9 + N_QP_ROWS,): the rate box (9), b_p twice (the position is an equality),
   the velocity-damper bounds (15).
 
-The lane's knobs are its `twin.planners.families.QP_PARAMETERS` record (written by `QPPlanner.pack`),
-the mechanism's its `twin.mechanisms.hybrid.HYBRID_CONSTANTS` record, both read by name.
+The lane's knobs are its `twin.planners.families.QP_PARAMETERS` record (written by
+`QPPlanner.pack`), the mechanism's its `twin.mechanisms.hybrid.HYBRID_CONSTANTS` record, both
+read by name.
 """
 
 from __future__ import annotations
