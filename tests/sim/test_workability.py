@@ -1,6 +1,9 @@
 """Site workability on the one engine: the threshold baseline is a hand count, rows take their
 stated cells, cells and direct runs agree within the documented tolerance, the cell cache is
-reused (no simulation, no executor), heading strategies, scatter weights, outputs."""
+reused (no simulation, no executor), heading strategies (a compass vessel heading too), scatter
+weights, outputs; any valid record completes with consistent figures (a property test on cached
+cells), short and stormy records give results and plots, months state their hours, years and
+coverage, times carry their zone, rows off the Tp grid are noted, the CLI's new options."""
 
 from __future__ import annotations
 
