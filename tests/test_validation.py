@@ -64,3 +64,27 @@ def test_the_cli_and_the_rest_api_say_a_mistake_alike() -> None:
         "(allowed: > 0 s)"
     )
     assert answer["detail"][0]["msg"].startswith("Value error, hs: ")  # pydantic's own, kept
+
+
+def test_a_rest_error_names_each_field_once_and_lists_the_allowed_values_once() -> None:
+    """A location a nested validator repeats ("hs", "hs") is named once; "(allowed: …)" is
+    not appended after a message that lists the allowed values itself, nor when it names types
+    only; a range that says more is still appended."""
+    body = [
+        {"loc": ("body", "hs", "hs"), "msg": "Input should be greater than or equal to 0",
+         "type": "greater_than_equal"},
+        {"loc": ("body", "mechanism"), "msg": "Input should be 'hybrid', 'upu3up' or 'upr4'",
+         "type": "literal_error"},
+        {"loc": ("body", "planner"), "msg": "Input should be a valid string",
+         "type": "string_type"},
+        {"loc": ("body", "beta"), "msg": "Input should be a valid number", "type": "float_type"},
+    ]  # fmt: skip
+    ranges = {"hs": "array", "mechanism": "one of 'hybrid', 'upu3up', 'upr4'",
+              "planner": "string or null", "beta": "0 ≤ beta ≤ 1 or null"}  # fmt: skip
+    answer = json.loads(bytes(unprocessable(body, ranges).body))
+    assert answer["message"].split("; ") == [
+        "hs: Input should be greater than or equal to 0",
+        "mechanism: Input should be 'hybrid', 'upu3up' or 'upr4'",
+        "planner: Input should be a valid string",
+        "beta: Input should be a valid number (allowed: 0 ≤ beta ≤ 1 or null)",
+    ]

@@ -534,7 +534,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `twin` command."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    return args.handler(args, parser)
+    return args.handler(args, command_parser(parser, args.command))
+
+
+def command_parser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    """The parser of one sub-command of `parser`, whichever `_add_*` added it: a handler's
+    `parser.error` then prints that sub-command's usage line (`twin run [-h] …`), not
+    `twin COMMAND`'s."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return action.choices[command]
+    raise LookupError(f"no sub-command {command!r}")
 
 
 if __name__ == "__main__":

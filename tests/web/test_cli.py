@@ -104,12 +104,16 @@ def test_bad_arguments_exit_2_saying_what_is_allowed(
     args: tuple[str, ...],
     message: str,
 ) -> None:
+    """A bad argument exits 2 under the sub-command's own usage line, saying what is allowed,
+    and writes nothing."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("TWIN_TOKEN", raising=False)
     (tmp_path / "bad.json").write_text('{"beta": 2}')
     with pytest.raises(SystemExit) as exit_:
         main(list(args))
-    assert exit_.value.code == 2 and message in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and message in err
+    assert err.startswith(f"usage: twin {args[0]} "), err  # the sub-command's own usage line
     assert not (tmp_path / "run.xlsx").exists() and not (tmp_path / "data").exists()
 
 

@@ -9,7 +9,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import Page, sync_playwright
+from playwright.sync_api import Page, expect, sync_playwright
 
 from tests.web.support import free_port, wait_for
 from tests.web.viewer.test_browser import ARGS, CHROMIUM
@@ -66,7 +66,8 @@ def run_page(port: int, act: Callable[[Page], None]) -> None:
                 state="attached", timeout=30_000
             )
             page.select_option("#record", SHIPPED)  # the month: the other records are a year
-            assert page.locator("input[name=planner][value=mtmp]").is_checked()
+            # the planners arrive from the API after the page: wait for the default checked
+            expect(page.locator("input[name=planner][value=mtmp]")).to_be_checked(timeout=30_000)
             page.fill("#seeds", "1")
             page.fill("#duration", "2")  # a tiny evaluation: 2 s runs, one seed
             act(page)
@@ -113,7 +114,7 @@ def test_an_uploaded_forecast_shows_bars_per_step_and_a_table_of_limits(
         page.select_option("#kind", "forecast")
         page.click("#run")
         page.locator("#results").wait_for(state="visible", timeout=240_000)
-        assert page.locator("#forecast-part").is_visible()
+        expect(page.locator("#forecast-part")).to_be_visible(timeout=30_000)
         shown(page, "forecast")
         rows = page.locator("#steps tr")
         assert rows.count() == len(hs)  # one row per 3 h step

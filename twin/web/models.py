@@ -383,11 +383,33 @@ def unprocessable(
             reason = error.get("ctx", {}).get("error", error["msg"])
             lines.append(f"the body is not valid JSON: {reason} (at character {loc[-1]})")
             continue
-        name = ".".join(map(str, loc[1:] or loc))
+        name = _dotted(loc[1:] or loc)
         message = error_message(error["msg"], name)  # as the CLI says it (`explain`)
-        lines.append(f"{name}: {message}" + (f" (allowed: {item['allowed']})"
-                                             if "allowed" in item else ""))  # fmt: skip
+        allowed = item.get("allowed")
+        lines.append(f"{name}: {message}" + (f" (allowed: {allowed})"
+                                             if _adds(allowed, message) else ""))  # fmt: skip
     return JSONResponse({"detail": detail, "message": "; ".join(lines), **extra}, status_code=422)
+
+
+#: JSON-schema type names: an allowed text made of these alone says no more than pydantic's
+#: own "Input should be a valid …"
+_TYPES = {"string", "number", "integer", "array", "boolean", "object", "null", "any"}
+
+
+def _dotted(loc: list[Any]) -> str:
+    """A location as a dotted name, a part repeated by a nested validator said once
+    (`("hs", "hs", 0)` → "hs.0")."""
+    parts = [str(part) for i, part in enumerate(loc) if i == 0 or part != loc[i - 1]]
+    return ".".join(parts)
+
+
+def _adds(allowed: str | None, message: str) -> bool:
+    """Whether "(allowed: …)" tells more than the message: not when the message already
+    lists what is allowed (pydantic's "Input should be 'a', 'b' or 'c'", a TwinError's
+    "allowed: …"), nor when it names types only ("string or null")."""
+    if allowed is None or "allowed" in message or message.startswith("Input should be '"):
+        return False
+    return not set(allowed.split(" or ")) <= _TYPES
 
 
 #: a TwinError's message names its field first: "planner: unknown name ''; …"

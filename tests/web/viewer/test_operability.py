@@ -104,7 +104,8 @@ def test_no_sweep_starts_while_one_is_being_submitted(session: LiveSession, tmp_
                 viewer.gui.submitting = False
             client.update(client.wait_widget("Run sweep"), value=True)
             assert wait_for(lambda: viewer.gui.sweep_id is not None, 10.0)
-            assert store.pending("sweeps") == 1 and not viewer.gui.submitting
+            assert wait_for(lambda: not viewer.gui.submitting, 5.0)
+            assert store.pending("sweeps") == 1
             client.close()
         finally:
             viewer.stop()

@@ -158,7 +158,8 @@ def test_joint_limits_dropdown_switches_hold_and_record(
     assert session.scenario.joint_limits == "hold" and session._sim.prm[0, P_HOLD] == 1.0
     client.update(client.wait_widget("Joint limits"), value="record")
     assert wait_for(lambda: session.scenario.joint_limits == "record")
-    assert session._sim.prm[0, P_HOLD] == 0.0 and session.version == 0
+    assert wait_for(lambda: session._sim.prm[0, P_HOLD] == 0.0)
+    assert session.version == 0
 
 
 def test_a_locked_browser_cannot_compare_replay_or_sweep(session: LiveSession, tmp_path) -> None:

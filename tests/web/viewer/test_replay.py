@@ -31,8 +31,11 @@ def test_the_panel_compares_planners_and_replays_a_stored_run(
             client, panel = connect(viewer)
             client.update(client.wait_widget("Compare with"), value="pi")
             assert wait_for(lambda: session.compare_planner == "pi")
-            assert wait_for(lambda: viewer.scene.ghost is not None, 5.0)
-            assert viewer.server.scene.get_handle_by_name("/ghost_label") is not None
+            # the ghost, its label and its trail are added one after another: wait for each
+            for name in ("/base/ghost", "/ghost_label", "/ghost_trail"):
+                assert wait_for(lambda name=name: viewer.server.scene.get_handle_by_name(name)
+                                is not None, 5.0), name  # fmt: skip
+            assert viewer.scene.ghost is not None
             assert wait_for(lambda: any("· pi" in str(s.get("label"))
                                         for p in viewer.gui.plots for s in p.series), 5.0)
             session.step(3)
@@ -42,7 +45,6 @@ def test_the_panel_compares_planners_and_replays_a_stored_run(
                 {k: float(v) for k, v in ghost_cfg.items()})  # fmt: skip
             # the ghost draws its own tip-error trail, at the main trail's magnification
             scene = viewer.scene
-            assert viewer.server.scene.get_handle_by_name("/ghost_trail") is not None
             before = np.array(scene.ghost_trail.handle.points)
             session.step(20)
             assert wait_for(caught_up(viewer, session))
