@@ -8,7 +8,13 @@
 # e.g. `--allow-host twin.example.com --allow-origin http://twin.example.com:9000` to the CMD.
 # Runs are stored in /home/twin/data (a volume: mount it to keep them; one server at a time).
 # `docker stop` (SIGTERM) stops it within seconds; unfinished runs stay queued.
-FROM python:3.11-slim
+# The base image pinned by digest, so a rebuild gets the same Python and Debian as the last one.
+# python:3.11-slim-bookworm as Docker Hub served it on 2026-08-24 (amd64/arm64 index digest). No
+# registry is reachable from our machines: the digest was found in a public repository's
+# architecture record dated that day, which states it was rechecked against Docker Hub's manifest
+# then. To refresh it (see `make lock`): `docker buildx imagetools inspect
+# python:3.11-slim-bookworm` prints the current digest; put it and today's date here.
+FROM python:3.11-slim-bookworm@sha256:2e32f7d302adc1c37428355c1e646897c0c53f4fd60b6a551245fb90ee129f91
 
 ENV PYTHONDONTWRITEBYTECODE=1 \
     PYTHONUNBUFFERED=1 \

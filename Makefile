@@ -41,13 +41,18 @@ $(STAMP): pyproject.toml requirements/test.txt requirements/netsse.txt | $(BIN)/
 		-r requirements/netsse.txt
 	touch $(STAMP) $(SERVE_STAMP)
 
-## lock: re-resolve every dependency to its newest release within pyproject.toml's ranges
+## lock: re-resolve every dependency to its newest release within pyproject.toml's ranges.
+# The Dockerfile's base image is pinned by digest too, outside this target (resolving it needs
+# a registry): `docker buildx imagetools inspect python:3.11-slim-bookworm` prints the current
+# digest; put it and the date into the Dockerfile's FROM line and its comment.
 lock: | $(BIN)/python
 	$(COMPILE) --upgrade pyproject.toml --extra test --extra hydro -o requirements/test.txt
 	$(COMPILE) pyproject.toml -c requirements/test.txt -o requirements/serve.txt
 	$(COMPILE) --upgrade requirements/bootstrap.in -o requirements/bootstrap.txt
 	$(UV) pip compile --quiet --generate-hashes --python-version 3.12 --upgrade --no-deps \
 		requirements/netsse.in -o requirements/netsse.txt
+	@echo "Python packages locked. The Dockerfile's base image is pinned by digest apart: refresh it with"
+	@echo "  docker buildx imagetools inspect python:3.11-slim-bookworm  (its FROM line and date)"
 
 install: $(STAMP)
 

@@ -312,7 +312,9 @@ def test_dockerfile_runs_twin_serve_as_a_user_on_both_ports() -> None:
     by_name: dict[str, list[str]] = {}
     for name, rest in instructions:
         by_name.setdefault(name, []).append(rest)
-    assert by_name["FROM"] == ["python:3.11-slim"]
+    (base,) = by_name["FROM"]  # pinned by digest, with the date the digest was read
+    assert re.fullmatch(r"python:3\.11-slim-bookworm@sha256:[0-9a-f]{64}", base), base
+    assert re.search(r"on \d{4}-\d{2}-\d{2}", (ROOT / "Dockerfile").read_text())
     assert any("--require-hashes -r requirements/serve.txt" in run for run in by_name["RUN"])
     assert by_name["USER"] and by_name["USER"][-1] not in ("root", "0")
     assert set(by_name["EXPOSE"][0].split()) == {"8000", "8080"}
