@@ -37,6 +37,16 @@ FORECAST = "time,hs,tp,direction\n" + "".join(
 )
 
 
+@pytest.fixture(autouse=True)
+def read_before_answering(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every request here waits for its record's reading (60 s, not the server's 0.9 s), so
+    what is checked at submission is, however loaded the machine; the test of the late
+    reading sets its own."""
+    from twin.web.routers import workability as route
+
+    monkeypatch.setattr(route, "ANSWER_WAIT", 60.0)
+
+
 @pytest.fixture(scope="module")
 def executor() -> Iterator[Executor]:
     with Executor.start(IN_PROCESS) as executor:
@@ -472,6 +482,7 @@ def test_uploads_count_against_the_store_quota(tmp_path: Path, executor: Executo
     size counts against --max-store and each job as a run against --max-runs (a 507)."""
     from twin.web.store import Quota
 
+
     store = RunStore(tmp_path / "runs.sqlite", Quota(max_runs=3))
     app = create_app(LiveSession(), store, access=access(), executor=executor)
     with TestClient(app) as client:
@@ -516,3 +527,22 @@ def test_rows_csv_has_a_line_per_row_and_planner(client: TestClient) -> None:
                                                    "duration": 10.0})  # fmt: skip
     assert client.get(queued.headers["location"] + "/rows.csv").status_code == 409
     client.delete(queued.headers["location"])
+
+
+def test_a_record_read_after_the_answer_runs_or_fails_with_the_readers_message(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Finding 1: a request answers by `ANSWER_WAIT` whatever its body; a record still being
+    read then is a 202 whose job runs once read, or fails with the reader's message."""
+    from twin.web.routers import workability as route
+
+    monkeypatch.setattr(route, "ANSWER_WAIT", 0.0)
+    late = client.post("/api/workability", json=upload(hourly_record(48)))
+    assert late.status_code == 202, late.text
+    job = wait_finished(client, late.headers["location"])
+    assert job["status"] == "done", job["error"]
+    assert job["result"]["record"]["rows"] == 48 and job["done"] == job["total"]
+    bad = client.post("/api/workability", json=upload("time,hs,tp,direction\n"))
+    assert bad.status_code == 202, bad.text
+    failed = wait_finished(client, bad.headers["location"])
+    assert failed["status"] == "failed" and "no rows left to evaluate" in failed["error"]

@@ -18,7 +18,9 @@ initialiser skipped, so it never loads the REST app.
 
 Reusable by any upload (workability records, motion logs): `BoundedWorker(module).call("fn",
 *args, budget=Budget(...), wait=...)` runs `module.fn(*args)` in a child and returns its result; a
-`TwinError` raised there comes back as a `TwinError` with the same message.
+`TwinError` raised there comes back as a `TwinError` with the same message. `submit` is the same
+call as a future, so a request can answer by its own deadline and let a longer reading finish
+within its budget behind it.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import queue
 import subprocess
 import sys
 import threading
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, Pipe
 from pathlib import Path
@@ -162,6 +165,7 @@ class BoundedWorker:
         self._lock = threading.Lock()
         self._closed = False
         self._children: set[_Child] = set()
+        self._calls = ThreadPoolExecutor(size, thread_name_prefix="twin-upload-call")
         for _ in range(size):
             self._replace()
 
@@ -246,8 +250,15 @@ class BoundedWorker:
             raise RuntimeError(value)
         return value
 
+    def submit(
+        self, name: str, *args: Any, budget: Budget = Budget(), wait: float | None = None
+    ) -> Future[Any]:
+        """`call` as a future (on one of `size` threads that only wait on the children)."""
+        return self._calls.submit(self.call, name, *args, budget=budget, wait=wait)
+
     def close(self) -> None:
-        """Kill every child (idempotent)."""
+        """Kill every child (idempotent); calls not started yet are dropped."""
+        self._calls.shutdown(wait=False, cancel_futures=True)
         with self._lock:
             self._closed = True
             children, self._children = list(self._children), set()

@@ -29,6 +29,8 @@ import logging
 import tempfile
 import threading
 import uuid
+from collections.abc import Callable
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Any
 
@@ -58,10 +60,13 @@ MAX_RECORD_BYTES = 4 * 1024 * 1024
 UPLOAD_BODY = 2 * MAX_RECORD_BYTES + MAX_BODY
 #: most forecast steps a job's result lists (`forecast_steps`): 7 days at 3 h steps, and more
 MAX_STEPS = 500
-#: what reading one record at submission may take, in its child process: a 4 MiB, 10-year
-#: hourly record takes 0.25 s on one core; the request answers within `READ_BUDGET.wall` of
-#: a child being free
-READ_BUDGET = Budget(cpu=1.0, wall=0.9)
+#: what reading one record may take, in its child process: a 3 MB, 150,000-row hourly record
+#: takes 0.45 s of one core (0.3 s for 10 years hourly)
+READ_BUDGET = Budget(cpu=5.0, wall=20.0)
+#: [s] how long a submission waits for its reading: done by then, it answers 422 for a bad
+#: record or 202 for a job that may run; not done, it answers 202 with the job queued, and a
+#: reading that fails later fails the job with the same message
+ANSWER_WAIT = 0.9
 #: [s] how long a submission waits for a free reading child (two, busy or starting: a child
 #: imports the simulation layer's reader in about 5 s) before a 503
 READ_WAIT = 10.0
@@ -162,27 +167,51 @@ class WorkabilityRunner(QueuedJobs):
         self._reader_lock = threading.Lock()
 
     # -- reading records at submission ------------------------------------------------------
-    def read(self, source: dict[str, Any], spec: dict[str, Any]) -> dict[str, Any]:
-        """Read a request's record for the `WorkabilitySpec` fields `spec` within `READ_BUDGET`
-        in a child process: `{"blob", "summary"}` (`twin.web.upload_records.parse_record`).
+    def read(self, source: dict[str, Any], spec: dict[str, Any]) -> Future[dict[str, Any]]:
+        """Start reading a request's record for the `WorkabilitySpec` fields `spec`, within
+        `READ_BUDGET`, in a child process: a future of `{"blob", "summary"}`
+        (`twin.web.upload_records.parse_record`). An upload's text is scanned first, here.
         `source`: `{"name": …}` or `{"csv": text, "kind": …, "upload": file name}`.
 
         Raises:
-            TwinError: the record is malformed, unknown, over a limit (`UploadRefused`) or over
-                its budget (`OverBudget`); `WorkerBusy`: no child was free.
+            TwinError: text over `MAX_RECORD_BYTES`, or over a limit of the scan
+                (`UploadRefused`). The future's: the record is malformed, unknown, over the
+                grid's limit or over its budget (`OverBudget`); `WorkerBusy`: no child free.
         """
         if "name" in source:
-            return self._reader_worker().call("read_shipped", source["name"], spec,
-                                              budget=READ_BUDGET, wait=READ_WAIT)  # fmt: skip
+            return self._reader_worker().submit("read_shipped", source["name"], spec,
+                                                budget=READ_BUDGET, wait=READ_WAIT)  # fmt: skip
         text = source["csv"]
         size = len(text.encode())
         if size > MAX_RECORD_BYTES:
             raise TwinError(f"record_csv: {size} bytes; allowed at most {MAX_RECORD_BYTES}")
         prescan(text)  # priced before any parser sees it
-        return self._reader_worker().call(
+        return self._reader_worker().submit(
             "parse_record", text, source.get("kind"), source["upload"], spec,
             budget=READ_BUDGET, wait=READ_WAIT,
         )  # fmt: skip
+
+    def adopt(
+        self, job_id: str, reading: Future[dict[str, Any]],
+        price: Callable[[int], tuple[list[dict[str, Any]], int]],
+    ) -> None:  # fmt: skip
+        """A job stored before its record was read: once `reading` ends, its columns are
+        attached and it is queued to run, unless the reading failed or `price(rows)` (the
+        limits it is over, its runs) names a limit; then it fails with that message."""
+
+        def settle(done: Future[dict[str, Any]]) -> None:
+            try:
+                read = done.result()
+                errors, runs = price(int(read["summary"]["rows"]))
+                if errors:
+                    raise TwinError("; ".join(str(e["msg"]) for e in errors))
+            except Exception as exc:  # the job is the report: a thread has no caller
+                self.store.fail(job_id, f"record: {exc}")
+                return
+            if self.store.attach(job_id, read["blob"], runs):
+                self.submit(job_id)
+
+        reading.add_done_callback(settle)
 
     def _reader_worker(self) -> BoundedWorker:
         with self._reader_lock:

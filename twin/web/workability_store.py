@@ -185,9 +185,11 @@ class WorkabilityStore:
         total: int,
         upload: bytes | None = None,
         max_pending: int | None = None,
+        reserve: int = 0,
     ) -> Workability:
         """Store a new job (queued) of a validated spec (a dict) on `record`, with the
-        record's columns as read (`upload`, `pack_record`'s bytes) if it has them.
+        record's columns as read (`upload`, `pack_record`'s bytes) if it has them, else
+        `reserve` bytes of the quota held for them until `attach` brings them.
 
         Raises:
             QueueFull: `max_pending` jobs are queued or running (counted in the insert's
@@ -196,7 +198,7 @@ class WorkabilityStore:
         """
         job_id = uuid.uuid4().hex
         spec_text, record_text = json.dumps(spec, allow_nan=False), json.dumps(record)
-        size = len(spec_text) + len(record_text) + len(upload or b"") + ROW_OVERHEAD
+        size = len(spec_text) + len(record_text) + len(upload or b"") + reserve + ROW_OVERHEAD
         with self._lock:
             if not self.path.exists():
                 raise StoreUnavailable(f"run store {self.path} was deleted while the server runs")
@@ -213,6 +215,14 @@ class WorkabilityStore:
                     (job_id, time.time(), total, spec_text, record_text, upload, size),
                 )  # fmt: skip
         return self.get(job_id)
+
+    def attach(self, job_id: str, upload: bytes, total: int) -> bool:
+        """A queued job's record columns, read after it was stored (`create`'s `reserve`), and
+        its runs priced on them; whether it was still queued."""
+        return bool(self._write((
+            f"UPDATE workability SET upload = ?, total = ?, size = {_SIZE} + ? "
+            "WHERE id = ? AND status = 'queued'", (upload, total, len(upload), job_id),
+        )))  # fmt: skip
 
     def running(self, job_id: str) -> bool:
         """A queued job starts (a cancelled one stays as it is); whether it did."""

@@ -12,16 +12,20 @@ The body is a `WorkabilitySpec` plus the record: `record` (a shipped record's na
 `record_csv` (an uploaded record's text, read by the CLI's readers; `record_kind` forces the
 format, else it is sniffed; `record_name` is the file's name, which the plots' titles show).
 Validated as a sweep's body (a 422 naming the field), admitted by the submission rate limit,
-then priced and read before it is stored (issue 43): the text is scanned for its lines and
-columns before any parser sees it, read within a CPU, memory and wall budget in a child process
+then priced and read before it runs (issue 43): the text is scanned for its lines and columns
+before any parser sees it, read within a CPU, memory and wall budget in a child process
 (`WorkabilityRunner.read`), and the job priced on the rows read (a 422 over `MAX_RUNS` runs,
 `MAX_TOTAL_STEPS` steps or `MAX_ROW_WORK` row-headings, naming the limit). A malformed record is
 a 422 naming its line; one without a usable row a 422 with the reasons its rows were skipped.
-The job stores the record's columns, not its text, and counts against the store's quota.
+The request answers within `ANSWER_WAIT` (0.9 s) whatever its body: a reading not done by then
+goes on within its budget, its job stored queued (202) and run once read, or failed with the
+same message as the 422 would have been. The job stores the record's columns, not its text,
+and counts against the store's quota.
 """
 
 from __future__ import annotations
 
+import asyncio
 import gzip
 from typing import Annotated, Any, Literal
 
@@ -42,7 +46,7 @@ from twin.web.routers.responses import LIMITED, REFUSED, STORE
 from twin.web.store import QueueFull, StoreFull
 from twin.web.upload_records import DEFAULT_NAME, shipped_records
 from twin.web.upload_worker import WorkerBusy
-from twin.web.workability_jobs import MAX_RECORD_BYTES, WorkabilityRunner
+from twin.web.workability_jobs import ANSWER_WAIT, MAX_RECORD_BYTES, WorkabilityRunner
 from twin.web.workability_store import ROWS_FILE, Workability
 
 router = APIRouter(prefix="/api/workability", tags=["workability"])
@@ -172,7 +176,7 @@ def stored_record(source: dict[str, Any], summary: dict[str, Any]) -> dict[str, 
     "bytes"}` of an uploaded one (the text itself is not kept)."""
     if "name" in source:
         return {"name": source["name"]}
-    return {"upload": source["upload"], "kind": source["kind"] or summary["kind"],
+    return {"upload": source["upload"], "kind": source["kind"] or summary.get("kind"),
             "bytes": len(source["csv"].encode())}  # fmt: skip
 
 
@@ -237,30 +241,51 @@ async def create_workability(
         return unprocessable(body_errors(exc, ranges), ranges)
     store = runner.store
     admission.admit(request, "workability", await run_in_threadpool(store.pending))  # first
-    source = body.source()
+    source, fields = body.source(), spec.model_dump(mode="json")
+    field = "record" if body.record is not None else "record_csv"
     try:
-        read = await run_in_threadpool(runner.read, source, spec.model_dump(mode="json"))
+        reading = runner.read(source, fields)  # the text scan, here; the rest in a child
+        read = await asyncio.wait_for(asyncio.shield(asyncio.wrap_future(reading)), ANSWER_WAIT)
+    except TimeoutError:
+        read = None  # still reading: the job is stored now and runs once it is read
     except WorkerBusy as exc:
         raise HTTPException(503, str(exc), headers={"Retry-After": "2"}) from None
     except TwinError as exc:  # the reader's message names the line; a limit names itself
-        field = "record" if body.record is not None else "record_csv"
         return unprocessable([{"loc": ("body", field), "msg": str(exc), "type": "value_error"}],
                              ranges)  # fmt: skip
-    rows = int(read["summary"]["rows"])
-    over = over_limits(spec, rows)
-    if over:
-        return unprocessable(over, ranges)
+    if read is not None:
+        over = over_limits(spec, int(read["summary"]["rows"]))
+        if over:
+            return unprocessable(over, ranges)
     try:
-        job = await run_in_threadpool(
-            store.create, spec.model_dump(mode="json"), stored_record(source, read["summary"]),
-            price(spec, rows)[0], read["blob"], admission.caps["workability"],
-        )  # fmt: skip
+        job = await run_in_threadpool(_store_job, runner, admission, spec, source, read, reading)
     except QueueFull as exc:
         raise HTTPException(429, str(exc), headers={"Retry-After": "5"}) from None
     except StoreFull as exc:  # the quota (--max-store, --max-runs): nothing stored
         raise HTTPException(507, str(exc)) from None
-    runner.submit(job.id)
     response.headers["Location"] = f"/api/workability/{job.id}"
+    return job
+
+
+def _store_job(
+    runner: WorkabilityRunner, admission: Any, spec: WorkabilitySpec, source: dict[str, Any],
+    read: dict[str, Any] | None, reading: Any,
+) -> Workability:  # fmt: skip
+    """Store a job whose record is read (`read`), and queue it; or one still being read
+    (`reading`), with the quota held for its text, queued once the reading ends well."""
+    store, cap = runner.store, admission.caps["workability"]
+    fields = spec.model_dump(mode="json")
+    if read is not None:
+        rows = int(read["summary"]["rows"])
+        job = store.create(fields, stored_record(source, read["summary"]),
+                           price(spec, rows)[0], read["blob"], cap)  # fmt: skip
+        runner.submit(job.id)
+        return job
+    text = source.get("csv", "")
+    lines = text.count("\n") + 1  # an upper bound of its rows, for the price shown meanwhile
+    job = store.create(fields, stored_record(source, {"kind": source.get("kind")}),
+                       price(spec, lines)[0], None, cap, reserve=len(text.encode()))  # fmt: skip
+    runner.adopt(job.id, reading, lambda rows: (over_limits(spec, rows), price(spec, rows)[0]))
     return job
 
 
