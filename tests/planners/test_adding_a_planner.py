@@ -8,7 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from twin.errors import TwinError
 from twin.mechanisms.hybrid import HybridBoardingSystem
+from twin.planners.allocation import AllocationPlanner
 from twin.planners.differential import DifferentialPlanner
 from twin.planners.families import DIFFERENTIAL_PARAMETERS
 from twin.planners.limits import VelocityLimit
@@ -44,6 +46,7 @@ WPI_LIMITS = PlannerSpec(
     ("k_e", "beta", "l", "damping"),
     "seed 000 eqs (27)-(32), (35)-(36)",
     _wpi_limits,
+    "differential",
 )
 # ---------------------------------------------------------------------------------------------
 
@@ -116,3 +119,53 @@ def test_the_example_planner_packs_the_doc_values() -> None:
     assert record["slew"] == 0.0  # no Algorithm 1
     assert record["rate_limited"] == 1.0
     np.testing.assert_array_equal(record["rate"], HYBRID_RATE_LIMITS)
+
+
+# --- docs/adding-a-planner.md, "Another family's parts": an allocation planner ---------------
+def _conv2_quiet(
+    h: HybridBoardingSystem, p: PlannerParameters, xi0: np.ndarray
+) -> AllocationPlanner:
+    """Seed 004 §4 b's conventional method 2, registered again under its own name."""
+    del p, xi0  # Unused: seed 004's methods have no knobs.
+    return AllocationPlanner(h, "conv2")
+
+
+#: its registry line: the allocation family, recording none of the family's diagnostics
+CONV2_QUIET = PlannerSpec(
+    "conv2_quiet", "conventional method 2, no diagnostics", ("hybrid",), (), "seed 004 §4 b",
+    _conv2_quiet, "allocation", diagnostics=frozenset(),
+)  # fmt: skip
+
+
+def test_an_allocation_planner_with_its_own_diagnostics_needs_only_a_registry_line(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Registered by its line alone, the new planner runs on the engine's allocation lanes:
+    its states equal conv2's on the same sea, and its series keep its own (empty) diagnostics,
+    where conv2's keep the family's `position_share`."""
+    monkeypatch.setitem(PLANNERS, CONV2_QUIET.name, CONV2_QUIET)
+    sea = {"sea_state": 5, "duration": 2.0, "seed": 4}
+    quiet = simulate({**sea, "planner": "conv2_quiet"})
+    conv2 = simulate({**sea, "planner": "conv2"})
+    np.testing.assert_array_equal(quiet.series["xi"], conv2.series["xi"])
+    assert "position_share" in conv2.series and "position_share" not in quiet.series
+
+
+def test_a_registry_line_names_a_known_family_and_only_its_diagnostics() -> None:
+    """An unknown family, or diagnostics its family does not record, are refused with what is
+    allowed."""
+    with pytest.raises(TwinError, match="unknown family 'mystery'; allowed"):
+        PlannerSpec("x", "x", ("hybrid",), (), "", _conv2_quiet, "mystery")
+    with pytest.raises(TwinError, match="not its family's"):
+        PlannerSpec("x", "x", ("hybrid",), (), "", _conv2_quiet, "allocation",
+                    diagnostics=frozenset({"qp_level"}))  # fmt: skip
+
+
+def test_every_registry_planner_is_of_its_entrys_family() -> None:
+    """Each registered hybrid planner, built, says the family its registry line names (the
+    engine packs it by that family)."""
+    h = HybridBoardingSystem()
+    for spec in PLANNERS.values():
+        if "hybrid" in spec.mechanisms:
+            planner = spec.build(h, PlannerParameters(), h.working_state)
+            assert planner.family == spec.family, spec.name

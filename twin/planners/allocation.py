@@ -19,7 +19,7 @@ simulation integrates every planner the same way. The step is written once, on o
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 
@@ -79,6 +79,9 @@ class AllocationPlanner:
         mechanism: the hybrid system.
         method: "conv1", "conv2" or "dwa".
     """
+
+    #: the kernel family it packs for (`twin.planners.families.FAMILY_DIAGNOSTICS`)
+    family: ClassVar[str] = "allocation"
 
     mechanism: HybridBoardingSystem
     method: str = "dwa"

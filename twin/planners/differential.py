@@ -12,7 +12,7 @@ posture task (eqs (39)-(40)) and Algorithm 1.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -43,6 +43,9 @@ class DifferentialPlanner:
         velocity_limit: rate limit applied last, or None.
         epsilon, damping_max: damped least squares (see `weighted_pinv`).
     """
+
+    #: the kernel family it packs for (`twin.planners.families.FAMILY_DIAGNOSTICS`)
+    family: ClassVar[str] = "differential"
 
     tip: TipPoseTask
     weights: Any = None

@@ -7,6 +7,15 @@ from __future__ import annotations
 
 from twin.planners.parameters import family_dtype
 
+#: The hybrid families' diagnostics: the series a lane of the family records (the kernel writes
+#: them; another family's are left out of a lane's series). A registry entry may name fewer.
+FAMILY_DIAGNOSTICS: dict[str, frozenset[str]] = {
+    "differential": frozenset({"weights", "null_space_share", "damping", "velocity_scale"}),
+    "allocation": frozenset({"position_share"}),
+    "qp": frozenset({"qp_level", "qp_active"}),
+    "platform": frozenset(),
+}
+
 #: The differential family's lane parameters (`family_dtype`), written by the parts' `pack`:
 #: k_e [1/s] (eq (34), `TipPoseTask`); the β split β^l per joint (eqs (27)-(30), 1 without
 #: weights, `BetaSplit`); the joint-limit weights' scale (1, k_c on the telescope, eq (37)),

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -740,6 +741,9 @@ class PlatformPlanner:
         actuator_mass: [kg] moving mass per actuator of the effort-driven model (`"pid"`);
             0 for velocity-commanded actuators.
     """
+
+    #: the kernel family it packs for (`twin.planners.families.FAMILY_DIAGNOSTICS`)
+    family: ClassVar[str] = "platform"
 
     def __init__(
         self,

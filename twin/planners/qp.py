@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import daqp
 import numpy as np
@@ -307,6 +307,9 @@ class QPPlanner:
         rate_limit: the rate box.
         solver: a QP library of `SOLVERS`.
     """
+
+    #: the kernel family it packs for (`twin.planners.families.FAMILY_DIAGNOSTICS`)
+    family: ClassVar[str] = "qp"
 
     tip: TipPoseTask
     limits: tuple

@@ -13,6 +13,7 @@ from twin.errors import TwinError
 from twin.mechanisms.hybrid import HybridBoardingSystem
 from twin.planners.allocation import AllocationPlanner
 from twin.planners.differential import DifferentialPlanner
+from twin.planners.families import FAMILY_DIAGNOSTICS
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.parameters import PlannerParameters
 from twin.planners.platform import platform_builder
@@ -38,6 +39,9 @@ class PlannerSpec:
         parameters: the `PlannerParameters` fields it reads.
         source: paper and equations.
         build: (mechanism, parameters, initial state) → a `Planner` (`reset`, `step`).
+        family: the kernel family its planners pack for (`FAMILY_DIAGNOSTICS`' keys; the
+            built planner's own `family`): how the engine packs and runs its lanes.
+        diagnostics: the series its lanes record; None: all of its family's.
     """
 
     name: str
@@ -46,6 +50,22 @@ class PlannerSpec:
     parameters: tuple[str, ...]
     source: str
     build: Callable[[Any, PlannerParameters, np.ndarray], Planner]
+    family: str
+    diagnostics: frozenset[str] | None = None
+
+    def __post_init__(self) -> None:
+        if self.family not in FAMILY_DIAGNOSTICS:
+            raise TwinError(f"planner {self.name!r}: unknown family {self.family!r}; "
+                            f"allowed: {sorted(FAMILY_DIAGNOSTICS)}")  # fmt: skip
+        extra = (self.diagnostics or frozenset()) - FAMILY_DIAGNOSTICS[self.family]
+        if extra:
+            raise TwinError(f"planner {self.name!r}: diagnostics {sorted(extra)} are not its "
+                            f"family's {sorted(FAMILY_DIAGNOSTICS[self.family])}")  # fmt: skip
+
+    @property
+    def series_diagnostics(self) -> frozenset[str]:
+        """The diagnostics its lanes record: its own list, else its family's."""
+        return FAMILY_DIAGNOSTICS[self.family] if self.diagnostics is None else self.diagnostics
 
 
 def _differential(
@@ -111,6 +131,7 @@ PLANNERS: dict[str, PlannerSpec] = {
             ("k_e", "damping"),
             "seed 000 eq (26), closed loop eq (34)",
             _differential("none"),
+            "differential",
         ),
         PlannerSpec(
             "wpi",
@@ -119,6 +140,7 @@ PLANNERS: dict[str, PlannerSpec] = {
             ("k_e", "beta", "l", "damping"),
             "seed 000 eqs (27)-(32)",
             _differential("beta"),
+            "differential",
         ),
         PlannerSpec(
             "mtmp",
@@ -127,9 +149,11 @@ PLANNERS: dict[str, PlannerSpec] = {
             ("k_e", "beta", "l", "k_c", "sigma", "q1_rate_max", "yaw_hold", "k_a2", "damping"),
             "seed 000 eqs (33)-(40), Algorithm 1",
             _differential("mtmp"),
+            "differential",
         ),
         PlannerSpec(
-            "dwa", "dynamic weight allocation", ("hybrid",), (), "seed 004 §3", _allocation("dwa")
+            "dwa", "dynamic weight allocation", ("hybrid",), (), "seed 004 §3", _allocation("dwa"),
+            "allocation",
         ),
         PlannerSpec(
             "conv1",
@@ -138,6 +162,7 @@ PLANNERS: dict[str, PlannerSpec] = {
             (),
             "seed 004 §4 a",
             _allocation("conv1"),
+            "allocation",
         ),
         PlannerSpec(
             "conv2",
@@ -146,6 +171,7 @@ PLANNERS: dict[str, PlannerSpec] = {
             (),
             "seed 004 §4 b",
             _allocation("conv2"),
+            "allocation",
         ),
         PlannerSpec(
             "qp",
@@ -165,6 +191,7 @@ PLANNERS: dict[str, PlannerSpec] = {
             "issue 15: task-based differential IK (as mink, pink) on seed 000 eqs (24), (34), "
             "(39)-(40) and Algorithm 1, legs and Table 6 as hard limits",
             _qp,
+            "qp",
         ),
         PlannerSpec(
             "pid",
@@ -173,6 +200,7 @@ PLANNERS: dict[str, PlannerSpec] = {
             ("kp", "ki", "kd", "actuator_speed", "actuator_mass"),
             "seed 002 §5, Fig. 11",
             platform_builder("pid"),
+            "platform",
         ),
         PlannerSpec(
             "ik",
@@ -181,6 +209,7 @@ PLANNERS: dict[str, PlannerSpec] = {
             ("actuator_speed",),
             "seed 001 eqs (16)-(19), seed 002 eqs (15)-(18)",
             platform_builder("ik"),
+            "platform",
         ),
     )
 }

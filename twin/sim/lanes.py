@@ -12,8 +12,8 @@ kernel, which runs it.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any, ClassVar
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -22,13 +22,15 @@ from twin.errors import TwinError
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import (
     HYBRID_RATE_LIMITS,
-    AllocationPlanner,
-    DifferentialPlanner,
     PlatformModel,
     PlatformPlanner,
     TipTarget,
     get_planner,
 )
+from twin.planners.allocation_step import pack_allocation
+from twin.planners.differential_step import pack_differential
+from twin.planners.families import FAMILY_DIAGNOSTICS
+from twin.planners.qp_step import pack_qp
 from twin.sim.kernels import layout
 from twin.sim.metrics import (
     HybridReduction,
@@ -98,6 +100,26 @@ def tip_target(row: np.ndarray) -> TipTarget:
     return TipTarget(T, np.array(row[layout.TARGET_V : layout.TARGET_V + 6]))
 
 
+#: a lane's packed planner: its parameter row (`layout.ROW_SIZE`) and memory row (`N_MEMORY`)
+Packed = tuple[np.ndarray, np.ndarray]
+
+
+def _stateless(pack: Callable[[Any, bool], np.ndarray]) -> Callable[[Any, bool], Packed]:
+    """A family's row packer as one that also gives the lane's (empty) planner memory."""
+    return lambda planner, hold: (pack(planner, hold), np.zeros(layout.N_MEMORY))
+
+
+#: (prm row, memory row) of a reset planner, by its family: how the hybrid kernel's lanes are
+#: packed (`HybridLanes.pack`); a planner composed of existing parts needs only a registry line
+HYBRID_PACKERS: dict[str, Callable[[Any, bool], Packed]] = {
+    "differential": _stateless(pack_differential),
+    "allocation": pack_allocation,
+    "qp": _stateless(pack_qp),
+}
+#: the families the hybrid kernel runs
+HYBRID_FAMILIES = tuple(HYBRID_PACKERS)
+
+
 class HybridLanes:
     """The hybrid boarding system's lanes: state xi (9,) [m, rad] (seed 000 eq (14)).
 
@@ -142,30 +164,27 @@ class HybridLanes:
         """Build the lane's planner from the registry, reset it at state x and target row
         (18,), and pack it: (prm row, memory row).
 
-        A differential planner keeps no state (its reset does nothing), so its row depends
-        only on its name, knobs, hold mode and the lane's start x0: lanes alike (a batch of
-        seeds) share one build, kept by this object (`_rows`)."""
-        from twin.planners.allocation_step import pack_allocation
-        from twin.planners.differential_step import pack_differential
-        from twin.planners.qp import QPPlanner
-        from twin.planners.qp_step import pack_qp
-
+        The registry entry's family picks the packer (`HYBRID_PACKERS`). A differential
+        planner keeps no state (its reset does nothing), so its row depends only on its name,
+        knobs, hold mode and the lane's start x0: lanes alike (a batch of seeds) share one
+        build, kept by this object (`_rows`)."""
         hold = scenario.joint_limits == "hold"
         knobs = scenario.parameters()
         key = (scenario.planner_name, knobs.model_dump_json(), hold, self.x0[lane].tobytes())
         if key in self._rows:
             return self._rows[key].copy(), np.zeros(layout.N_MEMORY)
         spec = get_planner(scenario.planner_name, "hybrid")
+        packer = HYBRID_PACKERS.get(spec.family)
         planner = spec.build(self.mechanism, knobs, self.x0[lane])
+        if packer is None or getattr(planner, "family", None) != spec.family:
+            raise TwinError(f"planner {scenario.planner!r}: no hybrid kernel packs a "
+                            f"{type(planner).__name__} of family {spec.family!r}")  # fmt: skip
         planner.reset(x, tip_target(target))
-        if isinstance(planner, DifferentialPlanner):
-            self._rows[key] = pack_differential(planner, hold)
-            return self._rows[key].copy(), np.zeros(layout.N_MEMORY)
-        if isinstance(planner, AllocationPlanner):
-            return pack_allocation(planner, hold)
-        if isinstance(planner, QPPlanner):
-            return pack_qp(planner, hold), np.zeros(layout.N_MEMORY)
-        raise TwinError(f"planner {scenario.planner!r}: no kernel packs {type(planner).__name__}")
+        row, memory = packer(planner, hold)
+        if spec.family == "differential":  # stateless: lanes alike share the row
+            self._rows[key] = row
+            return row.copy(), memory
+        return row, memory
 
     def run(
         self,
@@ -292,22 +311,13 @@ class HybridLanes:
         out["qp_active"] = diag[..., layout.D_QP_ACTIVE]
         return out
 
-    #: each planner family's diagnostics (another family's are left out of a lane's series)
-    DIAGNOSTICS: ClassVar[dict[str, frozenset[str]]] = {
-        "differential": frozenset({"weights", "null_space_share", "damping", "velocity_scale"}),
-        "allocation": frozenset({"position_share"}),
-        "qp": frozenset({"qp_level", "qp_active"}),
-    }
-    #: every family's diagnostics
-    diagnostics = frozenset().union(*DIAGNOSTICS.values())
+    #: every hybrid family's diagnostics (a lane keeps its own planner's, `keys`)
+    diagnostics = frozenset().union(*(FAMILY_DIAGNOSTICS[f] for f in HYBRID_FAMILIES))
 
     def keys(self, planner: str) -> set[str]:
-        """The diagnostics a planner has: the differential ones', the allocation ones' or the
-        qp planner's."""
-        if planner == "qp":
-            return set(self.DIAGNOSTICS["qp"])
-        family = "allocation" if planner in ("dwa", "conv1", "conv2") else "differential"
-        return set(self.DIAGNOSTICS[family])
+        """The diagnostics a planner's lanes record: its registry entry's
+        (`PlannerSpec.series_diagnostics`)."""
+        return set(get_planner(planner, "hybrid").series_diagnostics)
 
     def metrics(
         self, series: dict[str, np.ndarray], lane: int, joint_limits: str = "record"
