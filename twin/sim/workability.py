@@ -788,6 +788,7 @@ def _summarise(spec: WorkabilitySpec, record: SiteRecord, rows: pd.DataFrame) ->
                            "planners": {}, "threshold": {}}  # fmt: skip
     if record.time is not None:
         out["months"] = _months(record)
+        out["partial_month"] = PARTIAL_MONTH  # the coverage below which a month is partial
         out["years"] = sorted({int(y) for y in pd.DatetimeIndex(record.time).year})
     for limit in spec.hs_limits:
         operable = record.hs < limit  # the estimate users make today

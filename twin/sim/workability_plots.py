@@ -27,7 +27,6 @@ from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from twin.sim.workability import PARTIAL_MONTH
 from twin.site.windows import record_step
 
 if TYPE_CHECKING:
@@ -102,7 +101,7 @@ def monthly(result: WorkabilityResult, title: str | None = None) -> Figure:
                                  linewidth=1.4, linestyles=DASHES[k % len(DASHES)],
                                  label=f"Hs < {limit} m ({share:.0f} %)"))  # fmt: skip
     if any(partial):
-        below = f"partial month (< {100 * PARTIAL_MONTH:.0f} % covered)"
+        below = f"partial month (< {100 * summary['partial_month']:.0f} % covered)"
         handles.append(Patch(facecolor="white", edgecolor="black", hatch="//", label=below))
     ax.set_xticks(x, [_month_label(g, months.get(g)) for g in groups], fontsize=8)
     ax.set_ylim(0, 109)
