@@ -294,11 +294,11 @@ def _check_window(t: np.ndarray, motion: np.ndarray) -> None:
         raise TwinError(f"time (N,) and motion (N, 6) expected, got {t.shape} and {motion.shape}")
     if t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise TwinError("time: finite and strictly increasing, at least two samples")
-    span = float(t[-1] - t[0])
-    if span < MIN_WINDOW:
+    steps = np.diff(t)
+    span = float(t[-1] - t[0] + np.median(steps))  # N samples cover N steps
+    if span < MIN_WINDOW - 1e-6:
         raise EstimateRefused(f"window: {span:.0f} s; at least {MIN_WINDOW:.0f} s (10 min) is "
                               "needed for a stable cross-spectrum")  # fmt: skip
-    steps = np.diff(t)
     if np.ptp(steps) > 0.01 * np.median(steps):
         raise TwinError("time: uneven sampling; resample the series first (MotionSeries.resampled)")
 
