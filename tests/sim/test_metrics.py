@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from twin.mechanisms import HybridBoardingSystem, Upr4, Upu3Up
-from twin.planners.platform import ANGLE_TOL, LENGTH_TOL
+from twin.planners.platform_model import ANGLE_TOL, LENGTH_TOL
 from twin.sim import Simulation, simulate
 from twin.sim.metrics import drift, efficacy
 

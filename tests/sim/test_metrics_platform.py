@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.planners.platform import PlatformModel
+from twin.planners.platform_model import PlatformModel
 from twin.planners.registry import PLANNERS
 from twin.sim import Simulation
 from twin.sim.metrics import SETTLE, PlatformReduction, platform_metrics, platform_metrics_lanes

@@ -1,7 +1,7 @@
 r"""The small platforms (3UPU_UP, 4-UPR) one lane at a time: geometry, legs, forward kinematics.
 
 The engine's kernel (`twin.sim.kernels.platform`) and the objects (`Upu3Up`, `Upr4`,
-`twin.planners.platform.PlatformModel`) share these functions: each handles ONE state with
+`twin.planners.platform_model.PlatformModel`) share these functions: each handles ONE state with
 floats and small arrays and is compiled by numba into whatever calls it (`twin.compiled`), or
 runs as plain Python without numba.
 

@@ -11,7 +11,8 @@ from twin.planners.differential import DifferentialPlanner
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.linalg import weighted_pinv
 from twin.planners.parameters import PlannerParameters
-from twin.planners.platform import PlatformModel, PlatformPlanner, advance_target
+from twin.planners.platform import PlatformPlanner, advance_target
+from twin.planners.platform_model import PlatformModel
 from twin.planners.protocols import (
     Limit,
     Planner,

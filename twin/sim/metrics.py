@@ -20,7 +20,7 @@ import numpy as np
 from twin.compiled import pick_runner
 from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
 from twin.mechanisms.upu3up import Upu3Up
-from twin.planners.platform import PlatformModel
+from twin.planners.platform_model import PlatformModel
 from twin.sim.kernels import metrics as kernel
 from twin.sim.kernels.metrics import SETTLE as SETTLE  # re-exported: claims, scripts
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from twin.mechanisms import HybridBoardingSystem
 from twin.mechanisms.upu3up import Upu3Up
-from twin.planners.platform import PlatformModel
+from twin.planners.platform_model import PlatformModel
 from twin.sim.target import tilt
 from twin.spatial import invert_transform, pose_error, pose_to_transform
 

@@ -21,15 +21,9 @@ import pytest
 from tests.sim.oracle import assert_platform_steps, held_target, pack_target
 from twin.mechanisms import Upr4, Upu3Up
 from twin.mechanisms.platforms import MECHANISM_UPR4, MECHANISM_UPU3UP
-from twin.planners.platform import (
-    LAW_IK,
-    LAW_PID,
-    PLATFORM_PARAMETERS,
-    PlatformModel,
-    PlatformPlanner,
-    memory_record,
-    platform_builder,
-)
+from twin.planners.platform import PlatformPlanner, platform_builder
+from twin.planners.platform_model import PlatformModel
+from twin.planners.platform_step import LAW_IK, LAW_PID, PLATFORM_PARAMETERS, memory_record
 from twin.sim.base_motion import BaseMotion
 from twin.sim.kernels import platform as kernel
 from twin.sim.kernels.layout import (

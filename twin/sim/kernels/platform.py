@@ -3,7 +3,7 @@ r"""The small platforms' runner (Upu3Up, Upr4): stepping, scratch and faults, no
 `run_platform` steps N lanes (one scenario each) through a chunk of B samples. Each step is
 what the former `PlatformRig.advance` did:
 
-1. plan: `twin.planners.platform.plan_lane`, the `PlatformPlanner` law ("pid" or "ik"), its
+1. plan: `twin.planners.platform_step.plan_lane`, the `PlatformPlanner` law ("pid" or "ik"), its
    speed limit and anti-windup; a non-finite target holds the platform (FAULT_PLANNER), as
    the planner's NaN rates did;
 2. guard: a non-finite rate holds the platform (FAULT_PLANNER); the new lengths stop at the
@@ -31,12 +31,12 @@ import numpy as np
 
 from twin.compiled import compile_runner, prange, register_jitable
 from twin.mechanisms.platforms import NewtonWork, platform_fit
-from twin.planners.platform import (
+from twin.planners.platform import PlatformPlanner
+from twin.planners.platform_model import PlatformModel
+from twin.planners.platform_step import (
     MEMORY_SIZE,
     PLATFORM_MEMORY,
     PLATFORM_PARAMETERS,
-    PlatformModel,
-    PlatformPlanner,
     plan_lane,
 )
 from twin.sim.kernels.layout import (
