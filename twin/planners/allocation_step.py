@@ -117,7 +117,6 @@ def compose_lane(
 def predicted_target_lane(
     target: np.ndarray, dt: float, E: np.ndarray, R_out: np.ndarray, p_out: np.ndarray
 ) -> None:
-
     """The target one dt ahead, T_a = [exp(ω dt) R_d, p_d + v dt] (seed 004 §1): R_out (3, 3),
     p_out (3,) [m] in B, from the target row (18,) (R_d row-major); E (3, 3) scratch."""
     w = TARGET_W
