@@ -51,7 +51,8 @@ from typing import Any, Protocol
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import csd, detrend
+from scipy.signal import csd, detrend, get_window
+from threadpoolctl import threadpool_limits
 
 from twin.errors import TwinError
 from twin.sea.spectra import cos2s_spreading, jonswap
@@ -77,9 +78,10 @@ MAX_MISFIT = 0.6
 MIRROR_TOLERANCE = 1.25
 #: [deg] wave directions the spreading integral sums over (and the search's directions)
 DIRECTIONS = np.arange(0.0, 360.0, 2.0)
-#: bounds of (Hs [m], Tp [s], σ_θ [deg]) in the fit; σ_θ 2° is s ≈ 1640 (long-crested), 60°
-#: s ≈ 0.8
-HS_BOUNDS, TP_BOUNDS, SPREAD_BOUNDS = (0.01, 20.0), (3.0, 25.0), (2.0, 60.0)
+#: bounds of (Hs [m], Tp [s], σ_θ [deg]) in the fit: σ_θ 0° long-crested, 60° s ≈ 0.8
+HS_BOUNDS, TP_BOUNDS, SPREAD_BOUNDS = (0.01, 20.0), (3.0, 25.0), (0.0, 60.0)
+#: [deg] the direction grid's step: below it the spreading is not resolved (`_Model.weights`)
+GRID_STEP = float(DIRECTIONS[1] - DIRECTIONS[0])
 #: the motions needed at least: heave, roll, pitch (what every MRU gives)
 REQUIRED = ("heave", "roll", "pitch")
 
@@ -105,8 +107,8 @@ class SeaEstimate:
         tp: [s] peak period; tp_sd its 1-σ uncertainty.
         direction: [deg, 0-360) mean direction the waves travel towards, counter-clockwise
             from the bow (`Scenario.heading`: 180 head seas); direction_sd [deg] 1-σ.
-        spread: [deg] circular spread σ_θ of the cos-2s spreading (s = 2/σ_θ² − 1; 2° is as
-            long-crested as the fit allows); spread_sd its 1-σ.
+        spread: [deg] circular spread σ_θ of the cos-2s spreading (s = 2/σ_θ² − 1; 0°
+            long-crested); spread_sd its 1-σ.
         gamma: [-] the JONSWAP peak enhancement assumed.
         mirror: [deg] the best direction on the other side (near −β): the port/starboard
             alternative.
@@ -153,12 +155,30 @@ class CrossSpectra:
     Attributes:
         omega: (F,) [rad/s]; phi: (F, C, C) complex one-sided Φ_ij [unit_i·unit_j·s/rad];
         channels: the C motions' indices in `DOFS`; segments: independent-equivalent K.
+        dt: [s] sample period; nperseg: samples per segment.
     """
 
     omega: np.ndarray
     phi: np.ndarray
     channels: np.ndarray
     segments: float
+    dt: float
+    nperseg: int
+
+    def smoothing(self) -> tuple[np.ndarray, np.ndarray]:
+        """The expected Welch estimate as a matrix on a finer grid: (ω_fine (M,) [rad/s],
+        K (F, M)) with E[Φ(ω_k)] = Σ_m K_km Φ(ω_fine_m). Welch 1967 eq (8): the expected
+        periodogram of a windowed segment is the true spectrum convolved with the window's
+        spectral window |W(ω)|² (here the Hann's), normalised to unit area; over ±4 bins, where
+        the Hann's side lobes are under −50 dB, on a grid a quarter bin fine."""
+        step = 2.0 * np.pi / (self.nperseg * self.dt)  # one Welch bin [rad/s]
+        fine = np.arange(self.omega[0] - 4 * step, self.omega[-1] + 4.01 * step, step / 4)
+        fine = fine[fine > 0]
+        # |W|² at quarter-bin offsets: the window's FFT zero-padded to four times its length
+        spectral = np.abs(np.fft.fft(get_window("hann", self.nperseg), 4 * self.nperseg)) ** 2
+        quarters = np.rint((self.omega[:, None] - fine[None, :]) / (step / 4)).astype(int)
+        kernel = np.where(np.abs(quarters) <= 16, spectral[quarters % spectral.size], 0.0)
+        return fine, kernel / kernel.sum(axis=1, keepdims=True)
 
 
 def cross_spectra(
@@ -185,7 +205,7 @@ def cross_spectra(
     # (Welch 1967 eq (22)); as the scaling, an estimate of the error, not exact
     n_seg = 1 + max(0, (t.size - nperseg) // (nperseg // 2))
     return CrossSpectra(omega[keep], np.moveaxis(p[..., keep], -1, 0) / (2.0 * np.pi),
-                        np.asarray(channels), 0.95 * n_seg)  # fmt: skip
+                        np.asarray(channels), 0.95 * n_seg, dt, nperseg)  # fmt: skip
 
 
 class _Model:
@@ -193,18 +213,28 @@ class _Model:
 
     The sea's parameters x = (Hs [m], Tp [s], β [deg], σ_θ [deg]); σ_θ is the cos-2s
     spreading's circular spread, s = 2/σ_θ² − 1 (Kuik et al. 1988, as `cos2s_spreading`
-    states), so one bounded parameter runs from long-crested (2°) to short-crested (60°).
+    states), so one bounded parameter runs from long-crested (0°) to short-crested (60°).
+    Below the direction grid's step (`GRID_STEP`) cos-2s is not resolved by the grid; there the
+    weights blend linearly from cos-2s at σ_θ = `GRID_STEP` to the long-crested limit, a
+    linear interpolation of the products between the two grid directions around β (without it
+    the narrowest sea the model holds is 2° wide, and at head seas its roll, magnified by the
+    roll resonance, is far above what a long-crested sea gives).
     """
 
     def __init__(self, spectra: CrossSpectra, raos: RaoTable, gamma: float) -> None:
-        self.spectra, self.gamma = spectra, gamma
+        self.spectra, self.gamma, self.raos = spectra, gamma, raos
         n = spectra.phi.shape[1]
         self.upper, self.strict = np.triu_indices(n), np.triu_indices(n, 1)
         beta = np.radians(DIRECTIONS)
-        H = interpolate_raos(raos, spectra.omega[:, None], beta[None, :])[..., spectra.channels]
+        # the model on a finer grid, then as Welch's estimate sees it (`smoothing`): a peak as
+        # narrow as a bin (JONSWAP's at Tp 14 s, a lightly damped roll) is otherwise misfitted
+        self.fine, self.kernel = spectra.smoothing()
+        H = interpolate_raos(raos, self.fine[:, None], beta[None, :])[..., spectra.channels]
         i, j = self.upper
-        # H_i H̄_j per frequency, direction and pair i ≤ j: (F, B, P)
-        self.products = H[..., i] * np.conj(H[..., j])
+        # H_i H̄_j per direction, fine frequency and pair i ≤ j: (B, M·P), real and imaginary
+        products = np.moveaxis(H[..., i] * np.conj(H[..., j]), 1, 0).reshape(beta.size, -1)
+        self.products_re = np.ascontiguousarray(products.real)
+        self.products_im = np.ascontiguousarray(products.imag)
         self.reweigh(spectra.phi)
 
     def reweigh(self, phi: np.ndarray) -> None:
@@ -226,14 +256,32 @@ class _Model:
         off = self.upper[0] != self.upper[1]
         return np.concatenate([scaled.real.ravel(), scaled[:, off].imag.ravel()])
 
+    @staticmethod
+    def weights(beta: float, spread_deg: float) -> np.ndarray:
+        """(B,) quadrature weights of the spreading D(θ) on `DIRECTIONS`, summing to 1 (class
+        docstring): cos-2s, blended below `GRID_STEP` towards the two grid directions around
+        β weighted linearly."""
+        sigma = max(float(spread_deg), GRID_STEP)
+        s = 2.0 / np.radians(sigma) ** 2 - 1.0
+        spread = cos2s_spreading(np.radians(DIRECTIONS), np.radians(beta), s)
+        spread = spread / spread.sum()  # the grid's quadrature, exactly normalised
+        if spread_deg >= GRID_STEP:
+            return spread
+        gap = np.abs(np.mod(DIRECTIONS - beta + 180.0, 360.0) - 180.0)
+        linear = np.maximum(0.0, 1.0 - gap / GRID_STEP)
+        share = spread_deg / GRID_STEP
+        return share * spread + (1.0 - share) * linear / linear.sum()
+
     def pairs(self, x: np.ndarray) -> np.ndarray:
         """(F, P) Φ_ij, i ≤ j, of the parametric sea x (class docstring)."""
         hs, tp, beta, spread_deg = x
-        spectrum = jonswap(self.spectra.omega, hs, tp, self.gamma)
-        s = 2.0 / np.radians(spread_deg) ** 2 - 1.0
-        spread = cos2s_spreading(np.radians(DIRECTIONS), np.radians(beta), s)
-        spread = spread / spread.sum()  # the grid's quadrature, exactly normalised
-        return spectrum[:, None] * np.einsum("b,fbp->fp", spread, self.products)
+        spectrum = jonswap(self.fine, hs, tp, self.gamma)
+        spread = self.weights(beta, spread_deg)
+        # Σ_β D(β) H_i H̄_j: two real matrix-vector products (BLAS), not a complex einsum
+        shape = (self.fine.size, -1)
+        directional = (spread @ self.products_re).reshape(shape) + 1j * (
+            spread @ self.products_im).reshape(shape)  # fmt: skip
+        return self.kernel @ (spectrum[:, None] * directional)
 
     def phi(self, x: np.ndarray) -> np.ndarray:
         """(F, C, C) Hermitian Φ of the parametric sea x."""
@@ -251,7 +299,11 @@ class _Model:
         in it). Returns (B, 2) (Hs, Tp) and (B,) costs."""
         tps = np.clip(tp0 * np.geomspace(0.6, 1.6, 13), *TP_BOUNDS)
         shapes = jonswap(self.spectra.omega[None, :], 1.0, tps[:, None], self.gamma)  # (T, F)
-        per_direction = np.moveaxis(self.products, 1, 0)  # (B, F, P)
+        # at the Welch frequencies themselves, without the smoothing: a start, not the fit
+        omega, beta = self.spectra.omega[:, None], np.radians(DIRECTIONS)[None, :]
+        H = interpolate_raos(self.raos, omega, beta)[..., self.spectra.channels]
+        i, j = self.upper
+        per_direction = np.moveaxis(H[..., i] * np.conj(H[..., j]), 1, 0)  # (B, F, P)
         best = np.full((DIRECTIONS.size, 2), np.nan)
         cost = np.full(DIRECTIONS.size, np.inf)
         d = self.measured
@@ -381,7 +433,10 @@ def estimate_sea(
     spectra = cross_spectra(t, motion, used)
     _too_calm(spectra)
     model = _Model(spectra, raos, gamma)
-    best, other = _fit_both_sides(model, _first_guess(spectra)[1])
+    # small matrix-vector products: BLAS threads cost more than they share (measured 3× on 2
+    # cores under load), and a server's other work keeps its cores
+    with threadpool_limits(1, user_api="blas"):
+        best, other = _fit_both_sides(model, _first_guess(spectra)[1])
     x = best.x.copy()
     x[2] = float(np.mod(x[2], 360.0))
     ambiguous = bool(other.cost <= MIRROR_TOLERANCE * best.cost)
