@@ -371,3 +371,28 @@ def onboard_timeline(report: OnboardReport) -> Any:
     axes[0].set_title(f"onboard report: sea from the {report.spec.vessel()}'s motion, "
                       "operability at the current heading")  # fmt: skip
     return fig
+
+
+def onboard_task(
+    t: np.ndarray, motion: np.ndarray, fields: dict[str, Any], *, start: str | None,
+    data_dir: str, where: str,
+) -> dict[str, Any]:  # fmt: skip
+    """One REST job, a task on a worker of the server's executor: the report's JSON with its
+    advice records, and the timeline PNG. Missing cells go to the same cluster as chunks
+    (`distributed.worker_client`, as `twin.web.workability_jobs.evaluate_job`).
+
+    Args:
+        t, motion: the log as `onboard_report` takes it; fields: `OnboardSpec` fields.
+        start: the UTC time of t = 0 (ISO 8601), or None.
+        data_dir: folder of the cell cache; where: the executor's `where`.
+    """
+    from distributed import worker_client
+
+    with worker_client() as client:  # this task leaves its slot to the chunks it waits for
+        report = onboard_report(
+            t, motion, OnboardSpec(**fields), executor=Executor(client, where=where),
+            start=None if start is None else np.datetime64(start.rstrip("Z"), "ns"),
+            data_dir=data_dir,
+        )  # fmt: skip
+    advice = report.advice.to_dict(orient="records")
+    return {"result": {**report.to_dict(), "advice": advice}, "png": report.timeline_png()}

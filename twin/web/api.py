@@ -64,6 +64,7 @@ from twin.web.models import (
     locate,
     unprocessable,
 )
+from twin.web.routers import onboard as onboard_routes
 from twin.web.routers.registries import STATIC_DIR
 from twin.web.store import RunNotFound, RunStore, StoreUnavailable
 from twin.web.warmup import Warmup
@@ -214,7 +215,10 @@ def _add_middleware(app: FastAPI, access: Access, max_body: int) -> None:
     app.add_middleware(
         BodyLimit,
         max_bytes=max_body,
-        route_limits={("POST", "/api/workability"): max(UPLOAD_BODY, max_body)},
+        route_limits={
+            ("POST", "/api/workability"): max(UPLOAD_BODY, max_body),
+            ("POST", "/api/onboard"): max(UPLOAD_BODY, max_body),
+        },
     )
     # the outermost: refused before anything is read
     app.add_middleware(Guard, access=access)
@@ -243,6 +247,7 @@ def _add_routers(app: FastAPI) -> None:
     for module in (routers.registries, routers.runs, routers.sweeps, routers.workability,
                    routers.live):  # fmt: skip
         app.include_router(module.router)
+    app.include_router(onboard_routes.router)  # issue 40: onboard reports of motion logs
     app.include_router(routers.workability.pages)  # the Workability page
 
 
