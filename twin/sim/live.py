@@ -52,6 +52,27 @@ log = logging.getLogger(__name__)
 #: the live session's start: the papers' hybrid MTMP run, held at the joint limits as a real
 #: machine is (`Scenario.joint_limits`)
 LIVE_DEFAULTS = {"joint_limits": "hold"}
+#: the live demo's start per mechanism (`twin serve`, the viewer's mechanism switch): a planner
+#: and a sea it holds within every limit with the landing point (the readout's tip error,
+#: `FrameState.landing_offset`) millimetres from where it is held. Measured in a live session
+#: over 150 s at heading 150° (hold), largest offset: the hybrid system with qp at WMO 4,
+#: 0.12 mm, no stop at a limit (MTMP there: 0.5-1.7 m on sea seeds 0-1); the 3UPU_UP with pid at
+#: WMO 2, 2.0 mm (WMO 3: 123 mm, WMO 4: 1.9 m); the 4-UPR with pid at WMO 1,
+#: 2.3 mm: it levels the pad (heave, roll, pitch) but cannot cancel surge and sway, so the pad
+#: drifts with the vessel, 190-250 mm at WMO 2 whatever the heading.
+LIVE_DEMO: dict[str, dict[str, Any]] = {
+    "hybrid": {"planner": "qp", "sea_state": 4.0},
+    "upu3up": {"planner": "pid", "sea_state": 2.0},
+    "upr4": {"planner": "pid", "sea_state": 1.0},
+}
+
+
+def live_demo(mechanism: str = "hybrid") -> dict[str, Any]:
+    """The live demo's scenario fields for `mechanism` (`LIVE_DEMO`), on top of
+    `LIVE_DEFAULTS`."""
+    return {"mechanism": mechanism, **LIVE_DEMO[mechanism]}
+
+
 #: samples the live session keeps (a ring buffer: 100 s at dt = 0.05 s)
 HISTORY = 2000
 #: most steps one wall-clock tick may take; a stalled machine drops simulated time instead of

@@ -36,7 +36,7 @@ from twin.errors import TwinError
 from twin.sim.engine import warm_in_processes
 from twin.sim.executor import RUN_BUDGET, Executor
 from twin.sim.heap import freeze_startup
-from twin.sim.live import LiveSession
+from twin.sim.live import LiveSession, live_demo
 from twin.web.access import Access, is_loopback
 from twin.web.api import create_app
 from twin.web.connections import (
@@ -202,7 +202,7 @@ class _StartUp(threading.Thread):
             if executor.dashboard_link:
                 warmup.say(f"Dask dashboard {executor.dashboard_link}")
             warmup.begin("starting the live session")
-            session = self._keep(LiveSession())
+            session = self._keep(LiveSession(live_demo()))
             session.start()
             if self._start_viewer is not None and self.page is not None:
                 self.page.close()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -20,7 +21,7 @@ from twin.web.viewer import (
     si,
     start_viewer,
 )
-from twin.web.viewer.frame_state import read_frame
+from twin.web.viewer.frame_state import FrameState, read_frame
 
 
 def test_limit_readout_names_the_violation(session: LiveSession) -> None:
@@ -97,3 +98,29 @@ def test_changing_the_compare_planner_says_live_time_restarted(
     assert "compare planner is now pi" in viewer.gui.readout.content
     session.patch({"compare_planner": None})
     assert wait_for(lambda: "compare planner was removed" in viewer.gui.readout.content, 5.0)
+
+
+def test_a_leg_at_its_limit_is_said_in_words_with_since_when(session: LiveSession) -> None:
+    """A leg held on its stroke end reads "at the limit" (not nanometres) and "leg 3 at its
+    stroke limit since" the time it got there, kept while it stays; off the limit, or after a
+    restart (time going back), it reads nothing at a limit again; margins read in mm."""
+    from twin.web.viewer.readout import AT_LIMIT, Readout, margin_text
+
+    assert [margin_text(m) for m in (7.93e-7, -2e-8, 0.0995, -0.002)] == [
+        "at the limit", "at the limit", "99.5 mm", "2.00 mm beyond the limit"]  # fmt: skip
+    fs = read_frame(session)
+    assert fs is not None
+    readout = Readout()
+    readout._since = {}
+    assert readout._limits_since(fs) == "nothing"
+    lengths = fs.leg_lengths.copy()
+    lengths[2] = fs.leg_max[2] - 0.1 * AT_LIMIT
+
+    def at(frame: FrameState, t: float, **changes: Any) -> FrameState:
+        return dataclasses.replace(frame, record={**frame.record, "t": t}, **changes)
+
+    held = [at(fs, t, leg_lengths=lengths) for t in (41.2, 50.0)]
+    assert readout._limits_since(held[0]) == "⚠ leg 3 at its stroke limit since 41.2 s"
+    assert readout._limits_since(held[1]) == "⚠ leg 3 at its stroke limit since 41.2 s"
+    assert readout._limits_since(at(held[0], 3.0)).endswith("since 3.0 s")
+    assert readout._limits_since(at(fs, 60.0)) == "nothing"

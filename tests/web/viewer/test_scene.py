@@ -24,7 +24,6 @@ from twin.spatial import matrix_to_wxyz, pose_to_transform
 from twin.web.viewer import (
     FOV,
     PAINT_METALLIC,
-    TRAIL_MAGNIFICATION,
     ClientPanel,
     Viewer,
     framed_points,
@@ -35,6 +34,7 @@ from twin.web.viewer import (
     painted_urdf,
     start_viewer,
     trail_label,
+    trail_magnification,
 )
 from twin.web.viewer.cameras import VIEWS
 from twin.web.viewer.frame_state import read_frame
@@ -200,6 +200,17 @@ def test_views_frame_the_mechanism_and_its_target(mechanism: str) -> None:
             assert np.ptp(shown, axis=0).max() >= 80.0
 
 
+def test_the_trail_magnification_fits_the_error_to_the_mechanism() -> None:
+    """A power of ten from ×1 to ×10 000 that draws the largest deviation within half the
+    mechanism's size: a tip held to 0.1 mm on a 2.65 m mechanism ×10 000, one 3 mm off ×100,
+    one a metre off at true size; the label says what a millimetre draws as."""
+    assert [trail_magnification(d, 2.65) for d in (0.0, 1e-4, 3e-3, 1.0)] == [
+        1e4, 1e4, 100.0, 1.0]  # fmt: skip
+    for d in (1e-5, 2e-3, 0.05, 0.4):
+        assert trail_magnification(d, 2.65) * d <= 0.5 * 2.65
+    assert trail_label(100.0) == "tip error ×100 (1 mm draws as 100 mm)"
+
+
 def test_leg_colours_go_green_to_red() -> None:
     """Mid-stroke legs are green, legs at or beyond a limit red."""
     green, red, beyond = margin_colours(np.array([1.0, 0.0, -0.5]))
@@ -210,7 +221,7 @@ def test_leg_colours_go_green_to_red() -> None:
 def test_tip_error_is_where_the_landing_point_is_from_where_it_is_held(mechanism: str) -> None:
     """For every mechanism the trail, the readout and the plot show one quantity: the landing
     point's distance from its held place, the point the scene draws (the platform top's node,
-    or the gangway tip); in mm, under a trail label whose magnification stays put. The 4-UPR
+    or the gangway tip); in mm, under a trail label that states its magnification. The 4-UPR
     pad drifts off its held pose by centimetres or more at sea state 4, and reads so, though
     the recorded tip error (against the level state it can reach) is under a micrometre."""
     session = LiveSession({"sea_state": 4, "mechanism": mechanism, "planner": None})
@@ -218,8 +229,6 @@ def test_tip_error_is_where_the_landing_point_is_from_where_it_is_held(mechanism
     viewer = start_viewer(session, port=free_port(), graphics="light")
     client, _ = connect(viewer)  # the scene is drawn for a browser
     try:
-        label = viewer.scene.trail_label.text
-        assert label == trail_label(TRAIL_MAGNIFICATION[mechanism])
         offsets = []
         for _ in range(6):
             session.step(40)
@@ -243,14 +252,14 @@ def test_tip_error_is_where_the_landing_point_is_from_where_it_is_held(mechanism
             np.testing.assert_allclose(fs.landing_offset, drawn - fs.held[:3, 3], atol=1e-6)
             trail_end = viewer.scene.trail.handle.points[-1, 1]
             np.testing.assert_allclose(
-                trail_end, fs.held[:3, 3] + TRAIL_MAGNIFICATION[mechanism] * fs.landing_offset,
+                trail_end, fs.held[:3, 3] + viewer.scene.trail_scale * fs.landing_offset,
                 atol=1e-4,
             )
             offsets.append(np.linalg.norm(fs.landing_offset))
             readout = viewer.gui._readout(fs)
             assert f"tip error now: {mm(offsets[-1])}" in readout
             assert " nm" not in readout.split("orientation")[0]
-            assert viewer.scene.trail_label.text == label  # fixed
+            assert viewer.scene.trail_label.text == trail_label(viewer.scene.trail_scale)
         if mechanism == "upr4":
             assert max(offsets) > 0.01  # [m] visibly off its held pose
             assert np.linalg.norm(fs.record["tip_error"][:3]) < 1e-6  # what it read before

@@ -30,7 +30,12 @@ from twin.web.viewer.meshes import hull_parts, mount_transform
 from twin.web.viewer.operability import SWEEP_SETTINGS, sweep_text
 from twin.web.viewer.panel import ClientPanel
 from twin.web.viewer.readout import fault_line, limit_line, limit_violations, mm, si
-from twin.web.viewer.scene import TRAIL_MAGNIFICATION, TwinScene, margin_colours, trail_label
+from twin.web.viewer.scene import (
+    TwinScene,
+    margin_colours,
+    trail_label,
+    trail_magnification,
+)
 from twin.web.viewer.urdf import PAINT_METALLIC, painted_urdf
 from twin.web.viewer.viewer import FPS, Viewer, start_viewer
 
@@ -44,7 +49,6 @@ __all__ = [
     "PLANNER_KNOBS",
     "RENDERER_PATH",
     "SWEEP_SETTINGS",
-    "TRAIL_MAGNIFICATION",
     "VIEWS",
     "ClientPanel",
     "TwinGui",
@@ -68,4 +72,5 @@ __all__ = [
     "start_viewer",
     "sweep_text",
     "trail_label",
+    "trail_magnification",
 ]

@@ -38,15 +38,17 @@ FOV = float(np.radians(75.0))
 #: vessel: the overview then comes in to the deck around it (the cameras zoom; the scene is
 #: never drawn out of scale)
 OVERVIEW_MIN_PX, VIEW_HEIGHT_PX = 120.0, 720.0
-#: [-] the close-up's distance over the one at which the mechanism and its target's bounding
-#: sphere just fits the field of view
-CLOSE_UP_MARGIN = 1.3
+#: [-] the close-up's distance over the one at which the bounding sphere of the mechanism and its
+#: target's underside just fits the field of view (their box, inside it, leaves a margin)
+CLOSE_UP_MARGIN = 1.0
 #: [-] the views put what they show this fraction of the view's half-width left of its middle,
 #: clear of the control panel (about a third of a 1200 px window, on the right), for a
 #: window of width / height `VIEW_ASPECT`
 PANEL_SHIFT, VIEW_ASPECT = 0.3, 1.6
-#: [m] height of each target's prop above its held pose (UAV, hanging container), framed too
-TARGET_HEIGHT = {"hybrid": 0.0, "upu3up": 2.6, "upr4": 1.8}
+#: [m] height of each target prop's underside above its held pose (the UAV's skids, the
+#: hanging container's floor, `twin.web.viewer.meshes`), framed too: the prop above it may
+#: leave the close-up at its top, so the mechanism fills at least a third of the view
+TARGET_HEIGHT = {"hybrid": 0.0, "upu3up": 1.5, "upr4": 1.4}
 
 
 def mechanism_size(mechanism: Any) -> float:

@@ -59,8 +59,12 @@ pad, so its tip error is the vessel's drift, up to metres. The readout, the
 plot and the trail all show this distance.
 
 **Tip-error trail** (magenta): the landing point's offset from its held place, drawn from
-the held place with a fixed magnification that its label states: ×10 000 for the gangway
-tip (1 mm draws as 10 m), true size (×1) for the two platforms; older samples fade.
+the held place, magnified by the power of ten that fits the error shown to the mechanism
+(×1, true size, up to ×10 000: 1 mm draws as 10 m), as its label states; it changes as the
+error grows or shrinks, so no trail runs across the scene. Older samples fade.
+
+**At a limit**: the readout names each leg or joint that sits at its limit and since when
+("leg 3 at its stroke limit since 41.2 s"); the leg margin reads in mm, or "at the limit".
 
 **Targets**, fixed in the sea while the vessel moves: the hybrid gangway lands on a wind
 turbine's access platform (the grey tower is the turbine, the green square its landing
@@ -168,6 +172,7 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
         # (|tip error|, the ghost's) [m] at the plots' samples: the readout's window
         self._tips: deque[tuple[float, float]] = deque(maxlen=PLOT_SAMPLES)
         self.restarted: tuple[float, str] | None = None  # (monotonic time, why), see update
+        self._since: dict[str, float] = {}  # what sits at a limit → since when (the readout)
         self._compare_seen: str | None = None
         gui = server.gui
         shown: tuple[str, ...] = FOLDERS if store is not None else FOLDERS[:4]

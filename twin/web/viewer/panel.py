@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import viser
 
 from twin.planners.registry import PLANNERS
-from twin.sim.live import COMPARE
+from twin.sim.live import COMPARE, live_demo
 from twin.sim.scenario import Scenario
 from twin.web.viewer.cameras import View
 from twin.web.viewer.graphics import GRAPHICS
@@ -255,10 +255,8 @@ class ClientPanel(ReplayControls, SweepControls):
                 return  # the server showing the session's value: nothing to send back
             value = self.inputs[name].value
             changes = {name: None if name == COMPARE and value == NO_COMPARE else value}
-            if name == "mechanism" and self.gui.session.scenario.planner not in planners_for(
-                value  # changes[name] itself: the mechanism is never COMPARE's "none"
-            ):
-                changes["planner"] = None  # the new mechanism's default planner
+            if name == "mechanism":  # it starts at its demo's planner and sea
+                changes.update(live_demo(str(value)))
             self.gui.patch(changes, event.client, self)
 
         return on_update

@@ -29,6 +29,29 @@ HOLDS_WHAT = {
 #: [-] tolerance of the state-limit readout, a fraction of each state's range: a state held
 #: on its limit (joint_limits "hold") is within it
 STATE_TOL = 1e-4
+#: [m] a leg this close to a stroke end is at it: `joint_limits` "hold" stops a leg on its
+#: limit to within numerical noise (nanometres), which the readout says in words
+AT_LIMIT = 5e-5
+
+
+def margin_text(margin: float) -> str:
+    """A leg's distance [m] to its nearer stroke end as the readout says it: in mm, "at the
+    limit" within `AT_LIMIT`, or how far beyond."""
+    if abs(margin) < AT_LIMIT:
+        return "at the limit"
+    return mm(margin) if margin > 0.0 else f"{mm(-margin)} beyond the limit"
+
+
+def at_limits(fs: FrameState) -> list[str]:
+    """What sits at a limit in the frame: legs within `AT_LIMIT` of a stroke end, states
+    within `STATE_TOL` of their range's end (e.g. "leg 3 at its stroke limit")."""
+    margin = np.minimum(fs.leg_lengths - fs.leg_min, fs.leg_max - fs.leg_lengths)
+    out = [f"leg {i + 1} at its stroke limit" for i in np.flatnonzero(margin < AT_LIMIT)]
+    low, high = (np.asarray(v, float) for v in fs.mechanism.state_limits)
+    tol = STATE_TOL * (high - low)
+    near = (fs.state < low + tol) | (fs.state > high - tol)
+    out += [f"{fs.mechanism.state_names[i]} at its limit" for i in np.flatnonzero(near)]
+    return out
 
 
 def plain(value: float, digits: int = 3) -> str:
@@ -146,6 +169,18 @@ class Readout:
     _compare: dict[str, Any] | None
     _tips: deque[tuple[float, float]]
     restarted: tuple[float, str] | None
+    _since: dict[str, float]  # what sits at a limit → [s] since when (`_limits_since`)
+
+    def _limits_since(self, fs: FrameState) -> str:
+        """What sits at a limit and since when, in words ("leg 3 at its stroke limit since
+        41.2 s"); "nothing" when all is within. A restart (time going back) starts afresh."""
+        now = at_limits(fs)
+        self._since = {k: t for k, t in self._since.items() if k in now and t <= fs.t}
+        for what in now:
+            self._since.setdefault(what, fs.t)
+        if not now:
+            return "nothing"
+        return "⚠ " + "; ".join(f"{what} since {self._since[what]:.1f} s" for what in now)
 
     def _readout(self, fs: FrameState) -> str:
         e = fs.record["tip_error"]
@@ -161,7 +196,8 @@ class Readout:
             "",
             f"- tip error now: {mm(float(np.linalg.norm(fs.landing_offset)))} "
             f"({HOLDS_WHAT[s.mechanism]}), orientation {si(float(np.linalg.norm(e[3:])), 'rad')}",
-            f"- leg margin: {si(margin[worst], 'm')} (leg {worst + 1})",
+            f"- leg margin: {margin_text(float(margin[worst]))} (leg {worst + 1})",
+            f"- at a limit: {self._limits_since(fs)}",
         ]
         if "manipulability" in fs.record:
             lines.append(f"- manipulability: {plain(float(fs.record['manipulability']), 4)}")

@@ -16,8 +16,8 @@
   platform (hybrid gangway), a hovering UAV over the landing pad's held pose (4-UPR), a
   crane-hung container over the cargo platform's held pose (3UPU_UP);
 - a trail of the tip error (where the landing point is minus where it is held,
-  `FrameState.landing_offset`), magnified by a fixed factor per mechanism
-  (`TRAIL_MAGNIFICATION`) that its label states.
+  `FrameState.landing_offset`), magnified by a power of ten that fits the error shown to the
+  mechanism (`trail_magnification`) and that its label states.
 
 Nodes are added when a mechanism is built (at start and when the session switches mechanism,
 when every browser's camera is pointed at the new mechanism, `twin.web.viewer.cameras`) and
@@ -81,11 +81,22 @@ SEA_MATERIAL: Literal["standard", "toon3", "toon5"] = "toon3"
 
 #: render frames kept in the tip-error trail
 TRAIL_LENGTH = 240
-#: [-] the tip-error trail's fixed magnification per mechanism, stated in its label: the
-#: gangway tip is held to within about 0.1 mm (×10⁴: 0.1 mm draws as 1 m), the platforms'
-#: tops drift by up to a metre or so at sea state 4 (the 3UPU_UP's stroke cannot follow
-#: the heave; the 4-UPR holds level only), so they draw at true size
-TRAIL_MAGNIFICATION = {"hybrid": 1e4, "upu3up": 1.0, "upr4": 1.0}
+#: [-] the tip-error trail's largest magnification: the gangway tip held to 0.1 mm draws as 1 m
+MAX_MAGNIFICATION = 1e4
+#: [-] the trail's largest offset drawn, a fraction of the mechanism's size: the trail stays
+#: on the mechanism, never a line across the scene
+TRAIL_SPAN = 0.5
+
+
+def trail_magnification(deviation: float, size: float) -> float:
+    """[-] the tip-error trail's magnification: the largest power of ten, from 1 (true size)
+    to `MAX_MAGNIFICATION`, that draws the largest deviation shown [m] within `TRAIL_SPAN` of
+    the mechanism's size [m]; a trail of a tip held to a tenth of a millimetre draws magnified,
+    one a metre off at true size."""
+    if deviation <= 0.0:
+        return MAX_MAGNIFICATION
+    power = np.floor(np.log10(TRAIL_SPAN * size / deviation))
+    return float(10.0 ** np.clip(power, 0.0, np.log10(MAX_MAGNIFICATION)))
 
 #: leg colour at margins 0 (at a limit), 0.25, 0.5 and 1 (mid-stroke)
 _MARGIN_STOPS = np.array([0.0, 0.25, 0.5, 1.0])
@@ -227,7 +238,7 @@ class TwinScene(Cameras):
             thickness=0.06 * float(np.mean(fs.leg_lengths)),
         )
         self.trail = Trail(scene, "/trail", TRAIL, 0.02 * self.size)
-        self.trail_scale = TRAIL_MAGNIFICATION[name]
+        self.trail_scale = MAX_MAGNIFICATION  # fits the error shown from the first frame on
         self.trail_label = scene.add_label(
             "/trail_label", trail_label(self.trail_scale), anchor="bottom-center"
         )
@@ -379,7 +390,11 @@ class TwinScene(Cameras):
         elif fs.t < self._trail_t:  # a restart the version check has not seen yet
             self._reset_trails(fs)
         shown = self._trails(fs)
-        scale = self.trail_scale
+        largest = max(float(np.linalg.norm(trail.samples, axis=1).max()) for trail, _ in shown)
+        scale = trail_magnification(largest, self.size)
+        if scale != self.trail_scale:
+            self.trail_scale = scale
+            self.trail_label.text = trail_label(scale)
         anchor = fs.held[:3, 3]
         for trail, _ in shown:
             trail.draw(anchor, scale, show)
