@@ -84,7 +84,9 @@ class MotionSeries:
             raise TwinError("motion series: resampling needs two samples or more")
         step = np.diff(self.time)
         gap = 5.0 * float(np.median(step)) if max_gap is None else float(max_gap)
-        grid = self.time[0] + np.arange(int(np.floor(self.duration * rate_hz)) + 1) / rate_hz
+        # a millionth of a step of slack: 3.98 s at 1/0.02 Hz is 199 steps, not 198.999…
+        steps = int(np.floor(self.duration * rate_hz + 1e-6))
+        grid = self.time[0] + np.arange(steps + 1) / rate_hz
         out = np.full((grid.size, 6), np.nan)
         for c in range(6):
             good = np.isfinite(self.motion[:, c])
