@@ -135,6 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run(commands)
     _add_sweep(commands)
     _add_workability(commands)
+    _add_onboard(commands)
     _add_warm(commands)
     return parser
 
@@ -343,6 +344,80 @@ def _add_workability(commands: argparse._SubParsersAction[argparse.ArgumentParse
         "--out", type=Path, default=Path("workability"), help="folder of the outputs"
     )
     workability.set_defaults(handler=_workability)
+
+
+def _add_onboard(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """`twin onboard`: a motion log's sea, operability now and heading advice (issue 40)."""
+    onboard = commands.add_parser(
+        "onboard",
+        help="estimate the sea from a vessel motion log and report operability and heading "
+        "advice per window",
+        description="Per window of a motion log (twin.motion.logs.read_motion): the sea "
+        "estimated from the vessel's motion (wave buoy analogy, zero forward speed), each "
+        "planner's probability of being operable at the current relative heading (the "
+        "workability cells, cached in --data-dir), the strategy grid's headings ranked, and "
+        "alerts under --threshold. Writes onboard.csv, advice.csv, onboard.json, timeline.png.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    onboard.add_argument("log", metavar="LOG", type=Path, help="the motion log file")
+    onboard.add_argument("--window", type=float, default=1200.0, help="[s] window, 600-3600")
+    onboard.add_argument("--rate", type=float, default=10.0, help="[Hz] resampling rate")
+    onboard.add_argument(
+        "--sensor", type=Path,
+        help="the sensor file (YAML/JSON: position, signs, angle_unit); default: at the centre of "
+        "motion, in the twin's convention",
+    )  # fmt: skip
+    onboard.add_argument("--threshold", type=float, default=0.5, help="[-] alert level")
+    onboard.add_argument("--headings", metavar="DEG,DEG,…", help="the strategy grid [deg, "
+                         "Scenario.heading]; default every 30°")  # fmt: skip
+    onboard.add_argument("--planner", nargs="+", metavar="NAME", help="planners")
+    onboard.add_argument("--mechanism", default="hybrid", choices=MECHANISM_NAMES)
+    onboard.add_argument("--spec", type=Path, help="a JSON file of WorkabilitySpec fields")
+    onboard.add_argument("--scheduler", help="as twin workability --scheduler")
+    onboard.add_argument("--workers", type=workers, help="workers of the local cluster")
+    onboard.add_argument("--data-dir", type=Path, default=Path("data"),
+                         help="folder of the cell cache")  # fmt: skip
+    onboard.add_argument("--out", type=Path, default=Path("onboard"), help="output folder")
+    onboard.set_defaults(handler=_onboard)
+
+
+def _onboard(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from pydantic import ValidationError
+
+    from twin.errors import TwinError
+    from twin.motion.logs import read_motion
+    from twin.motion.sensor import Sensor
+    from twin.sim.onboard import DEFAULT_HEADINGS, OnboardSpec, centre_motion, onboard_report
+    from twin.validation import explain
+
+    try:
+        fields = json.loads(read_input(parser, args.spec)) if args.spec is not None else {}
+        fields |= {"mechanism": args.mechanism, "heading_grid": DEFAULT_HEADINGS}
+        if args.headings:
+            fields["heading_grid"] = [float(v) for v in args.headings.split(",") if v.strip()]
+        if args.planner:
+            fields["planners"] = args.planner
+        spec = OnboardSpec(window=args.window, threshold=args.threshold, workability=fields)
+        sensor = Sensor.load(args.sensor) if args.sensor is not None else Sensor()
+        series = read_motion(args.log, sensor, rate_hz=args.rate)
+        report = onboard_report(
+            series.time, centre_motion(series.motion, sensor.position), spec, start=series.start,
+            data_dir=args.data_dir, scheduler=args.scheduler, n_workers=args.workers,
+        )  # fmt: skip
+    except ValidationError as exc:
+        parser.error(explain(exc))
+    except (TwinError, ValueError) as exc:  # TwinError is a ValueError; so is a bad number
+        parser.error(str(exc))
+    for note in report.notes:
+        print(f"twin: note: {note}", file=sys.stderr)
+    written = report.write(args.out)
+    for alert in report.alerts():
+        print(f"ALERT {alert['start'] / 60:6.1f} min {alert['planner']}: P(operable) "
+              f"{alert['probability']:.2f}; best heading {alert['best_heading']:g}° "
+              f"(turn {alert['turn']:+.0f}°, + to port)")  # fmt: skip
+    print(f"twin: {len(report.estimates)} windows, {report.runs} runs ({report.new_runs} new); "
+          f"wrote {', '.join(p.name for p in written)} to {args.out}", file=sys.stderr)  # fmt: skip
+    return 0
 
 
 def _add_warm(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -9,12 +9,20 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from pydantic import ValidationError
 
 from twin.errors import TwinError
 from twin.sea.synthesis import wave_components
-from twin.sim.onboard import OnboardReport, OnboardSpec, onboard_report, turn_to
+from twin.sim.onboard import (
+    OnboardReport,
+    OnboardSpec,
+    centre_motion,
+    onboard_report,
+    turn_to,
+)
+from twin.spatial import rpy_to_matrix
 from twin.vessel import load_raos, vessel_motion
 
 GRID = [0.0, 90.0, 180.0, 270.0]
@@ -126,3 +134,38 @@ def test_short_log_refused() -> None:
     t, motion = log(calm_first=False)
     with pytest.raises(TwinError):
         onboard_report(t[:600], motion[:600], OnboardSpec(workability=CELLS))
+
+
+def test_centre_motion_keeps_absent_channels_absent() -> None:
+    """A sensor 10 m up sees roll as sway; moved to the centre of motion its sway is the
+    centre's again, and a channel the sensor does not give stays NaN (not a measured zero)."""
+    _, motion = log(calm_first=False)
+    position = np.array([0.0, 0.0, 10.0])
+    sensor = motion.copy()
+    sensor[:, :3] += (rpy_to_matrix(motion[:, 3:]) @ position) - position
+    sensor[:, 0] = np.nan  # no surge
+    centre = centre_motion(sensor, position)
+    assert np.isnan(centre[:, 0]).all()
+    assert np.allclose(centre[:, 1:], motion[:, 1:], atol=1e-9)
+
+
+def test_cli_writes_the_report(tmp_path: Path) -> None:
+    """`twin onboard LOG --out DIR` reads a CSV log (angles in degrees by their suffix) and
+    writes the four files; the report's sea is the log's."""
+    from twin.cli import main
+
+    t, motion = log(calm_first=False)
+    table = pd.DataFrame({"time": t, "heave": motion[:, 2],
+                          "roll_deg": np.degrees(motion[:, 3]),
+                          "pitch_deg": np.degrees(motion[:, 4])})  # fmt: skip
+    table.to_csv(tmp_path / "log.csv", index=False)
+    (tmp_path / "spec.json").write_text(json.dumps(CELLS))
+    code = main(["onboard", str(tmp_path / "log.csv"), "--out", str(tmp_path / "out"),
+                 "--window", "600", "--rate", "2", "--spec", str(tmp_path / "spec.json"),
+                 "--headings", "0,90,180,270", "--data-dir", str(tmp_path / "cells"),
+                 "--scheduler", "in-process"])  # fmt: skip
+    assert code == 0
+    windows = pd.read_csv(tmp_path / "out" / "onboard.csv")
+    assert len(windows) == 3
+    assert np.allclose(windows["hs"], 1.5, rtol=0.15)
+    assert (tmp_path / "out" / "timeline.png").exists()

@@ -48,6 +48,7 @@ from twin.motion.estimate import (
     estimate_sea,
     window_starts,
 )
+from twin.motion.mount import vessel_motion_from
 from twin.sim.base_motion import mount_for, raos_named
 from twin.sim.executor import Executor
 from twin.sim.workability import (
@@ -170,10 +171,10 @@ class OnboardReport:
 
 
 def estimate_windows(
-    t: np.ndarray, motion: np.ndarray, spec: OnboardSpec
+    t: np.ndarray, motion: np.ndarray, spec: OnboardSpec, executor: Executor | None = None
 ) -> tuple[np.ndarray, list[SeaEstimate | str]]:
-    """[s] window starts and, per window, its `SeaEstimate` or the reason it was refused."""
-    raos = raos_named(spec.vessel())
+    """[s] window starts and, per window, its `SeaEstimate` or the reason it was refused; on
+    `executor`'s workers in parts (one per worker, in order) when given, else here."""
     if t.ndim != 1 or t.size < 2:
         raise TwinError(f"time: a 1-D series of at least two samples, got shape {t.shape}")
     end = float(t[-1] + np.median(np.diff(t)))  # N samples cover N steps
@@ -181,14 +182,46 @@ def estimate_windows(
     if starts.size == 0:
         raise TwinError(f"log: {end - float(t[0]):.0f} s of motion; at least one window of "
                         f"{MIN_WINDOW:.0f} s is needed")  # fmt: skip
+    windows = [(t[inside], motion[inside])
+               for inside in ((t >= s) & (t < s + spec.window) for s in starts)]  # fmt: skip
+    split = np.array_split(np.arange(starts.size), _workers(executor, starts.size))
+    parts = [[windows[i] for i in indices] for indices in split]
+    if executor is None or len(parts) == 1:
+        return starts, [e for part in parts for e in estimate_part(part, spec)]
+    futures = [executor.submit(estimate_part, part, spec) for part in parts]
+    try:
+        return starts, [e for future in futures for e in future.result()]
+    finally:
+        executor.cancel(futures)
+
+
+def _workers(executor: Executor | None, windows: int) -> int:
+    """How many parts the windows go in: one per worker thread of `executor` (1 without)."""
+    return 1 if executor is None else max(1, min(executor.workers, windows))
+
+
+def estimate_part(
+    part: list[tuple[np.ndarray, np.ndarray]], spec: OnboardSpec
+) -> list[SeaEstimate | str]:
+    """`estimate_sea` of each (t, motion) window of `part`, or the reason it was refused."""
+    raos = raos_named(spec.vessel())
     out: list[SeaEstimate | str] = []
-    for start in starts:
-        inside = (t >= start) & (t < start + spec.window)
+    for t, motion in part:
         try:
-            out.append(estimate_sea(t[inside], motion[inside], raos, gamma=spec.gamma))
+            out.append(estimate_sea(t, motion, raos, gamma=spec.gamma))
         except EstimateRefused as exc:
             out.append(str(exc))
-    return starts, out
+    return out
+
+
+def centre_motion(sensor_motion: np.ndarray, sensor_position: Any) -> np.ndarray:
+    """(N, 6) [m, rad] the centre of motion's motion from a sensor's at `sensor_position` (3,)
+    [m] (`twin.motion.mount.vessel_motion_from`), a channel the sensor does not give kept
+    absent (NaN), not read as zero: the estimate must not fit a sway it never measured."""
+    absent = np.all(np.isnan(sensor_motion), axis=0)
+    out = vessel_motion_from(sensor_motion, sensor_position)
+    out[:, absent] = np.nan
+    return out
 
 
 def turn_to(current: np.ndarray | float, target: np.ndarray | float) -> np.ndarray:
@@ -224,7 +257,8 @@ def onboard_report(
         TwinError: malformed input, or no window to estimate (a log under `MIN_WINDOW`).
     """
     spec = spec if isinstance(spec, OnboardSpec) else OnboardSpec(**spec)
-    starts, estimates = estimate_windows(np.asarray(t, float), np.asarray(motion, float), spec)
+    starts, estimates = estimate_windows(np.asarray(t, float), np.asarray(motion, float), spec,
+                                         executor)  # fmt: skip
     kept = [i for i, e in enumerate(estimates) if isinstance(e, SeaEstimate)]
     notes = [f"window at {starts[i]:.0f} s refused: {e}" for i, e in enumerate(estimates)
              if isinstance(e, str)]  # fmt: skip
