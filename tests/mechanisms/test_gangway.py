@@ -76,6 +76,8 @@ def test_inverse_at_the_paper_singular_pose() -> None:
 
 
 def test_inverse_rejects_unreachable_positions() -> None:
+    """A tip past the telescope's stroke or the slew range raises UnreachableError saying what is
+    allowed."""
     with pytest.raises(UnreachableError, match="allowed"):
         GANGWAY.inverse([30.0, 0.0, 3.106])  # needs d3 > 16.552 m
     with pytest.raises(UnreachableError, match="allowed"):
@@ -97,10 +99,13 @@ def test_cylinder_covers_the_luff_range_monotonically() -> None:
 
 
 def test_impossible_cylinder_length() -> None:
+    """A luffing-cylinder length no luff angle gives raises UnreachableError naming it
+    impossible."""
     with pytest.raises(UnreachableError, match="impossible"):
         GANGWAY.luff_from_cylinder(3.0)
 
 
 def test_bad_joint_shape() -> None:
+    """Joints of the wrong shape raise ValueError naming the shape (..., 3) expected."""
     with pytest.raises(ValueError, match=r"shape \(\.\.\., 3\)"):
         GANGWAY.forward([0.0, 0.0])

@@ -14,6 +14,7 @@ DEG = np.pi / 180
 
 
 def test_working_state_is_table5() -> None:
+    """The hybrid system's working state is Table 5's, exactly."""
     np.testing.assert_array_equal(HYBRID.working_state, [0, 0, 2.475, 0, 0, 0, 0, 0, 13.052])
 
 
@@ -77,12 +78,15 @@ def test_integrate_yaw_rate_is_exact() -> None:
 
 
 def test_leg_lengths_and_limits_at_table5_states() -> None:
+    """At the working state every leg is 3.2335 m and within limits; a telescope 4 m longer is
+    not."""
     np.testing.assert_allclose(HYBRID.leg_lengths(HYBRID.working_state), 3.2335, atol=5e-5)
     assert HYBRID.within_limits(HYBRID.working_state)
     assert not HYBRID.within_limits(HYBRID.working_state + np.r_[0, 0, 0, 0, 0, 0, 0, 0, 4.0])
 
 
 def test_bad_state_shape() -> None:
+    """A state of the wrong shape or not finite raises ValueError naming the problem."""
     with pytest.raises(ValueError, match=r"xi must have shape \(\.\.\., 9\)"):
         HYBRID.end_effector(np.zeros(8))
     with pytest.raises(ValueError, match="finite"):

@@ -98,4 +98,5 @@ def test_bad_input_raises_value_error(call, match: str) -> None:
 
 
 def test_unreachable_is_a_twin_error() -> None:
+    """UnreachableError is a TwinError, which is a ValueError (callers catch one class)."""
     assert issubclass(UnreachableError, TwinError) and issubclass(TwinError, ValueError)

@@ -36,6 +36,8 @@ def brute_range(pose: np.ndarray, axis: int) -> float:
     "pose", [[0, 0, 2.475, 0, 0, 0], [0.1, -0.2, 2.6, 0.05, -0.08, 0.1], [0, 0, 1.7, 0, 0, 0]]
 )
 def test_reachable_range_equals_a_brute_force_search(pose: list[float]) -> None:
+    """The closed-form reachable range of the platform equals a brute-force search on every axis
+    within 0.3 mm."""
     pose = np.array(pose, dtype=float)
     closed = reachable_range(H, pose)
     for axis in range(3):
@@ -53,6 +55,7 @@ def test_reachable_range_of_a_batch_is_each_poses() -> None:
 
 
 def test_reachable_range_is_zero_outside() -> None:
+    """A pose outside the workspace has a reachable range of zero on every axis."""
     np.testing.assert_array_equal(reachable_range(H, np.array([0, 0, 5.0, 0, 0, 0])), 0.0)
 
 
@@ -74,6 +77,8 @@ def test_tip_position_is_held(method: str) -> None:
 
 
 def test_conv1_moves_only_the_platform_and_conv2_keeps_its_position() -> None:
+    """conv1 reaches the target with the platform alone (gangway joints unchanged); conv2 leaves the
+    platform's position unchanged."""
     xi = H.working_state
     target = compensation_target(np.array([0.2, -0.1, 0.3, 0.03, -0.02, 0.04]))
     new = {}

@@ -56,6 +56,7 @@ def test_tip_follows_the_commanded_twist(name: str, rng: np.random.Generator) ->
 
 
 def test_fulfilled_task_gives_zero_velocity_for_pi() -> None:
+    """With the tip already on a still target, pi commands zero joint velocity."""
     xi = H.working_state
     out = build("pi", xi).step(xi, target_from(xi, np.zeros(6)), DT)
     np.testing.assert_allclose(out.velocity, 0.0, atol=1e-12)
@@ -111,6 +112,8 @@ def test_secondary_task_lives_in_the_null_space(rng: np.random.Generator) -> Non
 
 
 def test_rate_limit_binds_and_keeps_direction() -> None:
+    """A demand beyond the rate limits is scaled down (scale < 1) without changing the velocity's
+    direction."""
     xi = H.working_state
     fast = np.r_[5.0, 0, 0, 0, 0, 0]  # 5 m/s of tip motion: beyond every joint's rate
     out = build("pi", xi).step(xi, target_from(xi, fast), DT)

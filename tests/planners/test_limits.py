@@ -35,6 +35,8 @@ def velocity(w_pz: float, q1_dot: float) -> np.ndarray:
     ],
 )
 def test_algorithm1_cases(q1: float, w_sum: float, slew: float, yaw: float) -> None:
+    """Algorithm 1 sets the slew and yaw rates of each case and leaves every other joint rate
+    unchanged."""
     out = ALGO(state(q1), velocity(w_sum / 3, 2 * w_sum / 3))
     assert out[6] == pytest.approx(slew)
     assert out[5] == pytest.approx(yaw)
@@ -51,6 +53,8 @@ def test_band_blend_is_continuous_at_both_edges() -> None:
 
 
 def test_velocity_limit_scales_uniformly() -> None:
+    """A velocity past its limit is scaled uniformly so the worst joint is at its limit; one within
+    is kept (scale 1)."""
     limit = VelocityLimit(np.full(3, 1.0))
     v, scale = limit(np.array([0.5, -4.0, 2.0]))
     np.testing.assert_allclose(v, [0.125, -1.0, 0.5])

@@ -90,6 +90,8 @@ def parts(obj: object) -> Iterator[object]:
 
 @pytest.mark.parametrize(("name", "mechanism"), CASES)
 def test_registry_planner_is_a_planner(name: str, mechanism: str) -> None:
+    """Every registry planner conforms to the Planner protocol and steps to a finite velocity of the
+    state's shape."""
     planner, state, target, _ = built(name, mechanism)
     assert isinstance(planner, Planner)
     assert conformance(planner, Planner) == []
@@ -102,6 +104,7 @@ def test_registry_planner_is_a_planner(name: str, mechanism: str) -> None:
 
 @pytest.mark.parametrize(("name", "mechanism"), CASES)
 def test_every_part_implements_its_protocol(name: str, mechanism: str) -> None:
+    """Every part of every registry planner has a protocol and conforms to it."""
     planner, *_ = built(name, mechanism)
     for part in parts(planner):
         if isinstance(part, DATA):
@@ -140,6 +143,8 @@ def hybrid_parts() -> tuple[dict[type, list[object]], np.ndarray, TipTarget]:
 
 
 def test_parts_return_what_their_protocols_promise() -> None:
+    """Tasks, weights, limits, shapers and scalers return the shapes and signs their protocols
+    promise, finite."""
     found, xi, target = hybrid_parts()
     n = xi.shape[-1]
     for task in found[TargetTask] + found[SecondaryTask]:
@@ -183,6 +188,8 @@ class _StepWithoutDt(_NoReset):
 
 
 def test_conformance_names_what_is_missing_or_mis_signed() -> None:
+    """conformance names a missing method and a method with the wrong number of arguments, which
+    isinstance misses."""
     assert not isinstance(_NoReset(), Planner)
     assert conformance(_NoReset(), Planner) == ["_NoReset has no 'reset'"]
     assert isinstance(_StepWithoutDt(), Planner)  # isinstance sees only the names

@@ -244,6 +244,8 @@ def test_level_2_takes_the_closest_feasible_rates() -> None:
 
 
 def test_a_nan_target_gives_nan_rates() -> None:
+    """A NaN target twist makes the QP return NaN rates at level 0 with no active row (the engine's
+    fault path)."""
     planner = qp()
     target = TipTarget(H.end_effector(H.working_state), np.full(6, np.nan))
     v, level = solve_levels(planner.problem(H.working_state, target, DT))

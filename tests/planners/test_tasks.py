@@ -25,6 +25,8 @@ def targets(rng: np.random.Generator, xi: np.ndarray) -> TipTarget:
 
 
 def test_error_demand_and_jacobian_equal_the_mechanisms(rng: np.random.Generator) -> None:
+    """The tip task's error, demand (twist + 7 e) and Jacobian equal the mechanism's pose error and
+    task Jacobian to 1e-12."""
     xi = random_hybrid_states(rng, 40)
     target = targets(rng, xi)
     e = pose_error(target.transform, H.end_effector(xi))
@@ -46,6 +48,8 @@ def test_one_lane_and_a_shared_target(rng: np.random.Generator) -> None:
 
 
 def test_bad_states_raise_twin_errors() -> None:
+    """A non-finite or wrongly shaped state raises TwinError naming the argument and what is
+    allowed."""
     xi = H.working_state.copy()
     xi[7] = np.nan
     target = TipTarget(H.end_effector(H.working_state), np.zeros(6))

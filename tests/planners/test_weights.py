@@ -12,6 +12,8 @@ H = HybridBoardingSystem()
 
 
 def test_beta_split_is_eq28() -> None:
+    """BetaSplit(0.7) weighs the six platform joints 0.7 and the three gangway joints 0.3 (eq
+    28)."""
     w = BetaSplit(0.7)(H.working_state)
     np.testing.assert_allclose(w, [0.7] * 6 + [0.3] * 3)
 
@@ -53,6 +55,7 @@ def test_kc_scales_the_telescope_weight() -> None:
 
 
 def test_beyond_a_limit_the_weight_is_small_but_not_zero() -> None:
+    """Past a joint limit the weight is positive and below 2e-3, never zero."""
     weights = JointLimitWeights(H.lower, H.upper, np.ones(9))
     w = weights(H.upper + 0.1)
     assert np.all((w > 0) & (w < 2e-3))

@@ -20,6 +20,8 @@ TABLE_2 = {
 
 @pytest.mark.parametrize("state", TABLE_2)
 def test_presets_match_table_2(state: str) -> None:
+    """The regular-wave presets have Table 2's number of waves, amplitudes, periods and
+    directions."""
     amplitude, period, direction = TABLE_2[state]
     preset = REGULAR_PRESETS[state]
     assert preset.omega.size == len(amplitude)  # "Number of Waves"
@@ -32,6 +34,7 @@ def test_presets_match_table_2(state: str) -> None:
 
 
 def test_presets_are_read_only() -> None:
+    """The regular-wave preset mapping cannot be assigned to."""
     with pytest.raises(TypeError):
         REGULAR_PRESETS["state4"] = REGULAR_PRESETS["state1"]  # type: ignore[index]
 
@@ -75,5 +78,6 @@ def test_wave_repeats_one_deep_water_wavelength_downwave() -> None:
     ],
 )
 def test_bad_regular_waves_raise(args: tuple, message: str) -> None:
+    """Bad regular-wave arguments raise TwinError with a message naming the problem."""
     with pytest.raises(TwinError, match=message):
         regular_components(*args)

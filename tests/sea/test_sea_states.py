@@ -26,6 +26,8 @@ WMO_3700 = {
 
 
 def test_table_matches_wmo_3700() -> None:
+    """The sea-state table has codes 0-9 with WMO 3700's Hs bands, each typical Hs inside its
+    band."""
     assert [s.code for s in WMO_SEA_STATES] == list(range(10))
     for state in WMO_SEA_STATES:
         assert (state.hs_min, state.hs_max) == WMO_3700[state.code]
@@ -55,6 +57,7 @@ def test_representative_sea_is_fully_developed(code: int) -> None:
 
 
 def test_integer_codes_give_table_values() -> None:
+    """Integer codes give the table's Hs and Tp, with Tp increasing from code 1 up."""
     hs, tp = sea_state_hs_tp(np.arange(10))
     np.testing.assert_allclose(hs, [s.hs for s in WMO_SEA_STATES])
     np.testing.assert_allclose(tp, [s.tp for s in WMO_SEA_STATES])
@@ -72,6 +75,7 @@ def test_fractional_code_is_between_neighbours() -> None:
 
 
 def test_code_of_hs_inverts_the_table() -> None:
+    """sea_state_code of each typical Hs is its code, and band edges fall into the right codes."""
     codes = sea_state_code([s.hs for s in WMO_SEA_STATES])
     np.testing.assert_array_equal(codes, np.arange(10))
     np.testing.assert_array_equal(sea_state_code([0.1, 0.5, 14.0, 14.01, 25.0]), [1, 2, 8, 9, 9])
@@ -86,5 +90,6 @@ def test_seed001_level_four_sea_is_wmo_code_5() -> None:
 
 @pytest.mark.parametrize("code", [-1, 9.5, 10, np.nan, np.inf])
 def test_bad_code_names_range(code: float) -> None:
+    """A code outside [0, 9] raises TwinError naming the range."""
     with pytest.raises(TwinError, match=r"sea-state code .*\[0, 9\]"):
         sea_state_hs_tp(code)

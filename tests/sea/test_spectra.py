@@ -81,6 +81,7 @@ def test_hs_tp_form_equals_wind_form(g: float) -> None:
 
 
 def test_jonswap_gamma_one_is_pierson_moskowitz() -> None:
+    """JONSWAP with gamma 1 equals Pierson-Moskowitz at every frequency."""
     omega = np.linspace(0.0, 5.0, 501)
     np.testing.assert_allclose(jonswap(omega, HS, TP, 1.0), pierson_moskowitz(omega, HS, TP))
 
@@ -144,6 +145,7 @@ def test_parameters_broadcast_against_omega() -> None:
 
 
 def test_zero_frequency_is_zero_not_nan() -> None:
+    """Every spectrum is exactly 0 (not NaN) at zero and near-zero frequency."""
     omega = np.array([0.0, 1e-300, 1e-3])
     for s in (
         pierson_moskowitz(omega, HS, TP),
@@ -172,6 +174,8 @@ def _assert_relative(ours: np.ndarray, peer: np.ndarray, rtol: float) -> None:
 
 @pytest.mark.parametrize(("hs", "tp"), [(HS, TP), (0.5, 4.0), (12.0, 16.0)])
 def test_pierson_moskowitz_equals_wavespectra(hs: float, tp: float) -> None:
+    """Pierson-Moskowitz equals wavespectra's, to 1e-12 in its alpha form and 1e-6 in its Hs
+    form."""
     ours = pierson_moskowitz(2 * np.pi * FREQ, hs, tp)
     alpha_form = ws_pierson_moskowitz(FREQ, 1 / tp, alpha=_alpha(hs, tp)).values / (2 * np.pi)
     hs_form = ws_pierson_moskowitz(FREQ, 1 / tp, hs=hs).values / (2 * np.pi)
@@ -181,6 +185,8 @@ def test_pierson_moskowitz_equals_wavespectra(hs: float, tp: float) -> None:
 
 @pytest.mark.parametrize("gamma", [1.0, 2.0, 3.3, 5.0, 7.0])
 def test_jonswap_equals_wavespectra(gamma: float) -> None:
+    """JONSWAP equals wavespectra's for each gamma, to 1e-12 in its alpha form and 1e-6 in its Hs
+    form."""
     ours = jonswap(2 * np.pi * FREQ, HS, TP, gamma)
     alpha = _alpha(HS, TP) * jonswap_normalisation(gamma)
     alpha_form = ws_jonswap(FREQ, 1 / TP, alpha=alpha, gamma=gamma).values / (2 * np.pi)
@@ -213,6 +219,8 @@ def test_cos2s_equals_wavespectra_cartwright(spread_deg: float) -> None:
 
 @pytest.mark.parametrize("s", [0.0, 0.5, 1.0, 10.0, 300.0])
 def test_cos2s_integrates_to_one_and_peaks_at_mean(s: float) -> None:
+    """The cos-2s spreading integrates to 1 over a circle and, when s > 0, peaks at the mean
+    direction."""
     total = quad(lambda th: cos2s_spreading(th, 1.0, s), 1.0 - np.pi, 1.0 + np.pi, limit=200)[0]
     assert total == pytest.approx(1.0, rel=1e-9)
     theta = np.linspace(-np.pi, np.pi, 721)
@@ -238,6 +246,8 @@ def test_cos2s_integrates_to_one_and_peaks_at_mean(s: float) -> None:
     ],
 )
 def test_bad_input_names_field_and_range(call, field: str, allowed: str) -> None:
+    """Bad spectrum input raises a TwinError (a ValueError) naming the field and its allowed
+    range."""
     with pytest.raises(TwinError) as error:
         call()
     assert field in str(error.value) and allowed in str(error.value)

@@ -28,6 +28,7 @@ def test_grid_heights_equal_pointwise_elevation() -> None:
 
 
 def test_gerstner_without_steepness_is_the_height_field() -> None:
+    """Gerstner points with zero steepness stay on the grid and have the surface heights as z."""
     points = gerstner_points(SEA, X, Y, 2.0, steepness=0.0)
     grid_x, grid_y = np.meshgrid(X, Y, indexing="ij")
     np.testing.assert_array_equal(points[..., 0], grid_x)
@@ -60,5 +61,6 @@ def test_gerstner_particles_move_on_circles_of_radius_a() -> None:
     ],
 )
 def test_bad_grid_raises(call, message: str) -> None:
+    """A bad grid or time raises TwinError with a message naming the problem."""
     with pytest.raises(TwinError, match=message):
         call()

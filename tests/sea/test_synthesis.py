@@ -58,6 +58,7 @@ def test_three_hour_record_statistics(seed: int) -> None:
 
 
 def test_same_seed_same_sea() -> None:
+    """One seed gives the same sea and wave components bit for bit; another seed a different sea."""
     t = np.linspace(0.0, 600.0, 1201)
     first = elevation(t, HS, TP, seed=42, spreading=10.0)
     np.testing.assert_array_equal(first, elevation(t, HS, TP, seed=42, spreading=10.0))
@@ -142,6 +143,7 @@ def test_bin_centres_on_seed001_grid_repeat_exactly() -> None:
 
 
 def test_frequency_bins_place_one_frequency_per_bin() -> None:
+    """Jittered frequencies fall one per equal bin; without jitter they are the bin centres."""
     omega, edges = frequency_bins(50, (0.3, 2.3), seed=9)
     assert np.all((edges[:-1] <= omega) & (omega < edges[1:]))
     np.testing.assert_allclose(np.diff(edges), 0.04)
@@ -215,6 +217,7 @@ def test_spreading_draws_cos2s_directions() -> None:
     ],
 )
 def test_bad_input_raises_named_error(call, message: str) -> None:
+    """Bad synthesis input raises TwinError with a message naming the problem."""
     with pytest.raises(TwinError, match=message):
         call()
 

@@ -114,6 +114,8 @@ def test_pack_round_trip(method: str, hold: bool, base: BaseSamples) -> None:
 
 
 def test_pack_refuses_unreset_or_unknown() -> None:
+    """Packing an allocation planner that was not reset, or of a method the kernel lacks, raises
+    ValueError naming it."""
     with pytest.raises(ValueError, match="reset"):
         ak.pack_allocation(AllocationPlanner(MECHANISM, "dwa"), hold=False)
     planner = AllocationPlanner(MECHANISM, "conv3")
@@ -125,6 +127,7 @@ def test_pack_refuses_unreset_or_unknown() -> None:
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_non_finite_target_is_a_planner_fault(engine: str, request: pytest.FixtureRequest) -> None:
+    """A NaN target makes the allocation kernel step return the planner fault."""
     step = stepper(engine, request)
     xi = MECHANISM.working_state
     planner = AllocationPlanner(MECHANISM, "dwa")

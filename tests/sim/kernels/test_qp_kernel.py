@@ -170,6 +170,8 @@ def test_the_lanes_faults() -> None:
 
 
 def test_the_fault_bit_and_rows() -> None:
+    """The QP kernel's fault code, parameter size, diagnostic row and kind agree with the layout and
+    are distinct."""
     assert layout.FAULT_INFEASIBLE == Fault.INFEASIBLE
     assert QP_PARAMETERS.itemsize == 8 * layout.N_PARAMETERS
     assert layout.D_QP_ACTIVE < layout.N_HYBRID_DIAGNOSTICS
