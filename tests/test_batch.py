@@ -45,6 +45,7 @@ def test_leading_axes_broadcast_and_come_back(plain: bool, rng: np.random.Genera
 
 
 def test_an_input_without_its_core_axes_is_refused() -> None:
+    """An input with fewer axes than its core signature raises ValueError saying so."""
     with pytest.raises(ValueError, match="fewer axes than its core"):
         SCALED_SUM([1.0, 1.0], [2.5], [(1,), ()])
 

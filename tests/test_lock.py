@@ -41,6 +41,7 @@ def declared(*extras: str) -> set[str]:
 
 
 def test_every_declared_dependency_is_pinned_in_range() -> None:
+    """Every dependency pyproject.toml declares is locked at a version inside its declared range."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     locked = pins("test.txt")
     lines = [*project["dependencies"]]
@@ -57,12 +58,14 @@ def test_every_declared_dependency_is_pinned_in_range() -> None:
 
 
 def test_the_serve_set_is_the_test_sets_versions() -> None:
+    """The serve lock holds every declared dependency at the test lock's versions."""
     serve, test = pins("serve.txt"), pins("test.txt")
     assert declared() <= set(serve)
     assert {name: test.get(name) for name in serve} == serve
 
 
 def test_uv_and_netsse_are_pinned() -> None:
+    """The bootstrap lock pins uv alone and the netsse lock netsse alone."""
     assert set(pins("bootstrap.txt")) == {"uv"}
     assert set(pins("netsse.txt")) == {"netsse"}
 

@@ -28,6 +28,8 @@ class Sea(BaseModel):
 
 
 def test_error_message_drops_pydantics_prefix_and_the_field_named_twice() -> None:
+    """error_message drops pydantic's prefix and a repeated field name, keeping a field other than
+    the one located."""
     assert error_message("Value error, hs: out of range", "hs") == "out of range"
     assert error_message("Value error, hs: hs: twice", "hs") == "hs: twice"  # once only
     assert error_message("Value error, hs: out of range", "tp") == "hs: out of range"

@@ -255,6 +255,7 @@ def test_one_thread_picks_the_serial_runners() -> None:
     [({"engine": "fortran"}, "engine"), ({}, "beta")],
 )
 def test_bad_requests_name_the_field(kwargs: dict, message: str) -> None:
+    """A bad simulate_many request raises ValueError naming the field at fault."""
     with pytest.raises(ValueError, match=message):
         simulate_many([{"beta": 2.0}] if not kwargs else [{}], **kwargs)
 

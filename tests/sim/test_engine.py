@@ -56,6 +56,8 @@ def test_metrics_later_count_the_faults_of_the_series_taken_with_them(
 
 
 def test_series_has_the_contract_keys_and_shapes() -> None:
+    """A 5 s run's series has one sample per step plus one, the contract's shapes, and only finite
+    values."""
     result = simulate(SHORT)
     n = 5.0 / 0.05 + 1
     series = result.series
@@ -68,6 +70,8 @@ def test_series_has_the_contract_keys_and_shapes() -> None:
 
 
 def test_metrics_are_finite_and_json_ready() -> None:
+    """A run's metrics serialise to strict JSON (no NaN or inf) and round-trip their violation
+    count."""
     metrics = simulate(SHORT).metrics
     text = json.dumps(metrics, allow_nan=False)  # raises on NaN or inf
     assert "violations" in metrics and "table7" in metrics
@@ -112,6 +116,7 @@ def test_bad_scenarios_name_the_field(field: str, value, message: str) -> None:
 
 
 def test_too_many_steps_is_refused() -> None:
+    """A scenario whose duration and dt need too many steps raises ValueError naming the steps."""
     with pytest.raises(ValueError, match="steps"):
         Scenario(duration=MAX_DURATION, dt=0.005)
 

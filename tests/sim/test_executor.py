@@ -19,6 +19,8 @@ def _ms(key: str) -> float:
 
 
 def test_in_process_cluster_runs_its_callbacks_at_the_quiet_periods() -> None:
+    """The in-process cluster's scheduler and worker callbacks run at the configured quiet
+    intervals, no profiler, and it computes."""
     with Executor.start(IN_PROCESS, warm=False) as executor:
         scheduler = executor.cluster.scheduler
         (worker,) = executor.cluster.workers.values()

@@ -30,6 +30,8 @@ def all_finite(series: dict[str, np.ndarray]) -> bool:
 def test_nan_base_motion_holds_the_last_good_pose_and_is_flagged(
     nan_sea: Callable[..., None], mechanism: str
 ) -> None:
+    """A NaN base-motion window holds the last good pose, counts one fault per step touching it,
+    logs one event, and the run stays finite."""
     nan_sea(*WINDOW)
     sim = Simulation({"mechanism": mechanism, "sea_state": 4, "duration": 3.0})
     run = sim.run()
@@ -53,6 +55,8 @@ def test_nan_base_motion_holds_the_last_good_pose_and_is_flagged(
 
 def test_a_sea_that_raises_is_held_like_nan(monkeypatch: pytest.MonkeyPatch) -> None:
     # a live session's history: base motion is sampled 256 steps (12.8 s) ahead
+    """A sea whose evaluation raises is held at the last good pose like NaN, the run finite and the
+    faults counted."""
     sim = Simulation({"sea_state": 3, "duration": 20.0}, history_limit=1000)
 
     def broken(*args: object, **kwargs: object) -> np.ndarray:
@@ -147,6 +151,8 @@ def test_holding_at_the_limits_stops_legs_at_their_stroke() -> None:
 
 
 def test_joint_limits_switch_live_without_a_restart() -> None:
+    """Switching joint_limits to hold mid-run changes the packed parameter without restarting the
+    run."""
     sim = Simulation({"planner": "pi", "sea_state": 4, "duration": 40.0})
     for _ in range(10):
         sim.step()
@@ -158,6 +164,8 @@ def test_joint_limits_switch_live_without_a_restart() -> None:
 
 
 def test_hold_invalid_carries_the_last_good_pose_across_batches() -> None:
+    """hold_invalid replaces each non-finite pose with the last good one (carried in across
+    batches), per lane."""
     pose = np.arange(30.0).reshape(5, 6)
     pose[0], pose[3], pose[4] = np.nan, np.inf, np.nan
     out, bad = hold_invalid(pose, last_good=np.full(6, 7.0))
@@ -224,6 +232,8 @@ def test_fault_log_of_a_chunk_equals_step_by_step(seed: int) -> None:
 
 
 def test_fault_log_merges_a_running_fault_and_bounds_its_events() -> None:
+    """FaultLog merges consecutive faults of one kind into an event, keeps at most `keep` events,
+    and counts every hold."""
     log = FaultLog(keep=3)
     for k in range(10):
         log.add(0.1 * k, Fault.BASE_MOTION)
@@ -249,6 +259,8 @@ def live() -> Iterator[LiveSession]:
 def test_live_session_reports_faults_and_never_nan(
     nan_sea: Callable[..., None], live: LiveSession
 ) -> None:
+    """A live session over a NaN sea reports the base-motion faults and event in its JSON snapshot
+    and serves no NaN."""
     nan_sea(0.5, 1.0)
     live.reset()  # the patched sea from t = 0
     live.pause()

@@ -17,6 +17,8 @@ def chunk(start: int, n: int, lanes: int = 2) -> dict[str, np.ndarray]:
 
 @pytest.mark.parametrize("sizes", [(1, 3, 4), (5, 1, 1, 1, 7), (12,), (2, 2, 2, 2, 2, 2)])
 def test_ring_keeps_the_newest_in_order(sizes: tuple[int, ...]) -> None:
+    """For any chunk sizes, the ring keeps the newest samples, oldest first, and its latest and
+    newest rows."""
     ring, total = History(5), 0
     for n in sizes:
         ring.append(chunk(total, n))
@@ -30,6 +32,8 @@ def test_ring_keeps_the_newest_in_order(sizes: tuple[int, ...]) -> None:
 
 
 def test_reserve_grows_an_unwrapped_history_and_refuses_a_wrapped_one() -> None:
+    """reserve grows a history that has not wrapped and raises ValueError on one that dropped
+    samples."""
     history = History(4)
     history.append(chunk(0, 3))
     history.reserve(10)
@@ -42,6 +46,8 @@ def test_reserve_grows_an_unwrapped_history_and_refuses_a_wrapped_one() -> None:
 
 
 def test_backfill_first_copies_the_first_steps_values_into_sample_zero() -> None:
+    """backfill_first copies the first step's values of the named keys into sample 0, other keys
+    left."""
     history = History(4)
     history.append({"t": np.zeros((1, 1)), "d": np.zeros((1, 1))})
     step = {"t": np.ones((1, 2)), "d": np.array([[7.0, 8.0]])}
@@ -52,6 +58,8 @@ def test_backfill_first_copies_the_first_steps_values_into_sample_zero() -> None
 
 
 def test_adopt_makes_a_whole_runs_records_the_history_without_a_copy() -> None:
+    """adopt takes a run's arrays without copying, copies once the run grows, and refuses a history
+    past sample 0."""
     history = History(1)
     history.append(chunk(0, 1))
     run = chunk(0, 6)

@@ -17,6 +17,7 @@ def live() -> LiveSession:
 
 
 def test_advance_paces_simulated_time_to_wall_time_times_speed(live: LiveSession) -> None:
+    """advance steps simulated time equal to the wall time given times the speed."""
     assert live.advance(0.5) == 10  # 0.5 s at dt 0.05
     live.patch({"speed": 4.0})
     assert live.advance(0.25) == 20
@@ -24,6 +25,7 @@ def test_advance_paces_simulated_time_to_wall_time_times_speed(live: LiveSession
 
 
 def test_pause_play_and_single_step(live: LiveSession) -> None:
+    """Paused, advance steps nothing and step moves one dt; playing, advance steps again."""
     live.pause()
     assert live.advance(1.0) == 0
     live.step()
@@ -33,6 +35,7 @@ def test_pause_play_and_single_step(live: LiveSession) -> None:
 
 
 def test_patch_takes_effect_and_bad_patch_changes_nothing(live: LiveSession) -> None:
+    """A valid patch takes effect; each bad patch raises ValueError and changes nothing."""
     live.advance(1.0)
     assert live.patch({"beta": 0.3, "speed": 2.0}) == {"beta", "speed"}
     assert live.scenario.beta == 0.3 and live.controls.speed == 2.0
@@ -48,6 +51,7 @@ def test_patch_takes_effect_and_bad_patch_changes_nothing(live: LiveSession) -> 
 
 
 def test_mechanism_change_restarts(live: LiveSession) -> None:
+    """Patching the mechanism restarts the session at t = 0 with a new version and finite legs."""
     live.advance(1.0)
     version = live.version
     live.patch({"mechanism": "upr4", "planner": "pid"})
@@ -57,11 +61,14 @@ def test_mechanism_change_restarts(live: LiveSession) -> None:
 
 
 def test_stall_drops_time_instead_of_spiralling(live: LiveSession) -> None:
+    """After a stall, advance catches up at most MAX_CATCH_UP steps and owes nothing afterwards."""
     assert live.advance(60.0) == 40  # MAX_CATCH_UP
     assert live.advance(0.0) == 0  # nothing owed afterwards
 
 
 def test_background_loop_runs_in_real_time() -> None:
+    """The background loop keeps simulated time near wall time (0.5-1.3 s after 1 s), values
+    finite."""
     live = LiveSession({"sea_state": 3}, tick=0.01)
     live.start()
     try:
@@ -91,6 +98,8 @@ def test_a_tick_that_cannot_keep_up_stops_at_its_budget(live: LiveSession) -> No
 
 
 def test_playing_is_strictly_a_bool_and_empty_names_change_nothing(live: LiveSession) -> None:
+    """A non-bool playing, an empty name or a run-only field raises ValueError and leaves the
+    snapshot unchanged."""
     before = live.snapshot()
     for bad in ({"playing": "false"}, {"playing": 0}, {"playing": None}, {"planner": ""},
                 {"planner": "", "beta": 0.2}, {"mechanism": ""}, {"duration": 5.0},

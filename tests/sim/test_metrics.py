@@ -12,6 +12,7 @@ from twin.sim.metrics import drift, efficacy
 
 
 def test_drift_of_a_ramp_is_its_rise_and_of_a_sine_nearly_zero() -> None:
+    """The drift of a ramp is its rise over the run, and of a sine nearly zero."""
     t = np.linspace(0, 100, 2001)
     ramp = np.stack([0.02 * t, np.sin(2 * np.pi * t / 7)], -1)
     d = drift(t, ramp)

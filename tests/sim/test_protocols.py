@@ -28,6 +28,7 @@ def simulation(mechanism: str) -> Simulation:
 
 
 def test_the_engine_knows_both_lane_classes() -> None:
+    """The lane registry maps hybrid to HybridLanes and both platforms to PlatformLanes."""
     assert set(LANES.values()) == {HybridLanes, PlatformLanes}
     assert LANES["hybrid"] is HybridLanes
     assert LANES["upu3up"] is LANES["upr4"] is PlatformLanes
@@ -35,6 +36,8 @@ def test_the_engine_knows_both_lane_classes() -> None:
 
 @pytest.mark.parametrize("mechanism", sorted(SCENARIOS))
 def test_lanes_implement_the_protocol(mechanism: str) -> None:
+    """Each mechanism's lanes conform to the Lanes protocol (and hybrid's to ReducingLanes) with the
+    shapes it promises."""
     sim = simulation(mechanism)
     lanes = sim.lanes
     assert isinstance(lanes, Lanes)

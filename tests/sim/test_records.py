@@ -21,6 +21,8 @@ H = HybridBoardingSystem()
 
 @pytest.mark.parametrize("runner", ["compiled", "python"])
 def test_hybrid_records_equal_the_mechanism(rng: np.random.Generator, runner: str) -> None:
+    """The hybrid records equal the mechanism's legs, tip error, manipulability and tilt, and from a
+    later first sample the same bits."""
     n_lanes, n = 2, 40
     xi = random_hybrid_states(rng, n_lanes * n, shrink=0.8).reshape(n_lanes, n, 9)
     poses = rng.normal(scale=[0.5, 0.5, 0.5, 0.1, 0.1, 0.3], size=(n_lanes, n, 6))

@@ -105,6 +105,8 @@ def test_one_executor_runs_sweeps_runs_and_maps() -> None:
 
 
 def test_a_sweep_stops_when_told() -> None:
+    """A sweep told to stop raises SweepStopped, and the executor still runs a full sweep
+    afterwards."""
     with Executor.start("in-process") as executor:
         with pytest.raises(SweepStopped):
             run_sweep(SMALL, executor=executor, chunk_size=1, progress=False, stop=lambda: True)
@@ -112,6 +114,8 @@ def test_a_sweep_stops_when_told() -> None:
 
 
 def test_map_unordered_starts_and_closes_its_own_executor() -> None:
+    """map_unordered with a scheduler name runs every job on its own executor and returns each
+    result."""
     jobs = [{"name": "a", "duration": 0.5}, {"name": "b", "duration": 1.0}]
     assert sorted(map_unordered(steps_of, jobs, scheduler="in-process")) == [("a", 10), ("b", 20)]
 
@@ -157,11 +161,13 @@ def test_table_and_heatmap_export(tmp_path) -> None:
     ],
 )  # fmt: skip
 def test_bad_requests_name_the_field(fields: dict, message: str) -> None:
+    """A bad SweepSpec raises ValueError naming the field at fault."""
     with pytest.raises(ValueError, match=message):
         SweepSpec(**fields)
 
 
 def test_bad_scheduler_is_named() -> None:
+    """An unknown scheduler raises ValueError naming the scheduler."""
     with pytest.raises(ValueError, match="scheduler"):
         run_sweep(SMALL, scheduler="localhost:8786", progress=False)
 
@@ -252,6 +258,7 @@ def test_spec_around_defaults_are_the_old_grid() -> None:
     ],
 )
 def test_spec_around_names_a_bad_grid_argument(arguments: dict, message: str) -> None:
+    """spec_around with a bad grid argument raises TwinError naming it."""
     from twin.errors import TwinError
     from twin.sim.scenario import Scenario
     from twin.sim.sweep import spec_around

@@ -32,6 +32,8 @@ def test_parameter_change_applies_on_the_next_step() -> None:
 
 
 def test_bad_update_raises_and_changes_nothing() -> None:
+    """A bad update raises ValueError and leaves the scenario unchanged; changing dt asks for a new
+    simulation."""
     sim = Simulation(BASE)
     run(sim, 5)
     before = sim.scenario
@@ -56,6 +58,7 @@ def test_sea_change_keeps_running_and_the_tip_recovers() -> None:
 
 
 def test_history_limit_is_a_ring_buffer() -> None:
+    """With history_limit 50 the history keeps the newest 50 samples, oldest first."""
     sim = Simulation(BASE, history_limit=50)
     run(sim, 120)
     assert len(sim.history) == 50

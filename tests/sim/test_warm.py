@@ -13,6 +13,8 @@ numba = pytest.importorskip("numba")
 
 
 def test_after_warm_no_run_compiles_a_kernel() -> None:
+    """After warm(), no run of any planner, serial or parallel, series or metrics, compiles a
+    kernel."""
     from numba.core import event
 
     warm()  # from numba's disk cache where the suite's warm-up filled it
