@@ -95,6 +95,8 @@ def test_a_non_utf8_origin_is_400_not_500(tmp_path: Path) -> None:
 
 
 def test_two_origin_headers_are_refused_even_if_the_last_is_ours(client: TestClient) -> None:
+    """A request with two Origin headers is refused 403 even if the last is ours; one same-origin
+    header passes."""
     response = client.patch(
         "/api/live", json={"beta": 0.5},
         headers=[("Authorization", f"Bearer {TOKEN}"), ("Origin", "http://evil.example"),
@@ -151,5 +153,6 @@ def test_x_forwarded_for_is_ignored_by_default() -> None:
 
 
 def test_x_forwarded_for_names_the_client_behind_a_trusted_proxy() -> None:
+    """Behind a trusted proxy, X-Forwarded-For names the client the server sees."""
     for port in _serve(forwarded_allow_ips=("127.0.0.1",)):
         assert _ask(port, "203.0.113.7") == b"203.0.113.7"

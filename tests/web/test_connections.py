@@ -62,6 +62,7 @@ def rest_port() -> Iterator[int]:
 
 
 def test_listen_makes_a_tcp_socket_with_nodelay() -> None:
+    """listen makes a TCP socket with TCP_NODELAY set."""
     sock = listen("127.0.0.1", 0)
     try:
         assert sock.proto == socket.IPPROTO_TCP
@@ -71,6 +72,7 @@ def test_listen_makes_a_tcp_socket_with_nodelay() -> None:
 
 
 def test_every_accepted_rest_connection_has_nodelay(rest_port: int) -> None:
+    """Every connection the REST server accepts has TCP_NODELAY set."""
     with socket.create_connection(("127.0.0.1", rest_port)) as client:
         client.sendall(b"GET / HTTP/1.1\r\nHost: localhost\r\n\r\n")
         assert client.recv(100).startswith(b"HTTP/1.1 200")
@@ -81,6 +83,7 @@ def test_every_accepted_rest_connection_has_nodelay(rest_port: int) -> None:
 
 
 def test_every_accepted_viewer_connection_has_nodelay() -> None:
+    """Every connection the viewer accepts has TCP_NODELAY set."""
     from tests.web.support import free_port
     from twin.sim.live import LiveSession
     from twin.web.viewer import start_viewer
@@ -130,6 +133,7 @@ def _answer(conn: socket.socket) -> bytes:
 
 
 def test_an_incomplete_request_is_answered_408_and_closed() -> None:
+    """A request whose headers never end is answered 408 once the request timeout passes."""
     for port in _guarded(request_timeout=0.3):
         with socket.create_connection(("127.0.0.1", port)) as conn:
             conn.sendall(b"GET / HTTP/1.1\r\nHost: localhost\r\nX-Slow: ")  # and no more
@@ -138,6 +142,7 @@ def test_an_incomplete_request_is_answered_408_and_closed() -> None:
 
 
 def test_a_connection_that_sends_nothing_is_closed() -> None:
+    """A connection that sends nothing is answered 408 and closed after the request timeout."""
     for port in _guarded(request_timeout=0.3):
         with socket.create_connection(("127.0.0.1", port)) as conn:
             assert _answer(conn).startswith(b"HTTP/1.1 408")
@@ -157,6 +162,7 @@ async def _reads_body(scope: dict[str, Any], receive: Any, send: Any) -> None:
 
 
 def test_a_slow_body_is_cut_off() -> None:
+    """A body that arrives too slowly is cut off with 408."""
     for port in _guarded(app=_reads_body, request_timeout=0.3):
         with socket.create_connection(("127.0.0.1", port)) as conn:
             conn.sendall(b"POST / HTTP/1.1\r\nHost: localhost\r\nContent-Length: 99\r\n\r\nab")
@@ -164,6 +170,8 @@ def test_a_slow_body_is_cut_off() -> None:
 
 
 def test_connections_over_the_per_client_cap_are_closed_and_others_served() -> None:
+    """A client's connection past its cap is closed unread, while another address is still served
+    200."""
     for port in _guarded(request_timeout=30.0, max_per_client=5, max_connections=50):
         held = [socket.create_connection(("127.0.0.1", port)) for _ in range(5)]
         try:
@@ -181,6 +189,7 @@ def test_connections_over_the_per_client_cap_are_closed_and_others_served() -> N
 
 
 def test_after_a_flood_of_idle_connections_the_server_serves_again() -> None:
+    """After a flood of idle connections past every cap, the server serves a request again."""
     for port in _guarded(request_timeout=0.3, max_per_client=20, max_connections=20):
         flood = [socket.create_connection(("127.0.0.1", port)) for _ in range(60)]
 
@@ -200,6 +209,7 @@ def test_after_a_flood_of_idle_connections_the_server_serves_again() -> None:
 
 
 def test_accept_errors_are_logged_once_per_interval(caplog: pytest.LogCaptureFixture) -> None:
+    """A thousand accept errors within one interval log one warning naming the error."""
     import errno
 
     from twin.web.connections import throttled_exceptions
@@ -259,6 +269,8 @@ def moved_viewer() -> Iterator[tuple[Any, int]]:
 
 
 def test_the_viewer_trusts_its_own_port_not_the_one_it_moved_from(moved_viewer) -> None:
+    """A viewer that moved port accepts a handshake from its own origin (101) and refuses the taken
+    port's (403)."""
     viewer, taken = moved_viewer
     own = _handshake(viewer.port, f"http://127.0.0.1:{viewer.port}".encode())
     assert own.startswith(b"HTTP/1.1 101")
@@ -268,6 +280,7 @@ def test_the_viewer_trusts_its_own_port_not_the_one_it_moved_from(moved_viewer) 
 
 
 def test_a_non_utf8_origin_on_the_viewer_is_400(moved_viewer) -> None:
+    """A viewer handshake with a non-UTF-8 Origin is answered 400."""
     viewer, _ = moved_viewer
     assert _handshake(viewer.port, b"http://\xff\xfe").startswith(b"HTTP/1.1 400")
 
@@ -275,6 +288,8 @@ def test_a_non_utf8_origin_on_the_viewer_is_400(moved_viewer) -> None:
 def test_malformed_viewer_messages_are_logged_once_per_client_per_interval(
     moved_viewer, caplog: pytest.LogCaptureFixture
 ) -> None:
+    """Malformed viewer messages from one client log one warning, naming the client, with no
+    traceback."""
     import viser
     import websockets
 

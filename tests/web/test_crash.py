@@ -166,6 +166,8 @@ def kill(server: Server, *, group: bool) -> list[psutil.Process]:
 def test_sigkill_mid_write_keeps_the_store_consistent_and_restart_recovers(
     tmp_path: Path,
 ) -> None:
+    """Servers killed mid-write lose no accepted run, leave no orphan worker, and a restart finishes
+    every run."""
     began = time.monotonic()
     budget = scaled(BUDGET)  # the load now stretches it (tests/timing.py)
     database = tmp_path / "data" / "runs.sqlite"

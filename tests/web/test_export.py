@@ -44,6 +44,7 @@ def _client(store: RunStore, **options: object) -> TestClient:
 
 
 def test_csv_streams_in_chunks_and_holds_every_sample(stored) -> None:
+    """The CSV export streams in small chunks and holds every sample's values exactly."""
     store, run_id, series = stored
     response = _client(store).get(f"/api/runs/{run_id}/series", params={"format": "csv"})
     assert response.status_code == 200
@@ -58,6 +59,7 @@ def test_csv_streams_in_chunks_and_holds_every_sample(stored) -> None:
 
 
 def test_json_streams_valid_json_with_every_series(stored) -> None:
+    """The JSON export is valid JSON with the run's metrics, scenario and every series exactly."""
     store, run_id, series = stored
     body = json.loads(_client(store).get(f"/api/runs/{run_id}/series").content)
     assert body["metrics"] == {"rms": 1.0} and body["scenario"]["mechanism"] == "hybrid"
@@ -65,6 +67,7 @@ def test_json_streams_valid_json_with_every_series(stored) -> None:
 
 
 def test_columns_every_t0_t1_select_part_of_a_run(stored) -> None:
+    """columns, every, t0 and t1 select exactly those columns (t always) and samples of the run."""
     store, run_id, series = stored
     params = {"format": "json", "columns": "xi", "every": 10, "t0": 10.0, "t1": 20.0}
     body = _client(store).get(f"/api/runs/{run_id}/series", params=params).json()
@@ -76,6 +79,7 @@ def test_columns_every_t0_t1_select_part_of_a_run(stored) -> None:
 
 
 def test_parquet_streams_row_groups_of_the_selection(stored) -> None:
+    """The Parquet export holds the selected columns exactly and the metrics in its metadata."""
     store, run_id, series = stored
     response = _client(store).get(
         f"/api/runs/{run_id}/series", params={"format": "parquet", "columns": "legs"}
@@ -87,6 +91,7 @@ def test_parquet_streams_row_groups_of_the_selection(stored) -> None:
 
 
 def test_a_bad_selection_is_422_naming_it(stored) -> None:
+    """An unknown column, t0 after t1 or every 0 is answered 422, the unknown column named."""
     store, run_id, _ = stored
     client = _client(store)
     url = f"/api/runs/{run_id}/series"
@@ -97,6 +102,7 @@ def test_a_bad_selection_is_422_naming_it(stored) -> None:
 
 
 def test_private_puts_stored_data_behind_the_token(stored) -> None:
+    """With private set, stored runs and series need the token (401 without), health does not."""
     store, run_id, _ = stored
     open_client = _client(store, token=TOKEN)
     assert open_client.get(f"/api/runs/{run_id}").status_code == 200  # the default: open
@@ -109,6 +115,8 @@ def test_private_puts_stored_data_behind_the_token(stored) -> None:
 
 
 def test_a_stride_across_row_groups_and_an_older_npz_store_read_the_same(stored) -> None:
+    """A stride across row groups selects the same samples from the current and the older npz
+    series, chunks bounded."""
     _, _, series = stored
     buffer = io.BytesIO()
     np.savez(buffer, **series)  # how a store before issue 30 held series
@@ -121,6 +129,8 @@ def test_a_stride_across_row_groups_and_an_older_npz_store_read_the_same(stored)
 
 
 def test_exports_beyond_the_slots_are_429_and_slots_come_back(stored) -> None:
+    """An export past the slots is 429 with Retry-After; finished or abandoned exports give their
+    slot back."""
     from twin.web.routers import runs
 
     store, run_id, _ = stored

@@ -297,6 +297,8 @@ def _unchanged(twin: Twin, before: tuple[Any, ...], case: schemathesis.Case, sta
 
 @authorized.parametrize()
 def test_fuzz_with_the_token(case: schemathesis.Case) -> None:
+    """Any schema-valid or invalid request with the token conforms to the API schema, and a refused
+    or GET request changes nothing."""
     response, before = _send(AUTHORIZED, case)
     case.validate_response(response, checks=[*CHECKS, token_accepted, created_where_it_says])
     if response.status_code >= 400 or case.method.upper() == "GET":
@@ -307,6 +309,7 @@ def test_fuzz_with_the_token(case: schemathesis.Case) -> None:
 # filter that matches every operation, and includes are alternatives.
 @unauthorized.exclude(method="GET").parametrize()
 def test_fuzz_without_the_token_is_refused(case: schemathesis.Case) -> None:
+    """Any request without the token is refused 401 with a Bearer challenge and changes nothing."""
     response, before = _send(UNAUTHORIZED, case)
     if case.method.upper() == case.operation.method.upper():  # not a probe of another method
         assert response.status_code == 401, (

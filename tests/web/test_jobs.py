@@ -36,6 +36,8 @@ ONE_CELL = {"hs": [1.0], "tp": [8.0], "seeds": 1, "duration": 0.05}
 def test_a_sweep_over_the_panel_limit_is_422_naming_it_and_stores_nothing(
     tmp_path: Path,
 ) -> None:
+    """A sweep over MAX_PANELS panels is 422 naming the limit and stores nothing; one at the limit
+    is accepted."""
     client, store, _ = app_client(tmp_path)
     headings = [float(h) for h in range(MAX_PANELS + 1)]  # the 5,000-heading attack, smaller
     response = client.post("/api/sweeps", json={**ONE_CELL, "heading": headings})
@@ -51,6 +53,7 @@ def test_a_sweep_over_the_panel_limit_is_422_naming_it_and_stores_nothing(
 
 
 def test_a_sweep_is_priced_in_steps_cells_panels_and_bytes() -> None:
+    """A sweep's price counts its cells, panels and steps exactly, and positive bytes."""
     spec = SweepSpec(hs=[1, 2], tp=[6, 8, 10], planner=["mtmp", "pi"], seeds=2, duration=1.0)
     price = price_sweep(spec)
     assert (price.cells, price.panels, price.steps) == (12, 2, 12 * 2 * 20)
@@ -87,6 +90,7 @@ class Recording(Executor):
 
 
 def test_the_heatmap_is_drawn_on_the_executor_not_in_the_server(tmp_path: Path) -> None:
+    """A sweep's heatmap PNG is drawn by an executor task, not in the server process."""
     executor = Executor.start(IN_PROCESS)
     executor.__class__ = Recording
     executor.submitted = []
@@ -109,6 +113,7 @@ def test_the_heatmap_is_drawn_on_the_executor_not_in_the_server(tmp_path: Path) 
 
 
 def test_a_queued_run_can_be_cancelled_and_deleted(tmp_path: Path) -> None:
+    """A queued run cancelled is failed (cancelled) and leaves the queue; deleted, it is 404."""
     client, store, _ = app_client(tmp_path)
     run = client.post("/api/runs", json=SHORT).json()
     cancelled = client.post(f"/api/runs/{run['id']}/cancel")
@@ -122,6 +127,7 @@ def test_a_queued_run_can_be_cancelled_and_deleted(tmp_path: Path) -> None:
 
 
 def test_a_queued_sweep_can_be_cancelled_and_deleted(tmp_path: Path) -> None:
+    """A queued sweep cancelled is failed (cancelled) and leaves the queue; deleted, it is 404."""
     client, store, _ = app_client(tmp_path)
     sweep = client.post("/api/sweeps", json=ONE_CELL).json()
     cancelled = client.post(f"/api/sweeps/{sweep['id']}/cancel").json()
@@ -132,6 +138,7 @@ def test_a_queued_sweep_can_be_cancelled_and_deleted(tmp_path: Path) -> None:
 
 
 def test_cancel_and_delete_need_the_token(tmp_path: Path) -> None:
+    """Cancel and delete without the token are 401 and leave the run queued."""
     store = RunStore(tmp_path / "runs.sqlite")
     app = create_app(
         LiveSession(), store, access=access("s3cret-token-0123"), sweeps=SweepQueueOnly(store)
@@ -186,6 +193,7 @@ def test_cancelling_a_running_sweep_stops_it_and_the_next_one_runs(
 
 
 def test_a_run_interrupted_max_attempts_times_is_failed_not_requeued(tmp_path: Path) -> None:
+    """A run interrupted MAX_ATTEMPTS times is failed, saying so, instead of requeued again."""
     with RunStore(tmp_path / "runs.sqlite") as store:
         run = store.create(Scenario(**SHORT))
         for _ in range(MAX_ATTEMPTS):
@@ -199,6 +207,7 @@ def test_a_run_interrupted_max_attempts_times_is_failed_not_requeued(tmp_path: P
 
 
 def test_a_sweep_interrupted_max_attempts_times_is_failed_not_requeued(tmp_path: Path) -> None:
+    """A sweep interrupted MAX_ATTEMPTS times is failed as interrupted instead of requeued again."""
     with RunStore(tmp_path / "runs.sqlite") as store:
         sweep = store.create_sweep(SweepSpec(**ONE_CELL).model_dump(), 1)
         for _ in range(MAX_ATTEMPTS):
@@ -212,6 +221,7 @@ def test_a_sweep_interrupted_max_attempts_times_is_failed_not_requeued(tmp_path:
 
 
 def test_the_pending_sweep_cap_holds_under_concurrent_submissions(tmp_path: Path) -> None:
+    """Under 40 concurrent submissions the store admits exactly the pending-sweep cap."""
     with RunStore(tmp_path / "runs.sqlite") as store:
         spec = SweepSpec(**ONE_CELL).model_dump()
 
@@ -242,6 +252,8 @@ def test_the_viewer_surface_is_capped_like_rest(tmp_path: Path) -> None:
 
 
 def test_the_pending_run_cap_holds_under_concurrent_rest_submissions(tmp_path: Path) -> None:
+    """Under concurrent REST submissions exactly the pending-run cap is accepted (202), the rest
+    429."""
     client, store, _ = app_client(tmp_path, max_pending_runs=3, run_burst=100, run_rate=100.0)
 
     def post(_: int) -> int:
@@ -257,6 +269,8 @@ def test_the_pending_run_cap_holds_under_concurrent_rest_submissions(tmp_path: P
 
 
 def test_a_full_store_is_507_saying_what_to_do(tmp_path: Path) -> None:
+    """A run past the store's quota is 507 naming --max-runs and DELETE; after a delete one is
+    accepted."""
     from tests.web.test_limits import QueueOnly
     from twin.web.store import Quota
 

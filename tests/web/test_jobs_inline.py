@@ -110,6 +110,8 @@ def test_a_short_run_while_one_is_in_hand_goes_to_the_executor(
 def test_cancelling_a_short_run_in_flight_drops_its_outcome(
     store: RunStore, executor: Recording, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """A short run cancelled while running is failed as cancelled, its result dropped and nothing
+    left pending."""
     held = HeldRuns(monkeypatch)
     entered, release = held.entered, held.release
     jobs = _runner(store, executor)

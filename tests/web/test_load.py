@@ -472,6 +472,8 @@ def test_live_history_is_a_ring_buffer_through_patches_and_restarts() -> None:
 
 
 def test_load_and_soak(tmp_path: Path) -> None:
+    """Under concurrent viewers, patches, runs and a sweep the server fails nothing, loses no run,
+    starts no process and stays finite."""
     began = time.monotonic()
     budget = scaled(BUDGET)  # the load now stretches it (tests/timing.py)
     server = Server(tmp_path)

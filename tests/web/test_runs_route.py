@@ -39,6 +39,7 @@ def client(tmp_path: Path, executor: Executor) -> Iterator[TestClient]:
 def test_a_short_run_runs_on_the_requests_thread(
     client: TestClient, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """A short run is done on the request's own thread, answered 201 as stored."""
     threads = record_run_threads(monkeypatch)
     response = client.post("/api/runs", json=SHORT)
     assert response.status_code == 201, response.text
@@ -54,6 +55,7 @@ def test_a_short_run_runs_on_the_requests_thread(
 def test_a_short_run_the_engine_refuses_is_a_422_and_leaves_nothing(
     client: TestClient, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """A short run the engine refuses is 422 saying so and stores no run."""
     refuse_runs(monkeypatch)
     response = client.post("/api/runs", json=SHORT)
     assert response.status_code == 422, response.text

@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_the_short_soak_holds(tmp_path: Path) -> None:
+    """scripts/soak.py --short passes all its checks and exits 0."""
     out = tmp_path / "soak.json"
     stretch = slowdown()
     done = subprocess.run(

@@ -29,6 +29,7 @@ def store(tmp_path: Path) -> Iterator[RunStore]:
 
 
 def test_a_new_run_is_queued_with_its_validated_scenario(store: RunStore) -> None:
+    """A new run is queued at progress 0 with its validated scenario, defaults filled in."""
     run = store.create(Scenario(mechanism="upr4", duration=2.0))
     assert run.status == "queued" and run.progress == 0.0 and run.metrics is None
     assert len(run.id) == 32 and run.created.tzinfo is not None
@@ -56,12 +57,14 @@ def test_runs_survive_reopening_the_file_bit_for_bit(
 
 
 def test_the_file_is_in_wal_mode_with_the_schema_version(store: RunStore) -> None:
+    """The store's SQLite file is in WAL mode with the current schema version."""
     with sqlite3.connect(store.path) as conn:
         assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
         assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
 
 
 def test_a_newer_schema_is_refused(tmp_path: Path) -> None:
+    """A store file of a newer schema is refused with a TwinError saying so."""
     path = tmp_path / "runs.sqlite"
     with sqlite3.connect(path) as conn:
         conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION + 1}")
@@ -70,12 +73,14 @@ def test_a_newer_schema_is_refused(tmp_path: Path) -> None:
 
 
 def test_list_is_newest_first_and_limited(store: RunStore) -> None:
+    """list_runs returns runs newest first, at most `limit`."""
     ids = [store.create(SHORT).id for _ in range(4)]
     assert [r.id for r in store.list_runs()] == ids[::-1]
     assert [r.id for r in store.list_runs(limit=2)] == ids[:1:-1]
 
 
 def test_unknown_ids_raise_run_not_found(store: RunStore, result: SimulationResult) -> None:
+    """Every store call with an unknown id raises RunNotFound naming it."""
     for call in (store.get, store.scenario, store.result, store.mark_running):
         with pytest.raises(RunNotFound, match="nope"):
             call("nope")
@@ -84,12 +89,14 @@ def test_unknown_ids_raise_run_not_found(store: RunStore, result: SimulationResu
 
 
 def test_a_run_not_done_has_no_series(store: RunStore) -> None:
+    """Asking for the result of a queued run raises TwinError naming its status."""
     run_id = store.create(SHORT).id
     with pytest.raises(TwinError, match="queued"):
         store.result(run_id)
 
 
 def test_failure_and_progress_are_recorded(store: RunStore) -> None:
+    """Progress is recorded clipped to [0, 1], and a failure with its error."""
     run_id = store.create(SHORT).id
     store.mark_running(run_id)
     store.set_progress(run_id, 0.25)
@@ -115,6 +122,7 @@ def test_a_rejected_finish_writes_nothing(store: RunStore, result: SimulationRes
 def test_unfinished_runs_are_requeued_oldest_first(
     store: RunStore, result: SimulationResult
 ) -> None:
+    """requeue_unfinished requeues queued and running runs oldest first and leaves done ones."""
     queued, running, done = (store.create(SHORT).id for _ in range(3))
     store.mark_running(running)
     store.mark_running(done)
@@ -157,6 +165,7 @@ def test_a_corrupt_file_is_one_line_saying_what_to_do(tmp_path: Path) -> None:
 
 
 def test_one_bad_row_is_that_rows_error_not_the_lists(store: RunStore) -> None:
+    """An unreadable row is listed as failed (unreadable) while the other rows list normally."""
     good = store.create(SHORT).id
     bad = store.create(SHORT).id
     with sqlite3.connect(store.path) as conn:
@@ -170,6 +179,7 @@ def test_one_bad_row_is_that_rows_error_not_the_lists(store: RunStore) -> None:
 
 
 def test_an_older_stores_npz_series_still_read(store: RunStore, result: SimulationResult) -> None:
+    """Series stored as npz by an older store read back exactly."""
     import io
 
     run_id = store.create(SHORT).id
@@ -188,6 +198,8 @@ def _full_store(tmp_path: Path, **quota: object) -> RunStore:
 
 
 def test_a_full_store_refuses_naming_the_quota(tmp_path: Path, result: SimulationResult) -> None:
+    """A store at its run or byte quota refuses a new run with StoreFull naming the option, within
+    the quota."""
     from twin.web.store import StoreFull
 
     with _full_store(tmp_path, max_runs=2) as store:
@@ -207,6 +219,7 @@ def test_a_full_store_refuses_naming_the_quota(tmp_path: Path, result: Simulatio
 def test_retention_deletes_the_oldest_finished_unpinned_results(
     tmp_path: Path, result: SimulationResult
 ) -> None:
+    """With retention, a full store deletes the oldest finished unpinned run to make room."""
     with _full_store(tmp_path, max_runs=3, retain=True) as store:
         ids = []
         for _ in range(3):
@@ -223,6 +236,7 @@ def test_retention_deletes_the_oldest_finished_unpinned_results(
 def test_a_finished_run_counts_what_it_stored_not_its_price(
     store: RunStore, result: SimulationResult
 ) -> None:
+    """A finished run's usage is what it stored, less than the price reserved for it."""
     run_id = store.create(Scenario(mechanism="hybrid", duration=600.0)).id
     reserved, _ = store.usage()
     store.mark_running(run_id)

@@ -25,6 +25,8 @@ SHORT = {"mechanism": "upr4", "planner": "pid", "n_components": 16, "duration": 
 
 
 def test_a_warming_app_answers_queues_runs_and_runs_them_once_attached(tmp_path: Path) -> None:
+    """While warming, health reports progress, live is 503 with Retry-After, runs queue, and they
+    run once attached."""
     warmup = Warmup(out=io.StringIO())
     warmup.kernel_done("hybrid mtmp")
     with RunStore(tmp_path / "runs.sqlite") as store:
@@ -59,6 +61,7 @@ def test_a_warming_app_answers_queues_runs_and_runs_them_once_attached(tmp_path:
 
 
 def test_a_failed_start_up_says_why() -> None:
+    """A failed start-up's snapshot and message carry the error."""
     warmup = Warmup(out=io.StringIO())
     warmup.fail("OSError: no space left on device")
     assert warmup.snapshot()["error"] == "OSError: no space left on device"
@@ -66,6 +69,7 @@ def test_a_failed_start_up_says_why() -> None:
 
 
 def test_progress_lines_name_the_kernel_and_count() -> None:
+    """The progress lines name what is compiling, each kernel with its count, and when ready."""
     out = io.StringIO()
     warmup = Warmup(out=out)
     warmup.begin("compiling kernels on 2 cores")
@@ -79,6 +83,8 @@ def test_progress_lines_name_the_kernel_and_count() -> None:
 
 
 def test_the_warming_page_holds_the_viewer_port_and_moves_on_from_a_taken_one() -> None:
+    """The warming page moves past a taken port, answers 503 with a refreshing page, and frees its
+    port on close."""
     warmup = Warmup(out=io.StringIO())
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
@@ -100,6 +106,8 @@ def test_the_warming_page_holds_the_viewer_port_and_moves_on_from_a_taken_one() 
 
 
 def test_the_warming_page_gives_up_naming_the_ports(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With every port tried taken, the warming page raises TwinError naming the ports and --viser-
+    port."""
     import twin.web.warmup as module
 
     monkeypatch.setattr(module, "PORT_TRIES", 1)
