@@ -385,10 +385,10 @@ def onboard_timeline(report: OnboardReport) -> Any:
     first = table.drop_duplicates("start")
     minutes = first["start"].to_numpy() / 60.0
     fig, axes = plt.subplots(4, 1, figsize=(8, 8), sharex=True)
-    for ax, name, unit in zip(axes[:3], ("hs", "tp", "direction"), ("m", "s", "deg"),
-                              strict=True):  # fmt: skip
+    labels = {"hs": "Hs [m]", "tp": "Tp [s]", "direction": "β, waves to [deg from bow]"}
+    for ax, (name, label) in zip(axes[:3], labels.items(), strict=True):
         ax.errorbar(minutes, first[name], yerr=first[f"{name}_sd"], fmt="o-", ms=3, capsize=2)
-        ax.set_ylabel(f"{name} [{unit}]")
+        ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     axes[2].set_ylim(0, 360)
     ax = axes[3]
