@@ -17,8 +17,8 @@ def chunk(start: int, n: int, lanes: int = 2) -> dict[str, np.ndarray]:
 
 @pytest.mark.parametrize("sizes", [(1, 3, 4), (5, 1, 1, 1, 7), (12,), (2, 2, 2, 2, 2, 2)])
 def test_ring_keeps_the_newest_in_order(sizes: tuple[int, ...]) -> None:
-    """For any chunk sizes, the ring keeps the newest samples, oldest first, and its latest and
-    newest rows."""
+    """Appended in chunks short and long, wrapping or not, a 5-sample ring keeps the newest
+    samples oldest first, and its latest and newest rows are the last appended."""
     ring, total = History(5), 0
     for n in sizes:
         ring.append(chunk(total, n))
