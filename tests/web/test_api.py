@@ -109,6 +109,9 @@ def test_openapi_lists_exactly_the_api_paths(client: TestClient) -> None:
         "/api/runs/{run_id}/pin", "/api/sweeps/{sweep_id}/pin",
         "/api/workability", "/api/workability/records", "/api/workability/{job_id}",
         "/api/workability/{job_id}/{plot}.png", "/api/workability/{job_id}/cancel",
+        "/api/workability/{job_id}/rows.csv",
+        "/api/onboard", "/api/onboard/{job_id}", "/api/onboard/{job_id}/timeline.png",
+        "/api/motion-logs", "/api/motion-logs/{log_id}",
     }  # fmt: skip
     assert client.get("/docs").status_code == 200
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from twin.errors import TwinError
 from twin.sea.components import WaveComponents
+from twin.sim.measured import MeasuredMotion
 from twin.sim.scenario import Scenario
 from twin.spatial import pose_to_transform
 from twin.vessel import MOUNTS, Mount, RaoTable, load_raos
@@ -71,7 +72,15 @@ class BaseMotion:
         """`of` each scenario, the same numbers: the response terms of every lane on one
         vessel at one speed come from one `response_amplitudes` call over all their
         components (elementwise, so each lane's equal its own call's), where a call per lane
-        would cost mostly its fixed overhead."""
+        would cost mostly its fixed overhead. A scenario whose `base_motion` is a stored log
+        gets the log's motion instead (`MeasuredBase`), with a calm sea to draw."""
+        measured = [s.base_motion is not None and s.base_motion.source == "log"
+                    for s in scenarios]  # fmt: skip
+        if any(measured):
+            sea_lanes = [s for s, m in zip(scenarios, measured, strict=True) if not m]
+            sea_motions = iter(cls.many(sea_lanes) if sea_lanes else [])
+            return [MeasuredBase.of(s) if m else next(sea_motions)
+                    for s, m in zip(scenarios, measured, strict=True)]  # fmt: skip
         seas = [s.components() for s in scenarios]
         mounts = [mount_for(s.mechanism) for s in scenarios]
         vessels = [s.vessel or m.vessel for s, m in zip(scenarios, mounts, strict=True)]
@@ -122,6 +131,8 @@ class BaseMotion:
         """
         if first < 0:
             raise TwinError(f"first: got {first}; allowed a sample index ≥ 0")
+        if any(isinstance(m, MeasuredBase) for m in motions):
+            return _mixed_poses(motions, t0, dt, n, compiled, first)
         from twin.compiled import pick_runner
         from twin.sim.kernels.sea import compiled_base_poses, run_base_poses
 
@@ -145,6 +156,44 @@ class BaseMotion:
         t = np.asarray(t, dtype=float)
         poses = self.poses(t)
         return BaseSamples(t, poses, pose_to_transform(poses))
+
+
+class MeasuredBase(BaseMotion):
+    """A base motion from a stored motion log (`twin.sim.measured.MeasuredMotion`): the same
+    interface as the sea's, its poses the measured ones at the mount, its sea calm (nothing to
+    draw but the hull's own motion)."""
+
+    def __init__(self, measured: MeasuredMotion) -> None:
+        calm = WaveComponents(*(np.zeros(0) for _ in range(4)))
+        super().__init__(calm, measured.mount, terms=(np.zeros(0), np.zeros((0, 6), complex)))
+        self.measured = measured
+
+    @classmethod
+    def of(cls, scenario: Scenario) -> MeasuredBase:
+        """The scenario's log on its mechanism's mount, from its offset for its duration."""
+        source = scenario.base_motion
+        assert source is not None and source.log is not None  # `many` picked it for that
+        mount = mount_for(scenario.mechanism)
+        return cls(MeasuredMotion(source.log, mount, source.offset, scenario.duration))
+
+    def poses(self, t: np.ndarray) -> np.ndarray:
+        """(N, 6) [m, rad] the measured base poses at times t (N,) [s]."""
+        return self.measured.poses(np.asarray(t, dtype=float))
+
+
+def _mixed_poses(motions: Sequence[BaseMotion], t0: float, dt: float, n: int, compiled: bool,
+                 first: int) -> np.ndarray:  # fmt: skip
+    """`BaseMotion.uniform_poses` of lanes some of which are measured: the sea's lanes in one
+    compiled pass, the measured ones from their logs at the same times."""
+    out = np.empty((len(motions), n, 6))
+    t = t0 + (first + np.arange(n)) * dt
+    sea = [i for i, m in enumerate(motions) if not isinstance(m, MeasuredBase)]
+    if sea:
+        out[sea] = BaseMotion.uniform_poses([motions[i] for i in sea], t0, dt, n, compiled, first)
+    for i, m in enumerate(motions):
+        if isinstance(m, MeasuredBase):
+            out[i] = m.poses(t)
+    return out
 
 
 @cache

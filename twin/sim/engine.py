@@ -73,7 +73,7 @@ MAX_BLOCK = 8192
 #: Scenario fields that change the sea: `Simulation.update` re-synthesises it in place.
 SEA_FIELDS = frozenset(
     {"sea_state", "hs", "tp", "heading", "spectrum", "gamma", "spreading", "n_components",
-     "seed", "regular_waves", "forward_speed"}
+     "seed", "regular_waves", "forward_speed", "base_motion"}
 )  # fmt: skip
 #: Scenario fields that need a new Simulation (a different machine, vessel or clock).
 RESTART_FIELDS = frozenset({"mechanism", "vessel", "dt", "initial_state"})

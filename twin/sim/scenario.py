@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from twin.errors import TwinError
 from twin.mechanisms import MECHANISMS
@@ -34,6 +34,26 @@ MAX_STATE_SIZE = 9
 
 #: Planner a mechanism gets when the scenario names none.
 DEFAULT_PLANNER = {"hybrid": "mtmp", "upu3up": "pid", "upr4": "pid"}
+
+
+class MotionSource(BaseModel):
+    """Where a run's base motion comes from: the synthesised sea through the vessel's RAOs
+    (`sea`, the default) or a stored motion log (`log`: `twin.sim.measured`)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    source: Literal["sea", "log"] = Field("sea", description="sea: sea → RAOs → mount; log: "
+                                          "a stored motion log moved to the mount")  # fmt: skip
+    log: str | None = Field(None, pattern=r"^[0-9a-f]{16}$",
+                            description="the stored log's ID (POST /api/motion-logs)")  # fmt: skip
+    offset: float = Field(0.0, ge=0.0, le=7 * 86_400.0,
+                          description="[s] where in the log the run starts")  # fmt: skip
+
+    @model_validator(mode="after")
+    def _log_named(self) -> MotionSource:
+        if (self.source == "log") != (self.log is not None):
+            raise TwinError("base_motion: a log ID goes with source 'log', and only with it")
+        return self
 
 
 class Scenario(PlannerParameters):
@@ -100,6 +120,12 @@ class Scenario(PlannerParameters):
     )
     vessel: str | None = Field(
         None, description="RAO table name (assets/vessels); default: the mechanism's mount"
+    )
+    base_motion: MotionSource | None = Field(
+        None,
+        description='the base motion\'s source: null or {"source": "sea"} the synthesised sea '
+        '(the sea fields above); {"source": "log", "log": ID, "offset": s} a stored motion log '
+        "(the sea fields are then unused)",
     )
     forward_speed: float = Field(
         0.0, ge=0.0, le=10.0, description="[m/s] vessel forward speed (0: on DP)"

@@ -64,6 +64,7 @@ from twin.web.models import (
     locate,
     unprocessable,
 )
+from twin.web.routers import motion as motion_routes
 from twin.web.routers import onboard as onboard_routes
 from twin.web.routers.registries import STATIC_DIR
 from twin.web.store import RunNotFound, RunStore, StoreUnavailable
@@ -248,6 +249,7 @@ def _add_routers(app: FastAPI) -> None:
                    routers.live):  # fmt: skip
         app.include_router(module.router)
     app.include_router(onboard_routes.router)  # issue 40: onboard reports of motion logs
+    app.include_router(motion_routes.router)  # issue 40: stored motion logs
     app.include_router(routers.workability.pages)  # the Workability page
 
 

@@ -37,6 +37,7 @@ from twin.sim.engine import warm_in_processes
 from twin.sim.executor import RUN_BUDGET, Executor
 from twin.sim.heap import freeze_startup
 from twin.sim.live import LiveSession, live_demo
+from twin.sim.measured import LOG_DIR_ENV
 from twin.web.access import Access, is_loopback
 from twin.web.api import create_app
 from twin.web.connections import (
@@ -341,6 +342,9 @@ def serve(
         host, (port, viser_port), token, viewer=viewer, graphics=graphics,
         allow_hosts=allow_hosts, allow_origins=allow_origins, private=private,
     )  # fmt: skip
+    # stored motion logs live in the data dir; set before the cluster's workers start, so
+    # every process resolves a scenario's log ID to the same file (`twin.sim.measured`)
+    os.environ[LOG_DIR_ENV] = str(Path(data_dir) / "motion_logs")
     with _Held(data_dir, host, port) as held:
         # the store first: a bad file is one line before seconds of start-up (issue 30)
         held.store = RunStore(Path(data_dir) / DATABASE, Quota(max_store, max_runs, retain))
