@@ -145,3 +145,16 @@ def test_quality_flags_count_spikes_and_frozen_values() -> None:
     spiky[100, 2] += 1.0
     spiky[20:50, 3] = 0.004
     assert flag_quality(spiky) == {"spike": 1, "frozen": 30}
+
+
+def test_stamped_pashr_lines_start_at_their_first_stamp() -> None:
+    """A receive stamp wins over PASHR's own time of day: the series starts at the first stamp
+    and its times follow the stamps (not the stamp plus the time of day)."""
+    lines = [f"2026-08-01T16:30:{s:02d}.500Z "
+             + sentence(f"PASHR,1630{s:02d}.000,158.09,T,-0.30,+0.31,+0.01,0.029,0.029,0.059,1,1")
+             for s in range(29, 33)]  # fmt: skip
+    series = read_nmea(lines)
+    assert series.start == np.datetime64("2026-08-01T16:30:29.500")
+    np.testing.assert_allclose(series.time, [0.0, 1.0, 2.0, 3.0])
+    unstamped = read_nmea([line.split(" ", 1)[1] for line in lines])
+    np.testing.assert_allclose(unstamped.time, [0.0, 1.0, 2.0, 3.0])  # its own times of day

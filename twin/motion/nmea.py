@@ -119,11 +119,13 @@ class Assembler:
         self._heading = math.nan
         self._day = 0.0  # [s] added to PASHR's time of day across midnight
 
-    def add(self, line: str, t: float | None, arrival: bool = False) -> bool:
+    def add(self, line: str, t: float | None, arrival: bool = False,
+            stamped: bool = False) -> bool:  # fmt: skip
         """Add one line with the time t [s] it came at (None: only its own time); True when it
         made a sample. With `arrival`, t is when the line arrived (several lines of one
         datagram share it): a sample no later than the one before is put a microsecond after
-        it, not refused as out of order."""
+        it, not refused as out of order. With `stamped`, t is the line's own receive stamp
+        and wins over a sentence's time of day (the series' start is the first stamp)."""
         reading = parse_line(line)
         if isinstance(reading, Skip):
             self.issues[reading.reason] += 1
@@ -132,7 +134,7 @@ class Assembler:
             self._heading = reading.heading % 360.0
         if reading.motion is None:
             return False
-        if reading.time_of_day is not None:
+        if reading.time_of_day is not None and not stamped:
             t = self._day + reading.time_of_day
             if self.times and t < self.times[-1] - 43_200.0:  # past midnight
                 self._day += 86_400.0
@@ -240,7 +242,7 @@ def read_nmea(
                 t = float((when - first_stamp) / np.timedelta64(1, "ns")) * 1e-9
         elif rate_hz:
             t = made / rate_hz
-        made += assembler.add(rest if stamp else text, t)
+        made += assembler.add(rest if stamp else text, t, stamped=bool(stamp))
     return assembler.series(source, first_stamp if first_stamp is not None else start)
 
 

@@ -37,9 +37,11 @@ def sentences(series: MotionSeries, fmt: str = "psxn", rate_hz: float | None = N
         raise TwinError(f"motion replay: format {fmt!r}; allowed: {list(FORMATS)}")
     uniform = series.resampled(rate_hz or series.rate_hz)
     heading = uniform.heading
+    # a gap is a NaN in a channel the log has; a channel it lacks is sent as 0 throughout
+    sent = [c for c in (HEAVE, ROLL, PITCH) if CHANNELS[c] in series.channels]
     for k, t in enumerate(uniform.time):
         row = np.nan_to_num(uniform.motion[k])
-        if not np.all(np.isfinite(uniform.motion[k, [HEAVE, ROLL, PITCH]])) and k:
+        if not np.all(np.isfinite(uniform.motion[k, sent])) and k:
             continue  # a gap: nothing is sent, as a sensor that dropped out
         h = float(heading[k]) if heading is not None else None
         heave, roll, pitch = float(row[HEAVE]), float(row[ROLL]), float(row[PITCH])
