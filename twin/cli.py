@@ -136,6 +136,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_sweep(commands)
     _add_workability(commands)
     _add_onboard(commands)
+    _add_motion_log(commands)
+    _add_motion_replay(commands)
     _add_warm(commands)
     return parser
 
@@ -417,6 +419,108 @@ def _onboard(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
               f"(turn {alert['turn']:+.0f}°, + to port)")  # fmt: skip
     print(f"twin: {len(report.estimates)} windows, {report.runs} runs ({report.new_runs} new); "
           f"wrote {', '.join(p.name for p in written)} to {args.out}", file=sys.stderr)  # fmt: skip
+    return 0
+
+
+def _add_motion_log(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """`twin motion-log`: store a motion log; with --compare, every planner on a window of it."""
+    log = commands.add_parser(
+        "motion-log",
+        help="store a vessel motion log for runs (and compare every planner on a window of it)",
+        description="Read a motion log (CSV, Parquet or NMEA/TSS1 text; twin.motion.logs) with "
+        "its sensor file, store it in --data-dir/motion_logs and print its ID, the `log` of "
+        'a scenario\'s "base_motion": {"source": "log", "log": ID}. With --compare, run every '
+        "planner of --mechanism on the log from --from to --to seconds and print each one's "
+        "tip error, limit violations and first limit: would it have held?",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    log.add_argument("log", metavar="LOG", type=Path, help="the motion log file")
+    log.add_argument("--sensor", type=Path, help="its sensor file (YAML/JSON; default: at the "
+                     "centre of motion, the twin's signs)")  # fmt: skip
+    log.add_argument("--data-dir", type=Path, default=Path("data"), help="the store's folder")
+    log.add_argument("--compare", action="store_true", help="run every planner on the window")
+    log.add_argument("--from", dest="start", type=float, default=0.0, help="[s] window start")
+    log.add_argument("--to", dest="end", type=float, help="[s] window end (default: the log's)")
+    log.add_argument("--mechanism", default="hybrid", choices=MECHANISM_NAMES)
+    log.set_defaults(handler=_motion_log)
+
+
+def _motion_log(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from twin.errors import TwinError
+    from twin.motion.logs import read_motion
+    from twin.motion.sensor import Sensor
+    from twin.planners import PLANNERS
+    from twin.sim import simulate_many
+    from twin.sim.measured import LOG_DIR_ENV, store_log
+
+    os.environ[LOG_DIR_ENV] = str(args.data_dir / "motion_logs")
+    try:
+        sensor = Sensor.load(args.sensor) if args.sensor is not None else Sensor()
+        series = read_motion(args.log, sensor)
+        key = store_log(series, sensor.position)
+        print(json.dumps({"id": key, "samples": len(series), "duration": series.duration,
+                          "channels": list(series.channels), "issues": series.issues}))
+        if not args.compare:
+            return 0
+        end = series.duration if args.end is None else args.end
+        planners = sorted(n for n, p in PLANNERS.items() if args.mechanism in p.mechanisms)
+        source = {"source": "log", "log": key, "offset": args.start}
+        runs = simulate_many([{"mechanism": args.mechanism, "planner": p, "base_motion": source,
+                               "duration": end - args.start} for p in planners], progress=True)
+    except (TwinError, ValueError) as exc:  # a pydantic error is a ValueError too
+        parser.error(str(exc))
+    print(f"{'planner':8} {'tip error max [mm]':>19} {'violations':>10}  first limit")
+    for name, run in zip(planners, runs, strict=True):
+        m = run.metrics
+        bound = m.get("first_bound") or {}
+        limit = f"{bound['limit']} at {bound['t']:.1f} s" if bound else "none"
+        print(f"{name:8} {1e3 * m['tip_position_error_max']:19.1f} {m['violations']:10d}  {limit}"
+              + ("  (tracking diverged)" if m.get("tracking_diverged") else ""))
+    return 0
+
+
+def _add_motion_replay(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """`twin motion-replay`: a motion log sent as an MRU's sentences over UDP (issue 40)."""
+    replay = commands.add_parser(
+        "motion-replay",
+        help="send a motion log over UDP as an MRU would ($PSXN,23, $PASHR or TSS1)",
+        description="Replay a motion log (CSV, Parquet or NMEA/TSS1 text; twin.motion.logs) as "
+        "the sentences a motion sensor sends, one UDP datagram per line, paced in real time "
+        "(× --speed): the live input of `twin serve --motion-udp PORT`, for demos and tests.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    replay.add_argument("log", metavar="LOG", type=Path, help="the motion log file")
+    replay.add_argument("--udp", required=True, metavar="HOST:PORT", help="where to send")
+    replay.add_argument("--rate", type=float, default=None, help="[Hz] lines per second "
+                        "(default the log's own rate)")  # fmt: skip
+    replay.add_argument("--format", default="psxn", choices=("psxn", "pashr", "tss1"))
+    replay.add_argument("--speed", type=float, default=1.0, help="× real time, 0.1-100")
+    replay.add_argument("--sensor", type=Path, help="the log's sensor file (YAML/JSON)")
+    replay.set_defaults(handler=_motion_replay)
+
+
+def _motion_replay(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    from twin.errors import TwinError
+    from twin.motion.logs import read_motion
+    from twin.motion.replay import send
+    from twin.motion.sensor import Sensor
+
+    host, _, port = args.udp.rpartition(":")
+    if not host or not port.isdigit():
+        parser.error(f"--udp {args.udp!r}: HOST:PORT expected, e.g. 127.0.0.1:10110")
+    try:
+        sensor = Sensor.load(args.sensor) if args.sensor is not None else None
+        series = read_motion(args.log, sensor)
+        if args.rate is not None and not 0.1 <= args.rate <= 200.0:
+            raise TwinError(f"--rate {args.rate!r} Hz; allowed 0.1 to 200")
+        print(f"twin: sending {args.log.name} ({series.duration:.0f} s) to {host}:{port} as "
+              f"{args.format}, × {args.speed:g}", file=sys.stderr)  # fmt: skip
+        sent = send(series, host, int(port), args.format, args.rate, args.speed)
+    except (TwinError, OSError) as exc:
+        parser.error(str(exc))
+    except KeyboardInterrupt:
+        return 130
+    print(f"twin: {sent} lines sent", file=sys.stderr)
     return 0
 
 
