@@ -158,3 +158,15 @@ def test_stamped_pashr_lines_start_at_their_first_stamp() -> None:
     np.testing.assert_allclose(series.time, [0.0, 1.0, 2.0, 3.0])
     unstamped = read_nmea([line.split(" ", 1)[1] for line in lines])
     np.testing.assert_allclose(unstamped.time, [0.0, 1.0, 2.0, 3.0])  # its own times of day
+
+
+def test_the_stream_reads_datagrams_without_line_ends() -> None:
+    """One sentence per datagram and no CR LF (some senders): each datagram is a sample as it
+    comes; a split one still waits for its rest, and a tail that never parses is not a sample."""
+    stream = MotionStream("udp test")
+    got = [stream.feed(format_tss1(0.01 * k, 0.0, 0.0).encode(), float(k)) for k in range(3)]
+    assert [len(g) for g in got] == [1, 1, 1] and stream.issues == {}
+    whole = sentence("PSXN,23,1.0,-2.0,90.0,0.5")
+    assert stream.feed(whole[:-1].encode(), 3.0) == []  # its checksum is cut: not yet whole
+    assert len(stream.feed(whole[-1:].encode(), 3.5)) == 1
+    assert stream.feed(b"$GPHDT,123.456,T", 4.0) == []  # no checksum: waits, never a sample

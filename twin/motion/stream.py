@@ -4,7 +4,7 @@ with its own time (PASHR) or its arrival, and what is skipped is counted, never 
 
 from __future__ import annotations
 
-from twin.motion.nmea import Assembler
+from twin.motion.nmea import Assembler, Skip, parse_line
 
 #: [bytes] the longest line kept while waiting for its end (an NMEA sentence is ≤ 82
 #: characters; a stream without line ends must not grow a buffer without bound)
@@ -35,6 +35,11 @@ class MotionStream:
         [s], the arrival time."""
         lines = (self._pending + data).split(b"\n")
         self._pending = lines.pop()
+        if self._pending and _whole(self._pending):
+            # a sender that puts one sentence in each datagram without a line end: a tail
+            # that already parses (its checksum, or TSS1's fixed layout, checks out) is whole
+            lines.append(self._pending)
+            self._pending = b""
         if len(self._pending) > MAX_LINE:
             self._assembler.issues["too long"] += 1
             self._pending = b""
@@ -54,3 +59,12 @@ class MotionStream:
         self._emitted = len(a.times)
         return out
 
+
+def _whole(tail: bytes) -> bool:
+    """Whether bytes without a line end are a whole line: ASCII that parses (`parse_line`)."""
+    if len(tail) > MAX_LINE:
+        return False
+    try:
+        return not isinstance(parse_line(tail.decode("ascii")), Skip)
+    except UnicodeDecodeError:
+        return False
