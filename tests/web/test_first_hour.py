@@ -30,6 +30,7 @@ def client(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient]:
 
 
 def test_a_body_that_is_not_json_says_so(client: TestClient) -> None:
+    """A body that is not JSON is a 422 saying so, at which character, on both routes."""
     for path, method in (("/api/runs", "POST"), ("/api/live", "PATCH")):
         answer = client.request(method, path, content=b'{"mechanism": hybrid}', headers=JSON)
         assert answer.status_code == 422
@@ -42,6 +43,7 @@ def test_a_body_that_is_not_json_says_so(client: TestClient) -> None:
 def test_sea_state_with_hs_or_tp_is_refused_naming_what_to_drop(
     client: TestClient, sea: dict[str, float]
 ) -> None:
+    """sea_state with hs or tp is a 422 naming what to drop, and changes nothing."""
     before = client.get("/api/live").json()
     for method, path in (("POST", "/api/runs"), ("PATCH", "/api/live")):
         answer = client.request(method, path, json={"sea_state": 5, **sea})
@@ -55,12 +57,14 @@ def test_sea_state_with_hs_or_tp_is_refused_naming_what_to_drop(
 
 
 def test_a_live_sea_state_takes_over_from_hs_and_tp(client: TestClient) -> None:
+    """A live sea_state set after hs and tp clears them (one sea at a time)."""
     assert client.patch("/api/live", json={"hs": 1.5, "tp": 7.0}).json()["hs"] == 1.5
     state = client.patch("/api/live", json={"sea_state": 3}).json()
     assert (state["sea_state"], state["hs"], state["tp"]) == (3, None, None)
 
 
 def test_a_change_that_restarts_live_time_says_so(client: TestClient) -> None:
+    """A knob keeps live time; a compare planner restarts it at 0 and says why."""
     knob = client.patch("/api/live", json={"k_e": 20.0}).json()
     assert knob["restarted"] is False
     compare = client.patch("/api/live", json={"compare_planner": "ik"}).json()
@@ -72,6 +76,7 @@ def test_a_change_that_restarts_live_time_says_so(client: TestClient) -> None:
 
 
 def test_a_sweeps_planner_follows_its_mechanism() -> None:
+    """A sweep without planners takes its mechanism's default planner."""
     assert SweepSpec(mechanism="upr4").planner == ["pid"]
     assert SweepSpec(mechanism="upu3up").planner == ["pid"]
     assert SweepSpec().planner == ["mtmp"]
