@@ -94,13 +94,19 @@ def test_bad_logs_refused(client: TestClient, change: dict[str, Any], says: str)
 
 
 def test_uneven_and_short_logs_refused(client: TestClient) -> None:
-    """Uneven times, and a log shorter than one window, are 422s saying what is allowed."""
+    """Uneven times, a log shorter than one window and samples over 1 s apart are 422s at
+    `time` saying what is allowed."""
     uneven = body()
     uneven["time"][5] += 0.2
     answer = client.post("/api/onboard", json=uneven)
     assert answer.status_code == 422 and "uniform" in answer.text
     answer = client.post("/api/onboard", json=body(window=1200.0))
     assert answer.status_code == 422 and "at least one window" in answer.text
+    sparse = body()
+    sparse["time"] = [2.0 * k for k in range(len(sparse["time"]))]
+    answer = client.post("/api/onboard", json=sparse)
+    assert answer.status_code == 422 and "1 Hz or faster" in answer.text
+    assert answer.json()["detail"][0]["loc"] == ["body", "time"]
 
 
 def test_priced_as_workability(client: TestClient) -> None:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import threading
 import time
 import uuid
-from datetime import datetime
+from datetime import UTC, datetime
 from typing import Any, Literal
 
 import numpy as np
@@ -36,6 +36,8 @@ from twin.sim.onboard import OnboardSpec, onboard_task
 from twin.sim.workability import HeadingStrategy
 from twin.vessel.rao import DOFS
 from twin.web.deps import GUARDED, AdmissionDep, ExecutorDep, ServicesDep
+from twin.web.models import RANGES, _ranges, unprocessable
+from twin.web.routers.responses import LIMITED
 from twin.web.routers.workability import over_limits, price
 
 router = APIRouter(prefix="/api/onboard", tags=["onboard"])
@@ -44,6 +46,8 @@ router = APIRouter(prefix="/api/onboard", tags=["onboard"])
 MAX_SAMPLES = 200_000
 #: reports kept in memory (the oldest finished ones go first)
 MAX_JOBS = 50
+#: [s] the longest sample step: an MRU logs at 1 Hz or faster (5-50 Hz usually)
+MAX_STEP = 1.0
 #: motions the estimate needs
 REQUIRED = ("heave", "roll", "pitch")
 Motion = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
@@ -85,6 +89,25 @@ class OnboardRequest(OnboardSpec):
 
     def spec(self) -> OnboardSpec:
         return OnboardSpec(**self.model_dump(include=set(OnboardSpec.model_fields)))
+
+
+RANGES[("POST", "/api/onboard")] = _ranges(OnboardRequest)
+
+
+def log_errors(t: np.ndarray, window: float) -> list[dict[str, Any]]:
+    """What is wrong with the log's times for a report of `window` [s] windows, as 422 errors
+    (empty: nothing): uneven or decreasing steps, steps over `MAX_STEP`, no whole window."""
+    steps = np.diff(t)
+    step = float(np.median(steps))
+    if np.any(steps <= 0) or np.ptp(steps) > 0.01 * step:
+        msg = "uniform, strictly increasing sample times are needed; resample the log first"
+    elif step > MAX_STEP:
+        msg = f"samples {step:g} s apart; at most {MAX_STEP:g} s (1 Hz or faster)"
+    elif t[-1] - t[0] + step < window:
+        msg = f"{t[-1] - t[0] + step:.0f} s of motion; at least one window of {window:g} s"
+    else:
+        return []
+    return [{"loc": ("body", "time"), "msg": msg, "type": "value_error"}]
 
 
 def priced(spec: OnboardSpec, windows: int) -> list[dict[str, Any]]:
@@ -137,29 +160,26 @@ def jobs_of(request: Request) -> _Jobs:
 _MAKE = threading.Lock()
 
 
-@router.post("", status_code=202, dependencies=GUARDED)
+@router.post("", status_code=202, dependencies=GUARDED,
+             responses={**LIMITED, 503: {"description": "the executor is not running yet, or "
+                                         "the run store's file is gone: retry"}})  # fmt: skip
 def create_onboard(
     body: OnboardRequest, request: Request, response: Response, services: ServicesDep,
     executor: ExecutorDep, admission: AdmissionDep,
-) -> dict[str, Any]:  # fmt: skip
+) -> Any:  # fmt: skip
     """Queue an onboard report of the uploaded log; poll `GET /api/onboard/{id}` (Location).
 
-    A log without heave, roll or pitch, with motions of other lengths, with uneven or too few
-    times (under one window), or a report over the workability limits is a 422 saying what
-    is allowed."""
+    A log without heave, roll or pitch, with motions of other lengths, with uneven times,
+    samples over 1 s apart or under one window, or a report over the workability limits, is a
+    422 saying what is allowed."""
+    ranges = RANGES[("POST", "/api/onboard")]
     spec = body.spec()
     t, motion = body.arrays()
-    steps = np.diff(t)
-    if np.any(steps <= 0) or np.ptp(steps) > 0.01 * np.median(steps):
-        raise HTTPException(422, "time: uniform and strictly increasing samples; resample "
-                                 "the log first")  # fmt: skip
-    windows = int((t[-1] - t[0] + np.median(steps)) // spec.window)
-    if windows < 1:
-        raise HTTPException(422, f"time: {t[-1] - t[0]:.0f} s of motion; at least one window "
-                                 f"of {spec.window:g} s")  # fmt: skip
-    over = priced(spec, windows)
-    if over:
-        raise HTTPException(422, over)
+    errors = log_errors(t, spec.window)
+    windows = int((t[-1] - t[0] + np.median(np.diff(t))) // spec.window)
+    errors = errors or priced(spec, windows)
+    if errors:
+        return unprocessable(errors, ranges)
     jobs = jobs_of(request)
     admission.admit(request, "workability", jobs.pending())
     if executor is None:
@@ -167,7 +187,10 @@ def create_onboard(
                             headers={"Retry-After": "5"})  # fmt: skip
     runner = services.workability
     data_dir = runner.data_dir if runner is not None else services.store.path.parent
-    start = None if body.start is None else np.datetime64(body.start.replace(tzinfo=None), "ns")
+    start = None
+    if body.start is not None:  # naive times are UTC already; others are converted to it
+        utc = body.start.astimezone(UTC) if body.start.tzinfo else body.start
+        start = np.datetime64(utc.replace(tzinfo=None), "ns")
     future = executor.submit(onboard_task, t, motion, spec.model_dump(mode="json"),
                              start=None if start is None else str(start),
                              data_dir=str(data_dir), where=executor.where)  # fmt: skip
@@ -196,7 +219,9 @@ def get_onboard(job_id: str, request: Request) -> dict[str, Any]:
 
 
 @router.get("/{job_id}/timeline.png", response_class=Response,
-            responses={200: {"content": {"image/png": {}}}, 404: {}, 409: {}})  # fmt: skip
+            responses={200: {"content": {"image/png": {}}, "description": "the plot"},
+                       404: {"description": "no onboard report"},
+                       409: {"description": "the report is not done"}})  # fmt: skip
 def get_onboard_timeline(job_id: str, request: Request) -> Response:
     """A done report's timeline plot (Hs, Tp, direction and operability per window)."""
     future = jobs_of(request).get(job_id)["future"]
