@@ -140,3 +140,13 @@ def test_send_refuses_a_speed_or_port_out_of_range() -> None:
         send(series, "127.0.0.1", 9, speed=0.0)
     with pytest.raises(TwinError, match="port"):
         send(series, "127.0.0.1", 70000)
+
+
+def test_a_parquet_log_is_read_by_its_content_not_its_name(tmp_path: Path) -> None:
+    """A Parquet table saved as `.pq` (or without a suffix) reads as the same log as `.parquet`."""
+    table().to_parquet(tmp_path / "log.parquet")
+    table().to_parquet(tmp_path / "log.pq")
+    want = read_motion(tmp_path / "log.parquet")
+    got = read_motion(tmp_path / "log.pq")
+    np.testing.assert_array_equal(got.motion, want.motion)
+    assert got.channels == want.channels == ("heave", "roll", "pitch")

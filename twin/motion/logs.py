@@ -71,7 +71,9 @@ def read_motion_log(path: str | Path, sensor: Sensor | None = None) -> MotionSer
     path = Path(path)
     sensor = sensor or Sensor()
     try:
-        table = pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
+        with path.open("rb") as handle:  # Parquet by its magic bytes, whatever the file's name
+            parquet = handle.read(4) == b"PAR1"
+        table = pd.read_parquet(path) if parquet else pd.read_csv(path)
     except (OSError, ValueError, ImportError) as error:
         raise TwinError(f"motion log {path}: cannot read it as a table ({error})") from None
     table.columns = [str(c).strip().lower() for c in table.columns]
