@@ -170,3 +170,14 @@ def test_the_stream_reads_datagrams_without_line_ends() -> None:
     assert stream.feed(whole[:-1].encode(), 3.0) == []  # its checksum is cut: not yet whole
     assert len(stream.feed(whole[-1:].encode(), 3.5)) == 1
     assert stream.feed(b"$GPHDT,123.456,T", 4.0) == []  # no checksum: waits, never a sample
+
+
+def test_a_log_that_opens_with_motion_before_heading_keeps_its_yaw() -> None:
+    """TSS1 lines before the first $HEHDT take its heading: the series has yaw and a finite
+    heading throughout, the later heading change seen as yaw."""
+    lines = [format_tss1(0.1, 0.0, 0.0), format_tss1(0.1, 0.0, 0.0), sentence("HEHDT,20.0,T"),
+             format_tss1(0.1, 0.0, 0.0), sentence("HEHDT,22.0,T"), format_tss1(0.1, 0.0, 0.0)]
+    series = read_nmea(lines, rate_hz=10.0)
+    assert "yaw" in series.channels and series.heading is not None
+    np.testing.assert_allclose(series.heading, [20.0, 20.0, 20.0, 22.0])
+    assert series.motion[0, 5] > 0 > series.motion[3, 5]

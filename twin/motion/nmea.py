@@ -157,14 +157,19 @@ class Assembler:
 
     def series(self, source: str, start: np.datetime64 | None = None) -> MotionSeries:
         """What was added as a `MotionSeries` (heave, roll, pitch and, where any heading came,
-        yaw), times from the first sample, quality flags counted (`flag_quality`)."""
+        yaw), times from the first sample, quality flags counted (`flag_quality`). Samples
+        before the first heading sentence take its heading (a compass sentence comes every
+        0.1-1 s), so a log that opens with a motion line keeps its yaw."""
         time = np.asarray(self.times, dtype=float)
         motion = np.full((time.size, 6), np.nan)
         if time.size:
             motion[:, [HEAVE, ROLL, PITCH]] = np.asarray(self.rows)
         channels = ["heave", "roll", "pitch"]
         heading = np.asarray(self.headings, dtype=float)
-        has_heading = time.size > 0 and bool(np.all(np.isfinite(heading)))
+        known = np.isfinite(heading)
+        has_heading = bool(np.any(known))
+        if has_heading:
+            heading[: int(np.argmax(known))] = heading[known][0]
         if has_heading:
             unwrapped = np.unwrap(np.radians(heading))
             motion[:, CHANNELS.index("yaw")] = -(unwrapped - unwrapped.mean())
