@@ -14,8 +14,9 @@ from twin.errors import TwinError
 from twin.motion.series import MotionSeries
 from twin.sim import simulate, simulate_many
 from twin.sim.base_motion import BaseMotion
-from twin.sim.measured import LOG_DIR_ENV, store_log
+from twin.sim.measured import LOG_DIR_ENV, MeasuredMotion, store_log
 from twin.sim.scenario import Scenario
+from twin.vessel import MOUNTS
 from twin.vessel.motion import base_pose, superpose
 
 SENSOR = (15.0, -4.0, 8.0)
@@ -79,3 +80,17 @@ def test_a_missing_log_or_a_run_past_its_end_is_refused(logs: Path) -> None:
         Scenario(**SEA, base_motion={"source": "sea", "log": key})
     with pytest.raises(ValueError, match="base_motion"):
         Scenario(**SEA, base_motion={"source": "log", "log": "../../etc/passwd"})
+
+
+def test_a_run_across_a_gap_in_the_log_is_refused_and_past_its_end_is_nan(logs: Path) -> None:
+    """A window crossing a sensor dropout (no samples for 5 s in a 0.05 s log) is refused with
+    the gap's times; a window beside it runs; poses past the log's end are NaN (the engine
+    holds and counts them), not the last sample repeated."""
+    full = measured_hull(30.0)
+    keep = (full.time < 10.0) | (full.time > 15.0)
+    key = store_log(MotionSeries(full.time[keep], full.motion[keep], full.channels), SENSOR)
+    with pytest.raises(TwinError, match=r"across a gap without samples from 9\.95 to 15\.05 s"):
+        MeasuredMotion(key, MOUNTS["hybrid"], offset=5.0, duration=10.0)
+    motion = MeasuredMotion(key, MOUNTS["hybrid"], offset=15.5, duration=10.0)
+    poses = motion.poses(np.array([0.0, 14.0, 14.6]))
+    assert np.isfinite(poses[:2]).all() and np.isnan(poses[2]).all()

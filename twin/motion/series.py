@@ -70,6 +70,18 @@ class MotionSeries:
         heading = None if self.heading is None else self.heading[keep]
         return replace(self, time=self.time[keep], motion=self.motion[keep], heading=heading)
 
+    def gap_limit(self, max_gap: float | None = None) -> float:
+        """[s] the longest step between samples that is not a gap: `max_gap`, default 5
+        median steps (a sensor that skips a sample or two has not dropped out)."""
+        if max_gap is not None:
+            return float(max_gap)
+        return 5.0 * float(np.median(np.diff(self.time))) if len(self) > 1 else 0.0
+
+    def gaps(self, max_gap: float | None = None) -> np.ndarray:
+        """(G, 2) [s] (last sample before, first after) of each gap (`gap_limit`)."""
+        wide = np.flatnonzero(np.diff(self.time) > self.gap_limit(max_gap))
+        return np.c_[self.time[wide], self.time[wide + 1]]
+
     def resampled(self, rate_hz: float, max_gap: float | None = None) -> MotionSeries:
         """The series on a uniform grid of `rate_hz` [Hz] from its first sample, each channel
         interpolated linearly; a grid point inside a gap longer than `max_gap` [s] (default 5
@@ -83,7 +95,7 @@ class MotionSeries:
         if len(self) < 2:
             raise TwinError("motion series: resampling needs two samples or more")
         step = np.diff(self.time)
-        gap = 5.0 * float(np.median(step)) if max_gap is None else float(max_gap)
+        gap = self.gap_limit(max_gap)
         # a millionth of a step of slack: 3.98 s at 1/0.02 Hz is 199 steps, not 198.999…
         steps = int(np.floor(self.duration * rate_hz + 1e-6))
         grid = self.time[0] + np.arange(steps + 1) / rate_hz

@@ -137,10 +137,21 @@ class MeasuredMotion:
             raise TwinError(f"base motion log {key}: the run reads {self.offset:g}-"
                             f"{self.offset + duration:g} s, the log lasts "
                             f"{self.series.duration:g} s")  # fmt: skip
+        # a sensor dropout inside the run would be bridged by a straight line: refused
+        gaps = self.series.gaps()
+        crossed = gaps[(gaps[:, 1] > self.offset) & (gaps[:, 0] < self.offset + duration)]
+        if crossed.size:
+            raise TwinError(f"base motion log {key}: the run reads {self.offset:g}-"
+                            f"{self.offset + duration:g} s, across a gap without samples "
+                            f"from {crossed[0, 0]:g} to {crossed[0, 1]:g} s (a step over "
+                            f"{self.series.gap_limit():g} s); choose an offset and duration "
+                            "inside the samples")  # fmt: skip
 
     def poses(self, t: np.ndarray) -> np.ndarray:
         """(N, 6) [m, rad] the mount's base poses at run times t (N,) [s]: each channel
-        interpolated linearly (absent channels 0), then `motion_at`."""
+        interpolated linearly (absent channels 0), then `motion_at`; NaN past the log's end
+        (a live session that runs on: the engine holds the last pose and counts it), not
+        the last sample repeated as if measured."""
         at = np.asarray(t, dtype=float) + self.offset
         motion = np.zeros((at.size, 6))
         for c in range(6):
@@ -148,4 +159,6 @@ class MeasuredMotion:
             good = np.isfinite(column)
             if np.count_nonzero(good) >= 2:
                 motion[:, c] = np.interp(at, self.series.time[good], column[good])
-        return motion_at(motion, self.sensor_position, self.mount.lever_arm, self.mount.yaw)
+        poses = motion_at(motion, self.sensor_position, self.mount.lever_arm, self.mount.yaw)
+        poses[(at < self.series.time[0]) | (at > self.series.time[-1] + 1e-9)] = np.nan
+        return poses
