@@ -96,3 +96,12 @@ def test_storing_needs_the_token(app_client: TestClient) -> None:
     refused = app_client.post("/api/motion-logs", json=samples(), headers=wrong)
     assert refused.status_code in (401, 403)
     assert app_client.get("/api/motion-logs").status_code == 200
+
+
+def test_an_hour_at_10_hz_fits_the_upload_cap(app_client: TestClient) -> None:
+    """The hour the batch question asks about (36,000 samples of heave, roll and pitch, about
+    3 MB of JSON, over the 64 KiB of a scenario's body) is stored: the uploads' cap applies."""
+    body = samples(36_000)
+    answer = app_client.post("/api/motion-logs", json=body, headers=AUTH)
+    assert answer.status_code == 201, answer.text[:200]
+    assert answer.json()["samples"] == 36_000 and answer.json()["duration"] == pytest.approx(3599.9)

@@ -212,13 +212,14 @@ def _lifespan(
 
 def _add_middleware(app: FastAPI, access: Access, max_body: int) -> None:
     """The body limit, then, outermost, the access guard (Host, token, origin)."""
-    # a site record's upload takes more than a scenario; every other route keeps max_body
+    # an upload (a site record, a motion log) takes more than a scenario; the rest keep max_body
     app.add_middleware(
         BodyLimit,
         max_bytes=max_body,
         route_limits={
             ("POST", "/api/workability"): max(UPLOAD_BODY, max_body),
             ("POST", "/api/onboard"): max(UPLOAD_BODY, max_body),
+            ("POST", "/api/motion-logs"): max(UPLOAD_BODY, max_body),
         },
     )
     # the outermost: refused before anything is read
