@@ -342,9 +342,6 @@ def serve(
         host, (port, viser_port), token, viewer=viewer, graphics=graphics,
         allow_hosts=allow_hosts, allow_origins=allow_origins, private=private,
     )  # fmt: skip
-    # stored motion logs live in the data dir; set before the cluster's workers start, so
-    # every process resolves a scenario's log ID to the same file (`twin.sim.measured`)
-    os.environ[LOG_DIR_ENV] = str(Path(data_dir) / "motion_logs")
     with _Held(data_dir, host, port) as held:
         # the store first: a bad file is one line before seconds of start-up (issue 30)
         held.store = RunStore(Path(data_dir) / DATABASE, Quota(max_store, max_runs, retain))
@@ -415,6 +412,9 @@ class _Held:
         """
         # before anything starts: a second server stops here
         self.lock = DataDirLock(self.data_dir).acquire()
+        # stored motion logs live in the data dir; set before the cluster's workers start, so
+        # every process resolves a scenario's log ID to the same file (`twin.sim.measured`)
+        os.environ[LOG_DIR_ENV] = str(Path(self.data_dir) / "motion_logs")
         try:
             self.rest = listen(self.host, self.port)
         except TwinError:
