@@ -8,8 +8,8 @@ heading advice out (`twin.sim.onboard`).
 The body is an `OnboardSpec` plus the log, uploaded as the samples its reader gave
 (`twin.motion`): `time` [s] and `motion`, one list per motion present (`surge`, `sway`, `heave`
 [m], `roll`, `pitch`, `yaw` in `angles`, rad or deg; heave, roll and pitch required), at most
-`MAX_SAMPLES` samples, and `start`, the UTC time of t = 0 if known. The body cap and the pricing
-are workability's: at most `UPLOAD_BODY` bytes, and the cells the report may need (every Hs × Tp
+`twin.web.routers.motion.MAX_SAMPLES` samples, and `start`, the UTC time of t = 0 if known.
+The body cap and the pricing are workability's: at most `UPLOAD_BODY` bytes, and the cells the report may need (every Hs × Tp
 cell at each heading of the strategy grid, seeds, planners) within `MAX_RUNS` runs and
 `MAX_TOTAL_STEPS` steps (`twin.web.routers.workability.over_limits`, a 422 naming the limit). A
 submission counts against the workability jobs' cap and rate (`Admission`, "workability").
@@ -24,68 +24,42 @@ from __future__ import annotations
 import threading
 import time
 import uuid
-from datetime import UTC, datetime
-from typing import Any, Literal
+from datetime import UTC
+from typing import Any
 
 import numpy as np
 from fastapi import APIRouter, HTTPException, Request, Response
-from pydantic import Field, model_validator
+from pydantic import model_validator
 
 from twin.errors import TwinError
 from twin.sim.onboard import OnboardSpec, onboard_task
 from twin.sim.workability import HeadingStrategy
-from twin.vessel.rao import DOFS
 from twin.web.deps import GUARDED, AdmissionDep, ExecutorDep, ServicesDep
 from twin.web.models import RANGES, _ranges, unprocessable
+from twin.web.routers.motion import MotionLogBody
 from twin.web.routers.responses import LIMITED
 from twin.web.routers.workability import over_limits, price
 
 router = APIRouter(prefix="/api/onboard", tags=["onboard"])
 
-#: most samples one log may have (24 h at 2 Hz, 5.5 h at 10 Hz: within the body cap as JSON)
-MAX_SAMPLES = 200_000
 #: reports kept in memory (the oldest finished ones go first)
 MAX_JOBS = 50
 #: [s] the longest sample step: an MRU logs at 1 Hz or faster (5-50 Hz usually)
 MAX_STEP = 1.0
 #: motions the estimate needs
 REQUIRED = ("heave", "roll", "pitch")
-Motion = Literal["surge", "sway", "heave", "roll", "pitch", "yaw"]
 
 
-class OnboardRequest(OnboardSpec):
-    """An onboard report's request: the `OnboardSpec` fields and the log's samples."""
-
-    time: list[float] = Field(..., min_length=2, max_length=MAX_SAMPLES,
-                              description="[s] sample times, uniform, increasing")  # fmt: skip
-    motion: dict[Motion, list[float]] = Field(
-        ..., description="one list per motion present, each as long as `time`: surge, sway, "
-        "heave [m], roll, pitch, yaw [`angles`]; heave, roll and pitch required",
-    )  # fmt: skip
-    angles: Literal["rad", "deg"] = Field("rad", description="unit of roll, pitch and yaw")
-    start: datetime | None = Field(None, description="UTC time of t = 0, if known")
+class OnboardRequest(OnboardSpec, MotionLogBody):
+    """An onboard report's request: the `OnboardSpec` fields and the log's samples
+    (`MotionLogBody`: the motion-log upload's, heave, roll and pitch required here)."""
 
     @model_validator(mode="after")
-    def _log(self) -> OnboardRequest:
+    def _estimable(self) -> OnboardRequest:
         lacking = [m for m in REQUIRED if m not in self.motion]
         if lacking:
             raise TwinError(f"motion: {lacking} missing; heave, roll and pitch are required")
-        for name, values in self.motion.items():
-            if len(values) != len(self.time):
-                raise TwinError(f"motion.{name}: {len(values)} samples for {len(self.time)} "
-                                "times; each motion as long as time")  # fmt: skip
         return self
-
-    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """(t (N,) [s], motion (N, 6) [m, rad], NaN for a motion absent)."""
-        t = np.asarray(self.time, dtype=float)
-        motion = np.full((t.size, 6), np.nan)
-        for name, values in self.motion.items():
-            column = np.asarray(values, dtype=float)
-            angle = DOFS.index(name) >= 3
-            motion[:, DOFS.index(name)] = np.radians(column) if angle and self.angles == "deg" \
-                else column  # fmt: skip
-        return t, motion
 
     def spec(self) -> OnboardSpec:
         return OnboardSpec(**self.model_dump(include=set(OnboardSpec.model_fields)))
