@@ -11,8 +11,9 @@ The body is an `OnboardSpec` plus the log, uploaded as the samples its reader ga
 `twin.web.routers.motion.MAX_SAMPLES` samples, and `start`, the UTC time of t = 0 if known.
 The body cap and the pricing are workability's: at most `UPLOAD_BODY` bytes, and the cells
 the report may need (every Hs × Tp cell at each heading of the strategy grid, seeds, planners)
-within `MAX_RUNS` runs and `MAX_TOTAL_STEPS` steps (`twin.web.routers.workability.over_limits`, a 422 naming the limit). A
-submission counts against the workability jobs' cap and rate (`Admission`, "workability").
+within `MAX_RUNS` runs and `MAX_TOTAL_STEPS` steps (`twin.web.routers.workability.over_limits`,
+a 422 naming the limit). A submission counts against the workability jobs' cap and rate
+(`Admission`, "workability").
 
 The report runs as one task on the server's executor (`twin.sim.onboard.onboard_task`), never
 in the process that answers. Jobs are kept in memory, the newest `MAX_JOBS`: a restarted server
