@@ -11,7 +11,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.web.support import TOKEN, access
-from twin.sim import simulate
+from twin.sim import measured, simulate
 from twin.sim.live import LiveSession
 from twin.sim.measured import LOG_DIR_ENV
 from twin.web.api import create_app
@@ -105,3 +105,14 @@ def test_an_hour_at_10_hz_fits_the_upload_cap(app_client: TestClient) -> None:
     answer = app_client.post("/api/motion-logs", json=body, headers=AUTH)
     assert answer.status_code == 201, answer.text[:200]
     assert answer.json()["samples"] == 36_000 and answer.json()["duration"] == pytest.approx(3599.9)
+
+
+def test_the_store_refuses_a_log_past_its_cap(app_client: TestClient,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """With room for one log only, the second is a 422 naming the cap and is not stored; the
+    list still shows the first, read from its header."""
+    first = app_client.post("/api/motion-logs", json=samples(), headers=AUTH).json()
+    monkeypatch.setattr(measured, "MAX_STORED", first["samples"] * 7 * 8 * 2)
+    refused = app_client.post("/api/motion-logs", json=samples(800), headers=AUTH)
+    assert refused.status_code == 422 and "allowed ≤" in refused.text, refused.text
+    assert [x["id"] for x in app_client.get("/api/motion-logs").json()] == [first["id"]]

@@ -19,6 +19,7 @@ import os
 import re
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -31,6 +32,9 @@ from twin.vessel import Mount
 LOG_DIR_ENV = "TWIN_MOTION_LOGS"
 #: a log's ID: the first 16 hex digits of the SHA-256 of its stored bytes
 LOG_ID = re.compile(r"^[0-9a-f]{16}$")
+#: [bytes] most the stored logs may take together (an hour of six channels at 50 Hz is 12 MB):
+#: there is no DELETE, so an upload past it is refused rather than filling the disk
+MAX_STORED = 2 * 1024**3
 
 
 def log_dir() -> Path:
@@ -54,7 +58,8 @@ def store_log(series: MotionSeries, sensor_position: tuple[float, float, float] 
                         "roll, pitch needed")  # fmt: skip
     meta = {"channels": list(series.channels), "source": series.source, "issues": series.issues,
             "start": None if series.start is None else str(series.start),
-            "sensor_position": [float(v) for v in sensor_position]}  # fmt: skip
+            "sensor_position": [float(v) for v in sensor_position], "samples": len(series),
+            "duration": series.duration, "rate_hz": series.rate_hz}  # fmt: skip
     buffer = io.BytesIO()
     np.savez(buffer, time=series.time, motion=series.motion, meta=np.array(json.dumps(meta)))
     data = buffer.getvalue()
@@ -63,6 +68,11 @@ def store_log(series: MotionSeries, sensor_position: tuple[float, float, float] 
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{key}.npz"
     if not path.exists():
+        held = sum(f.stat().st_size for f in folder.glob("*.npz"))
+        if held + len(data) > MAX_STORED:
+            raise TwinError(f"motion logs: the store holds {held / 2**20:.0f} MiB and this log "
+                            f"{len(data) / 2**20:.1f} MiB; allowed ≤ {MAX_STORED / 2**20:.0f} "
+                            "MiB together")  # fmt: skip
         tmp = path.with_suffix(".tmp")
         tmp.write_bytes(data)
         tmp.replace(path)
@@ -72,9 +82,9 @@ def store_log(series: MotionSeries, sensor_position: tuple[float, float, float] 
 def store_samples(
     t: np.ndarray, motion: np.ndarray, start: np.datetime64 | None, name: str,
     sensor_position: tuple[float, float, float],
-) -> tuple[str, MotionSeries]:
+) -> str:
     """`store_log` of samples: times t (N,) [s], motion (N, 6) [m, rad] in `CHANNELS` order
-    (NaN columns: not measured), the UTC start if known; (its ID, the stored series).
+    (NaN columns: not measured), the UTC start if known; its ID.
 
     Raises:
         TwinError: times not strictly increasing, shapes other than (N,) and (N, 6), or what
@@ -82,7 +92,7 @@ def store_samples(
     """
     channels = tuple(c for i, c in enumerate(CHANNELS) if not np.all(np.isnan(motion[:, i])))
     series = MotionSeries(t - t[0], motion, channels, start, {}, name)
-    return store_log(series, sensor_position), series
+    return store_log(series, sensor_position)
 
 
 def log_path(key: str, directory: Path | None = None) -> Path:
@@ -108,6 +118,23 @@ def _load(path: Path, mtime: float) -> tuple[MotionSeries, tuple[float, float, f
         series = MotionSeries(data["time"], data["motion"], tuple(meta["channels"]), start,
                               meta["issues"], meta["source"])  # fmt: skip
     return series, tuple(meta["sensor_position"])
+
+
+def describe_log(key: str, directory: Path | None = None) -> dict[str, Any]:
+    """A stored log's summary (id, name, samples, duration [s], median rate_hz, channels,
+    issues, UTC start, sensor_position [m]) from its header alone: a list of logs reads no
+    samples.
+
+    Raises:
+        TwinError: not an ID, or no such log stored.
+    """
+    with np.load(log_path(key, directory), allow_pickle=False) as data:
+        meta = json.loads(str(data["meta"]))
+    return {"id": key, "name": meta["source"], "samples": meta["samples"],
+            "duration": meta["duration"], "rate_hz": meta["rate_hz"],
+            "channels": meta["channels"], "issues": meta["issues"],
+            "start": None if meta["start"] is None else f"{meta['start']}Z",
+            "sensor_position": meta["sensor_position"]}  # fmt: skip
 
 
 def load_log(key: str, directory: Path | None = None

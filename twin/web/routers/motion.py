@@ -25,7 +25,7 @@ from fastapi import APIRouter, HTTPException, Response
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from twin.errors import TwinError
-from twin.sim.measured import CHANNELS, LOG_ID, MotionSeries, load_log, log_dir, store_samples
+from twin.sim.measured import CHANNELS, LOG_ID, describe_log, log_dir, store_samples
 from twin.web.deps import GUARDED
 
 router = APIRouter(prefix="/api/motion-logs", tags=["motion logs"])
@@ -90,26 +90,17 @@ class MotionLogUpload(MotionLogBody):
                       description="the log's name, e.g. its file's")  # fmt: skip
 
 
-def _summary(key: str, series: MotionSeries, position: tuple[float, ...]) -> dict[str, Any]:
-    return {"id": key, "name": series.source, "samples": len(series),
-            "duration": series.duration, "rate_hz": series.rate_hz,
-            "channels": list(series.channels), "issues": series.issues,
-            "start": None if series.start is None else f"{series.start}Z",
-            "sensor_position": list(position)}  # fmt: skip
-
-
 @router.post("", status_code=201, dependencies=GUARDED,
              responses={422: {"description": "a malformed log, said what is allowed"}})
 def create_motion_log(body: MotionLogUpload, response: Response) -> dict[str, Any]:
     """Store a log; answers its ID (the `log` of `Scenario.base_motion`) and summary."""
     t, motion = body.arrays()
     try:
-        key, series = store_samples(t, motion, body.start_time(), body.name,
-                                    body.sensor_position)  # fmt: skip
+        key = store_samples(t, motion, body.start_time(), body.name, body.sensor_position)
     except TwinError as exc:
         raise HTTPException(422, str(exc)) from None
     response.headers["Location"] = f"/api/motion-logs/{key}"
-    return _summary(key, series, body.sensor_position)
+    return describe_log(key)
 
 
 @router.get("")
@@ -121,8 +112,7 @@ def list_motion_logs() -> list[dict[str, Any]]:
     out = []
     for path in files[:MAX_LISTED]:
         if LOG_ID.match(path.stem):
-            series, position = load_log(path.stem)
-            out.append(_summary(path.stem, series, position))
+            out.append(describe_log(path.stem))
     return out
 
 
@@ -130,7 +120,6 @@ def list_motion_logs() -> list[dict[str, Any]]:
 def get_motion_log(log_id: str) -> dict[str, Any]:
     """One stored log's summary."""
     try:
-        series, position = load_log(log_id)
+        return describe_log(log_id)
     except TwinError as exc:
         raise HTTPException(404, str(exc)) from None
-    return _summary(log_id, series, position)
