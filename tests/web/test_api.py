@@ -111,7 +111,7 @@ def test_openapi_lists_exactly_the_api_paths(client: TestClient) -> None:
         "/api/workability/{job_id}/{plot}.png", "/api/workability/{job_id}/cancel",
         "/api/workability/{job_id}/rows.csv",
         "/api/onboard", "/api/onboard/{job_id}", "/api/onboard/{job_id}/timeline.png",
-        "/api/motion-logs", "/api/motion-logs/{log_id}",
+        "/api/motion-logs", "/api/motion-logs/file", "/api/motion-logs/{log_id}",
     }  # fmt: skip
     assert client.get("/docs").status_code == 200
 

@@ -1,6 +1,7 @@
-"""REST motion logs (`/api/motion-logs`, `twin.web.routers.motion`): a log's samples stored
-under its content's ID, listed and described, named by a run's `base_motion`; malformed logs a
-422 saying what is allowed; storing needs the token where the server has one."""
+"""REST motion logs (`/api/motion-logs`, `twin.web.routers.motion`): a log's samples, or a log
+file's bytes (`/file`, read in a bounded child), stored under its content's ID, listed and
+described, named by a run's `base_motion`; malformed logs a 422 saying what is allowed; the
+store capped; storing needs the token where the server has one."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.web.support import TOKEN, access
+from twin.motion.tss1 import format_tss1
 from twin.sim import measured, simulate
 from twin.sim.live import LiveSession
 from twin.sim.measured import LOG_DIR_ENV
@@ -116,3 +118,30 @@ def test_the_store_refuses_a_log_past_its_cap(app_client: TestClient,
     refused = app_client.post("/api/motion-logs", json=samples(800), headers=AUTH)
     assert refused.status_code == 422 and "allowed ≤" in refused.text, refused.text
     assert [x["id"] for x in app_client.get("/api/motion-logs").json()] == [first["id"]]
+
+
+def test_a_log_file_is_stored_from_its_bytes(app_client: TestClient) -> None:
+    """A CSV table (angles in degrees) and the same motion as stamped TSS1 lines, each sent as
+    the body of /file, are read in the bounded child and stored: samples, channels, name and
+    the sensor's position as given; an unreadable body and a NUL are 422s naming why."""
+    t = np.arange(300) * 0.1
+    heave, roll = 0.5 * np.sin(0.7 * t), 2.0 * np.sin(0.5 * t)
+    csv = "time,heave,roll_deg\n" + "".join(f"{a:.1f},{b:.4f},{c:.4f}\n"
+                                            for a, b, c in zip(t, heave, roll, strict=True))
+    stored = app_client.post("/api/motion-logs/file?name=mru.csv&x=5&z=3", content=csv,
+                             headers=AUTH)  # fmt: skip
+    assert stored.status_code == 201, stored.text
+    log = stored.json()
+    assert log["samples"] == 300 and log["channels"] == ["heave", "roll"]
+    assert log["name"] == "mru.csv" and log["sensor_position"] == [5.0, 0.0, 3.0]
+    assert app_client.get(stored.headers["Location"]).json()["id"] == log["id"]
+    tss1 = "".join(f"{a:.1f} {format_tss1(b, np.radians(c), 0.0)}\r\n"
+                   for a, b, c in zip(t, heave, roll, strict=True))  # fmt: skip
+    nmea = app_client.post("/api/motion-logs/file?name=mru.nmea", content=tss1, headers=AUTH)
+    assert nmea.status_code == 201, nmea.text
+    assert nmea.json()["samples"] == 300 and nmea.json()["duration"] == pytest.approx(29.9)
+    bad = app_client.post("/api/motion-logs/file", content="a,b\n1,2\n", headers=AUTH)
+    assert bad.status_code == 422 and "no `time` column" in bad.text
+    nul = app_client.post("/api/motion-logs/file", content="time\x00,heave\n", headers=AUTH)
+    assert nul.status_code == 422 and "NUL" in nul.text
+    assert app_client.post("/api/motion-logs/file", content=csv).status_code in (401, 403)

@@ -17,6 +17,7 @@ import io
 import json
 import os
 import re
+import tempfile
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from twin.errors import TwinError
+from twin.motion.logs import read_motion
 from twin.motion.mount import motion_at
 from twin.motion.series import CHANNELS, MotionSeries
 from twin.vessel import Mount
@@ -93,6 +95,25 @@ def store_samples(
     channels = tuple(c for i, c in enumerate(CHANNELS) if not np.all(np.isnan(motion[:, i])))
     series = MotionSeries(t - t[0], motion, channels, start, {}, name)
     return store_log(series, sensor_position)
+
+
+#: file name endings an uploaded file keeps (the readers sniff the content anyway)
+SUFFIXES = (".csv", ".parquet", ".pq", ".txt", ".nmea", ".log")
+
+
+def read_upload(data: bytes, name: str) -> MotionSeries:
+    """The motion series of an uploaded file's bytes named `name`, read as `twin motion-log`
+    reads a file (`twin.motion.logs.read_motion`, the format sniffed): a task for a bounded
+    child (`twin.web.upload_worker`), so pandas' cost stays out of the server's process.
+
+    Raises:
+        TwinError: what `read_motion` refuses (no `time` column, no motion, no usable sample).
+    """
+    suffix = Path(name).suffix.lower()
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"upload{suffix if suffix in SUFFIXES else '.txt'}"
+        path.write_bytes(data)
+        return read_motion(path)
 
 
 def log_path(key: str, directory: Path | None = None) -> Path:

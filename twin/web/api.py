@@ -220,6 +220,7 @@ def _add_middleware(app: FastAPI, access: Access, max_body: int) -> None:
             ("POST", "/api/workability"): max(UPLOAD_BODY, max_body),
             ("POST", "/api/onboard"): max(UPLOAD_BODY, max_body),
             ("POST", "/api/motion-logs"): max(UPLOAD_BODY, max_body),
+            ("POST", "/api/motion-logs/file"): max(UPLOAD_BODY, max_body),
         },
     )
     # the outermost: refused before anything is read
