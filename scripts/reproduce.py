@@ -1,5 +1,6 @@
 """Reproduce the papers' tables with the twin; write docs/reproduction.md and its PNG plots.
 
+python scripts/reproduce_claims.py   (the verdicts over 1,000 seeds, ~3 min; when claims change)
 python scripts/reproduce.py [--seeds 10] [--out docs] [--processes 2]   (needs the `docs` extra)
 
 Runs the hybrid system's presets (`twin.sim.PAPER_PRESETS`) over sea seeds 0 … n−1 in both
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import json
 import time
 from collections.abc import Callable, Sequence
 from itertools import pairwise
@@ -1418,10 +1420,13 @@ def jobs(seeds: range, upr4_planners: Sequence[str]) -> list[Job]:
 
 def main(n_seeds: int = 10, out: Path = Path("docs"), processes: int = 2) -> None:
     """Run everything and write `out`/reproduction.md, `out`/reproduction/claims.json and
-    `out`/reproduction/*.png."""
+    `out`/reproduction/*.png; the verdicts over 1,000 seeds are read from
+    docs/reproduction/stability.json (`python scripts/reproduce_claims.py` writes it)."""
     started = time.perf_counter()
     figures = out / "reproduction"
     figures.mkdir(parents=True, exist_ok=True)
+    # the verdicts over 1,000 seeds, computed beforehand (python scripts/reproduce_claims.py)
+    stability = json.loads(reproduce_claims.STABILITY_JSON.read_text())
     # the claims: every number over the held-out report seeds, through simulate_many
     data = reproduce_claims.run_all()
     reproduce_claims.write_claims_json(data["outcomes"], figures / "claims.json")
@@ -1468,6 +1473,7 @@ waves travel towards, counter-clockwise from the bow (docs/frames.md).
     text = "\n".join(
         [
             header,
+            reproduce_claims.section_stability(stability),
             reproduce_claims.section_claims(data),
             reproduce_claims.section_causes(data),
             reproduce_claims.section_holes(data),

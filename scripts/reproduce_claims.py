@@ -12,13 +12,17 @@ Imported by scripts/reproduce.py (it sits beside it). Runs, through the one engi
 4. seed 001's ocean-wave coupling (P5-P8) and seed 002's efficiency against dt with the
    measured limb rates.
 
-`write_claims_json` writes docs/reproduction/claims.json, the verdicts
-tests/test_reproduction_claims.py holds the engine to.
+`write_claims_json` writes docs/reproduction/claims.json. Run as a script, it writes
+docs/reproduction/stability.json: every claim over seeds 50-1049 and its ten blocks of 100 in
+both sea models (`stability`), the verdicts the report states and
+tests/test_reproduction_claims.py holds the engine to (~3 minutes on two cores, cached per
+block in `STABILITY_CACHE`).
 """
 
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 from typing import Any
 
@@ -32,19 +36,28 @@ from twin.sea.presets import (
     seed001_signals,
     seed001_trajectory,
 )
+from twin.sea.spectra import dnv_gamma
 from twin.sim import PAPER_PRESETS
 from twin.sim.claims import (
+    BLOCK,
+    BLOCKS,
+    RESAMPLES,
     SEED001_DT,
     SEED001_P8,
     SEED002_ETA,
+    STABILITY_SEEDS,
     TABLE7,
-    TEST_SEEDS,
     Outcome,
+    block_verdict,
+    block_verdicts,
+    claim_values,
+    claims,
     column,
     evaluate,
-    judge,
     preset_runs,
     seed002_runs,
+    seed002_values,
+    stable_verdict,
 )
 from twin.sim.presets import CALIBRATION_SEEDS, REPORT_SEEDS
 
@@ -168,19 +181,11 @@ def run_all() -> dict[str, Any]:
 
 
 def write_claims_json(outcomes: dict[str, Outcome], path: Path) -> None:
-    """The verdicts and their statistics over the report seeds, and the verdicts over
-    `TEST_SEEDS` (the same runs' first values, judged by the same rules), which
-    tests/test_reproduction_claims.py recomputes on the engine."""
-    n = len(TEST_SEEDS)
-    subset = {
-        key: judge(o.claim, o.values if o.claim.kind == "deterministic" else o.values[:n]).verdict
-        for key, o in outcomes.items()
-    }
+    """The claims' statistics over the report seeds (the verdicts that stand are
+    `STABILITY_JSON`'s, over 1,000 seeds)."""
     data = {
         "seeds": [REPORT_SEEDS.start, REPORT_SEEDS.stop - 1],
-        "test_seeds": [TEST_SEEDS.start, TEST_SEEDS.stop - 1],
         "claims": {key: o.summary() for key, o in outcomes.items()},
-        "test_verdicts": subset,
     }
     path.write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n")
 
@@ -298,9 +303,9 @@ def section_claims(data: dict[str, Any]) -> str:
              ("matched", "reproduced", "not reproduced")}  # fmt: skip
     missed = [o.claim.text for o in unfitted if o.verdict == "not reproduced"]
     number_header = [
-        "paper", "claim", "paper's value", f"ours: mean (5 … 95 %), {n} seeds",
-        "95 % CI of the mean", "mean as preset / " + " / ".join(SENSITIVITY) + " (50 seeds)",
-        "verdict",
+        "paper", "claim", "paper's value", f"ours: mean (10 … 90 %), {n} seeds",
+        "95 % bootstrap CI of the mean",
+        "mean as preset / " + " / ".join(SENSITIVITY) + " (50 seeds)", "verdict",
     ]  # fmt: skip
     share_header = ["paper", "claim", "holds on (seeds)", "95 % Wilson interval", "verdict"]
     fixed_rows = []
@@ -312,16 +317,16 @@ def section_claims(data: dict[str, Any]) -> str:
         )
         fixed_rows.append([o.claim.source, o.claim.text, fmt(o.claim.paper, 2), ours,
                            bold(o.verdict)])  # fmt: skip
-    return f"""## Claims at a glance
+    return f"""## The first block in detail, with sensitivities
 
-Every number below is a distribution over **{n} sea seeds ({REPORT_SEEDS.start}–
-{REPORT_SEEDS.stop - 1})**, none of which the calibration saw (it used seeds
-{CALIBRATION_SEEDS.start}–{CALIBRATION_SEEDS.stop - 1}; next section). The rules
-(`twin.sim.claims`):
+The verdicts that stand are the section above's (1,000 seeds, ten blocks). This section shows
+one block, **{n} sea seeds ({REPORT_SEEDS.start}–{REPORT_SEEDS.stop - 1})**, judged by the same
+rules, with each number's sensitivity to the sea's discretisation and dt; its verdicts are
+that block's (a seed-dependent claim can go either way here). The rules (`twin.sim.claims`):
 
-- a paper's number is **matched** when the 95 % confidence interval of our mean contains it,
-  **reproduced** when our 5–95 % range of per-seed values does (a realisation like the
-  paper's is typical of our sea), else **not reproduced**;
+- a paper's number is **matched** when the 95 % bootstrap CI of our mean contains it,
+  **reproduced** when it lies within our 10–90 % band of per-seed values (a comparison claim
+  also needs the paper's sign on 90 % of seeds), else **not reproduced**;
 - a qualitative claim, which the paper's single run shows holding, is **reproduced** when it
   holds on most seeds (the lower end of the 95 % Wilson interval of the share above 50 %),
   **not reproduced** when its upper end is below 50 %, else **undecided**;
@@ -535,3 +540,256 @@ on the held-out seeds {REPORT_SEEDS.start}–{REPORT_SEEDS.stop - 1}):
 Everything else (leg minima, q1, q2 and d3 ranges, MTMP's and DWA's margins, DWA against the
 conventional methods, seed 001 and 002) is unfitted.
 """
+
+
+# ---------------------------------------------------------------------------------------------
+# Verdicts over 1,000 seeds, in blocks, in both seas (python scripts/reproduce_claims.py)
+# ---------------------------------------------------------------------------------------------
+
+#: the two sea models of every claim: the papers' presets, and the scenario defaults
+#: (800 components, DNV's γ for Hs and Tp) on the same Hs, Tp, heading and seeds
+SEAS = {"presets": {}, "defaults": {"gamma": None, "n_components": 800}}
+#: where `stability_values` keeps each block's values (a crash loses one block)
+STABILITY_CACHE = Path("/tmp/twin_claims_blocks")
+#: the repository's copy, whatever folder scripts/reproduce.py writes its report to
+STABILITY_JSON = Path(__file__).resolve().parents[1] / "docs" / "reproduction" / "stability.json"
+#: [%] how close (relative) a seed's P8 maxima must come to the paper's to count as "near"
+P8_NEAR = 5.0
+
+
+def stability_values(seeds: range, sea: str, cache: Path = STABILITY_CACHE) -> dict:
+    """Claim key → per-seed values over `seeds` in `sea` (`SEAS`), computed block by block
+    (`BLOCK` seeds) and cached as .npz; seed 001's claims (own sea) only under the presets,
+    seed 002's deterministic claims run once."""
+    cache.mkdir(parents=True, exist_ok=True)
+    parts: list[dict[str, np.ndarray]] = []
+    for start in range(seeds.start, seeds.stop, BLOCK):
+        path = cache / f"{sea}_{start}.npz"
+        if not path.exists():
+            values = claim_values(range(start, start + BLOCK), SEAS[sea] or None,
+                                  with_seed001=sea == "presets")  # fmt: skip
+            np.savez(path, **values)  # type: ignore[arg-type]  # numpy's stub: **kwds as arrays
+            print(f"{sea} seeds {start}-{start + BLOCK - 1}", flush=True)
+        with np.load(path) as data:
+            parts.append({k: data[k] for k in data.files if not k.startswith("seed002")})
+    values = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return values | seed002_values(seed002_runs())
+
+
+def stability(seeds: range = STABILITY_SEEDS) -> dict[str, Any]:
+    """Every claim judged over `seeds` in both seas with its block split (`stable_verdict`),
+    seed 001's P8 joint count, and the block tests/test_reproduction_claims.py runs."""
+    out: dict[str, Any] = {"seeds": [seeds.start, seeds.stop - 1], "seas": {}}
+    presets_values: dict[str, np.ndarray] = {}
+    for sea in SEAS:
+        values = stability_values(seeds, sea)
+        presets_values = presets_values or values
+        rows = {}
+        for c in claims():
+            if c.key in values:
+                outcome, split = stable_verdict(c, values[c.key])
+                rows[c.key] = outcome.summary() | {
+                    "split": split,
+                    "blocks": block_verdicts(c, values[c.key]),
+                }
+        out["seas"][sea] = rows
+    out["test_block"] = test_block(out["seas"]["presets"], seeds)
+    x, z = presets_values["seed001.p8.xc_max"], presets_values["seed001.p8.zc_max"]
+    near = (np.abs(x / SEED001_P8["x"] - 1) <= P8_NEAR / 100) & (
+        np.abs(z / SEED001_P8["z"] - 1) <= P8_NEAR / 100
+    )
+    out["p8"] = {"near_both": int(near.sum()), "n": int(x.size),
+                 "implied_l_plus_z": float(np.median(x**2 / z))}  # fmt: skip
+    return out
+
+
+def test_block(rows: dict[str, Any], seeds: range) -> list[int]:
+    """[first, last] seed of the first block on which every stable claim gives its stated
+    verdict (the block tests/test_reproduction_claims.py recomputes)."""
+    stable = {k: r for k, r in rows.items() if r["verdict"] != "seed-dependent"}
+    for i in range(BLOCKS):
+        if all(r["blocks"][i] == block_verdict(r["verdict"]) for r in stable.values()):
+            start = seeds.start + i * BLOCK
+            return [start, start + BLOCK - 1]
+    raise RuntimeError("no block gives every stable verdict")
+
+
+def split_text(split: dict[str, int]) -> str:
+    """ "NR in 4 of 10": the blocks against the majority's verdict."""
+    short = {"reproduced": "R", "not reproduced": "NR", "undecided": "U"}
+    parts = sorted(split.items(), key=lambda kv: kv[1])
+    return ", ".join(f"{short[v]} in {k} of {BLOCKS}" for v, k in parts[:-1]) or (
+        f"all {BLOCKS} blocks"
+    )
+
+
+def stability_cell(row: dict[str, Any] | None) -> str:
+    """One sea's column of a claim: verdict, block split, mean (10 … 90 %), paper's
+    percentile, the bootstrap CI."""
+    if row is None:
+        return "— (own sea)"
+    d = digits_of(row["unit"])
+    if row["kind"] == "share":
+        lo, hi = (100 * v for v in row["ci"])
+        body = f"holds on {100 * row['mean']:.1f} % (CI {lo:.1f} … {hi:.1f})"
+    elif row["kind"] == "deterministic":
+        body = (
+            f"{row['mean']:.2f}"
+            if row["paper"] is not None
+            else ("holds" if row["mean"] > 0.5 else "does not hold")
+        )
+    else:
+        body = (
+            f"{fmt(row['mean'], d)} ({fmt(row['low'], d)} … {fmt(row['high'], d)}), "
+            f"paper at P{row['percentile']:.0f}, CI {fmt(row['ci'][0], d)} … "
+            f"{fmt(row['ci'][1], d)}"
+        )
+        if "same_sign" in row:
+            body += f", paper's sign on {100 * row['same_sign']:.1f} %"
+    split = split_text(row["split"])
+    if row["verdict"] == "seed-dependent":
+        split += f"; {100 * row['agreement']:.0f} % of {RESAMPLES} random blocks agree"
+    return f"{bold(row['verdict'])} ({split}): {body}"
+
+
+def sea_cause(key: str, a: dict[str, Any], b: dict[str, Any]) -> str:
+    """One line on why the two seas' verdicts differ: the measured shift of the claim."""
+    if a["kind"] == "share":
+        return f"holds on {100 * a['mean']:.1f} → {100 * b['mean']:.1f} % of seeds"
+    d = digits_of(a["unit"])
+    return (
+        f"mean {fmt(a['mean'], d)} → {fmt(b['mean'], d)} {a['unit']}, the paper's "
+        f"percentile P{a['percentile']:.0f} → P{b['percentile']:.0f}"
+    )
+
+
+def sea_gamma(scenario: Any) -> float:
+    """[-] DNV's γ at a scenario's Hs [m] and Tp [s] (what the scenario default would use)."""
+    return float(dnv_gamma(float(scenario.hs), float(scenario.tp)))
+
+
+def section_stability(data: dict[str, Any]) -> str:
+    """The report's lead: the verdict rule, the counts over 1,000 seeds, and every claim in
+    both seas with its block split (from `STABILITY_JSON`)."""
+    first, last = data["seeds"]
+    presets, defaults = data["seas"]["presets"], data["seas"]["defaults"]
+    kinds = ("matched", "reproduced", "not reproduced", "seed-dependent")
+    count = {v: sum(r["verdict"] == v for r in presets.values()) for v in kinds}
+    count_d = {v: sum(r["verdict"] == v for r in defaults.values()) for v in kinds}
+    rows = []
+    for key, a in presets.items():
+        b = defaults.get(key)
+        differ = b is not None and a["verdict"] != b["verdict"]
+        rows.append([a["source"], a["text"] + (f" [{a['unit']}]" if a["unit"] else "")
+                     + (f" (**fitted**: {a['fitted']})" if a["fitted"] else ""),
+                     fmt(a["paper"], digits_of(a["unit"])) if a["paper"] is not None else "—",
+                     stability_cell(a), stability_cell(b),
+                     sea_cause(key, a, b) if differ else ""])  # fmt: skip
+    seed_dependent = [r["text"] for r in presets.values() if r["verdict"] == "seed-dependent"]
+    block = data["test_block"]
+    return f"""## Verdicts over {last - first + 1} seeds
+
+**The rule** (`twin.sim.claims`). Every claim is evaluated on sea seeds {first}–{last}
+(held out: the calibration used seeds {CALIBRATION_SEEDS.start}–{CALIBRATION_SEEDS.stop - 1})
+and on each of the ten blocks of 100 seeds in them.
+
+- **A number** is **reproduced** when the paper's value lies within our 10–90 % band (its
+  percentile in our per-seed distribution between 10 and 90), and **matched** when, besides,
+  the 95 % bootstrap CI of our mean over the {last - first + 1} seeds contains it; a
+  **comparison** claim (DWA below method 2 by 30.8 % / 34.8 %) must also have the paper's
+  sign on at least 90 % of seeds. Otherwise **not reproduced**.
+- **A qualitative claim** (the paper's one run shows it holding) is reproduced when it holds on
+  most seeds (the 95 % Wilson interval of the share above 50 %), not reproduced when below,
+  else undecided. Seed 002's regular waves are one deterministic record: within 1 point.
+- **Stability:** a verdict is stated only if at least 9 of the 10 blocks give it (matched
+  counts as reproduced in a block) and so do 99 % of {RESAMPLES} random blocks of 100 of the
+  seeds (a verdict near a band's edge, which a new block could flip, is not stated); otherwise
+  the claim is **seed-dependent** and the split is shown ("NR in 4 of 10": four blocks say not
+  reproduced).
+
+**Counts, papers' presets:** {count["matched"]} matched, {count["reproduced"]} reproduced,
+{count["not reproduced"]} not reproduced, {count["seed-dependent"]} seed-dependent (of
+{len(presets)} claims). **Scenario defaults** (800 components, DNV γ): {count_d["matched"]}
+matched, {count_d["reproduced"]} reproduced, {count_d["not reproduced"]} not reproduced,
+{count_d["seed-dependent"]} seed-dependent (of {len(defaults)}; seed 001 has its own sea).
+Seed-dependent on the presets: {"; ".join(seed_dependent) or "none"}.
+
+Every stable verdict holds on seeds {block[0]}–{block[1]}, the block
+tests/test_reproduction_claims.py recomputes. Computed by `python scripts/reproduce_claims.py`
+({data.get("seconds", 0)} s from its block cache; about 3 minutes from nothing, two cores) into
+`reproduction/stability.json`, which this report reads.
+
+The scenario defaults differ from the presets in the spectrum only: DNV's γ at the presets'
+Hs and Tp is {sea_gamma(PAPER_PRESETS["seed000"]):g}
+(Tp/√Hs ≥ 5: Pierson–Moskowitz, a broader spectrum than the calibrated γ 3.3) on 800
+components instead of 200. The last column gives the measured shift where the verdicts differ.
+
+{
+        table(
+            [
+                "paper",
+                "claim",
+                "paper's value",
+                "papers' presets",
+                "scenario defaults",
+                "why the seas differ",
+            ],
+            rows,
+        )
+    }
+
+{p8_finding(data)}
+
+{eta_trend(presets)}
+"""
+
+
+def p8_finding(data: dict[str, Any]) -> str:
+    """Seed 001's P8 maxima cannot hold together: eq 15's arithmetic."""
+    platform = Upu3Up()
+    length = float(platform.l)  # [mm]
+    implied = SEED001_P8["x"] ** 2 / SEED001_P8["z"]
+    p8 = data["p8"]
+    return f"""### Finding: seed 001's three P8 maxima are inconsistent
+
+With α = β = a(t) (P8), eq 15 gives Zc = (l + z)(cos² a − 1) ≈ −(l + z)·a² and
+Xc ≈ (l + z)·a, so |Zc| ≈ |Xc|²/(l + z). The paper's |Xc| = {SEED001_P8["x"]:.1f} mm and
+|Zc| = {SEED001_P8["z"]:.1f} mm imply l + z = {SEED001_P8["x"]:.1f}²/{SEED001_P8["z"]:.1f} =
+{implied:.0f} mm, but l = {length:.0f} mm; ours give a median |Xc|²/|Zc| of
+{p8["implied_l_plus_z"]:.0f} mm. Of {p8["n"]} seeds, {p8["near_both"]} come within
+{P8_NEAR:g} % of both the paper's |Xc| and |Zc|: the paper's Xc sits in our low tail and its
+Zc in our high tail, so neither verdict above says the three numbers were reproduced together.
+"""
+
+
+def eta_trend(rows: dict[str, Any]) -> str:
+    """Seed 002's η over states 1-3: the verdict and what our loop does instead."""
+    runs = seed002_runs((0.005,))
+    eta = [runs[(s, 0.005)][0] for s in SEED002_ETA]
+    rates = [1e3 * runs[(s, 0.005)][1] for s in SEED002_ETA]
+    return f"""### The η trend over seed 002's wave states 1–3
+
+The paper's η falls {" → ".join(f"{v:.2f}" for v in SEED002_ETA.values())} %; ours (dt 5 ms)
+is {" → ".join(f"{v:.2f}" for v in eta)} %: **{rows["seed002.eta_falls"]["verdict"]}**. State 1's
+η is **fitted** (kp from the paper's 98.23 %, dt 5 ms chosen for it), so only states 2–3 and
+the trend test the model. Measured cause: our velocity loop is linear and never saturates
+(peak limb rates {", ".join(f"{r:.1f}" for r in rates)} mm/s, far below the actuators' limit),
+so η depends only on each wave component's frequency (lag ≈ ω/kp), not its amplitude; states
+2 and 3 add 5 s and 7 s components, tracked better than state 1's 3 s wave, so η stays flat.
+The paper's fall needs an amplitude-dependent loss its Gazebo effort loop has and ours does
+not model.
+"""
+
+
+def main() -> None:
+    """Write `STABILITY_JSON` (docs/reproduction/stability.json), which scripts/reproduce.py
+    turns into the report's verdicts."""
+    started = time.perf_counter()
+    data = stability()
+    data["seconds"] = round(time.perf_counter() - started)
+    STABILITY_JSON.write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n")
+    print(f"wrote {STABILITY_JSON} in {data['seconds']} s")
+
+
+if __name__ == "__main__":
+    main()
