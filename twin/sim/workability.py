@@ -73,8 +73,9 @@ from twin.site.records import Duplicates, SiteRecord, read_record, utc_column
 from twin.site.windows import record_step, window_stats
 
 #: what a cached cell depends on besides its scenario: the package version and this module's
-#: reduction of a run (bump CELL_FORMAT when `run_summary` changes)
-CELL_FORMAT = 2
+#: reduction of a run (bump CELL_FORMAT when `run_summary` or the engine's results change;
+#: 3: the hybrid planners' exact-sampled tip gain, issue 39, made earlier cells stale)
+CELL_FORMAT = 3
 ENGINE_VERSION = f"twin {twin.__version__} / cells {CELL_FORMAT}"
 #: the cache file in a data dir
 CELL_DATABASE = "cells.sqlite"
