@@ -6,8 +6,8 @@
   record's 744 hourly sea states repeated end to end, given consecutive hourly timestamps from
   2010-01-01: real sea states, synthetic chronology; its months and windows mean nothing, its
   cost is that of a 10-year record) for 3 planners (MTMP, WPI, PI) with 5 seeds per cell, cells
-  method, the default grid (14 Hs × 15 Tp, fixed heading 150°), from an empty cell cache, on a
-  two-worker `LocalCluster` (its start and stop shown apart). Target: ≤ 3 minutes on 2 cores.
+  method, the default grid (17 Hs to 8 m × 15 Tp, fixed heading 150°), from an empty cell cache,
+  on a two-worker `LocalCluster` (its start and stop shown apart). Target: ≤ 3 minutes on 2 cores.
 - **again**: the same 10-year evaluation with every cell cached: what the record's rows cost
   (cell lookup, probabilities, summaries, windows) beside the runs.
 - **5-day forecast**: 40 sea states at 3 h steps (every third row of the shipped record, as a

@@ -4,13 +4,16 @@ python scripts/workability_docs.py [--seeds 5] [--every 3] [--out /tmp/workabili
                                    [--data-dir /tmp/twin-cells] [--workers 2]
                                    [--scheduler in-process|tcp://HOST:PORT]
                                    [--record 46097h2019_08.txt] [--compare-headings 150 180 210]
+                                   [--compare-only]
 
 1. Cells method (linear lookup, the default), every hybrid planner, on the whole record
    (`--record`, default NDBC 46097, August 2019, hourly), relative heading fixed at 150°
    (Scenario's default), then the best of 150/180/210°.
 2. Cells (conservative and linear lookup) vs direct on a sample (every `--every`-th hour) for
    three planners at each of `--compare-headings` (fixed): workability of each, and the share
-   of rows whose operable flag (probability ≥ 0.5) differs.
+   of rows whose operable flag (probability ≥ 0.5) differs. `--compare-only` skips step 1 (the
+   cells-vs-direct table of docs/workability.md on each record, at a reasonable cost). A scatter
+   table is compared whole (`--every` samples time series only).
 
 Not part of the tests; prints what docs/workability.md quotes.
 """
@@ -102,6 +105,7 @@ def main() -> None:
         default=[150.0],
         help="relative headings [deg] of the cells-vs-direct comparison",
     )
+    parser.add_argument("--compare-only", action="store_true", help="step 2 alone")
     args = parser.parse_args()
     record = read_record(asset_path("site", args.record))
     measured: dict = {"record": record.summary(), "seeds": args.seeds}
@@ -109,8 +113,12 @@ def main() -> None:
     with Executor.start(args.scheduler, n_workers=args.workers) as executor:
         common = {"seeds": args.seeds, "window_hours": [6.0, 12.0], "shift": None}
         for name, heading in (
-            ("fixed150", {"kind": "fixed", "headings": [150.0]}),
-            ("best", {"kind": "best", "headings": [150.0, 180.0, 210.0]}),
+            ()
+            if args.compare_only
+            else (
+                ("fixed150", {"kind": "fixed", "headings": [150.0]}),
+                ("best", {"kind": "best", "headings": [150.0, 180.0, 210.0]}),
+            )
         ):
             spec = WorkabilitySpec(planners=ALL, heading=heading, **common)
             start = time.perf_counter()
@@ -135,7 +143,7 @@ def main() -> None:
                 }
             for png, blob in result.pngs().items():
                 (args.out / f"{name}_{png}").write_bytes(blob)
-        part = sample(record, args.every)
+        part = record if record.kind == "scatter" else sample(record, args.every)
         for heading in args.compare_headings:
             key = "cells_vs_direct" + ("" if heading == 150.0 else f"_{heading:g}")
             measured[key] = compare_methods(part, heading, args, executor)

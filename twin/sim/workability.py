@@ -201,8 +201,9 @@ class WorkabilitySpec(BaseModel):
     dt: float = Field(0.05, ge=0.005, le=0.2, description="[s] control period")
     heading: HeadingStrategy = Field(default_factory=HeadingStrategy)
     hs_grid: list[float] = Field(
-        [0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 3.0, 3.5, 4.0, 5.0],
-        min_length=1, max_length=60, description="[m] Hs of the cells, increasing",
+        [0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0, 8.0],
+        min_length=1, max_length=60, description="[m] Hs of the cells, increasing (to 8 m: "
+        "qp keeps operating past 5 m, docs/workability.md 'Rated sea')",
     )  # fmt: skip
     tp_grid: list[float] = Field(
         [3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 16.0, 18.0, 20.0],
