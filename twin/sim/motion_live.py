@@ -95,5 +95,9 @@ class LiveMotion:
         """What the viewer and the API show: the source, live or stale, and the counts."""
         with self._lock:
             age = now - self._arrived
-            return {"source": self.source, "live": age <= self.stale_after,
-                    "age_s": age if math.isfinite(age) else None, "counts": dict(self.counts)}
+            return {
+                "source": self.source,
+                "live": age <= self.stale_after,
+                "age_s": age if math.isfinite(age) else None,
+                "counts": dict(self.counts),
+            }
