@@ -219,6 +219,16 @@ def _add_serve_clients(serve: argparse.ArgumentParser) -> None:
         "default none: the client is the socket's peer address, which the limits apply to",
     )  # fmt: skip
     serve.add_argument(
+        "--motion-udp", type=int, metavar="PORT",
+        help="listen for a motion sensor's NMEA/TSS1 sentences on this UDP port (loopback "
+        "senders only unless --motion-udp-allow); `twin motion-replay LOG --udp` sends them",
+    )  # fmt: skip
+    serve.add_argument(
+        "--motion-udp-allow", action="append", default=[], metavar="ADDRESS",
+        help="another sender address whose datagrams --motion-udp reads (repeatable; binds all "
+        "interfaces); datagrams from any other address are counted and dropped",
+    )  # fmt: skip
+    serve.add_argument(
         "--private", action="store_true",
         help="with TWIN_TOKEN, reading stored runs and sweeps (GET /api/runs…, /api/sweeps…) "
         "needs the token too; default: anyone who can reach the server may read them",
@@ -544,35 +554,44 @@ def _add_warm(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
 
 def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from twin.errors import TwinError
-    from twin.web.server import Terminated, serve
+    from twin.web.motion_udp import listening
+    from twin.web.server import Terminated
 
     try:
-        serve(
-            args.host,
-            args.port,
-            args.viser_port,
-            args.data_dir,
-            token=os.environ.get("TWIN_TOKEN") or None,  # not an option: argv is visible to all
-            viewer=not args.no_viewer,
-            scheduler=args.scheduler,
-            workers=args.workers,
-            allow_hosts=tuple(args.allow_host),
-            allow_origins=tuple(args.allow_origin),
-            graphics=args.graphics,
-            forwarded_allow_ips=tuple(args.forwarded_allow_ips),
-            private=args.private,
-            dashboard=args.dashboard,
-            max_store=args.max_store,
-            max_runs=args.max_runs,
-            retain=args.retain,
-            worker_nice=args.worker_nice,
-            **({} if args.run_budget is None else {"run_budget": args.run_budget}),
-        )
+        with listening(args.motion_udp, args.motion_udp_allow):
+            _serve_with(args)
     except (KeyboardInterrupt, Terminated):  # how a server is stopped; serve has cleaned up
         pass
     except TwinError as exc:  # a token or bind refused, or the data directory held by another
         parser.error(str(exc))
     return 0
+
+
+def _serve_with(args: argparse.Namespace) -> None:
+    """`serve` with the parsed options."""
+    from twin.web.server import serve
+
+    serve(
+        args.host,
+        args.port,
+        args.viser_port,
+        args.data_dir,
+        token=os.environ.get("TWIN_TOKEN") or None,  # not an option: argv is visible to all
+        viewer=not args.no_viewer,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        allow_hosts=tuple(args.allow_host),
+        allow_origins=tuple(args.allow_origin),
+        graphics=args.graphics,
+        forwarded_allow_ips=tuple(args.forwarded_allow_ips),
+        private=args.private,
+        dashboard=args.dashboard,
+        max_store=args.max_store,
+        max_runs=args.max_runs,
+        retain=args.retain,
+        worker_nice=args.worker_nice,
+        **({} if args.run_budget is None else {"run_budget": args.run_budget}),
+    )
 
 
 def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

@@ -13,7 +13,7 @@ from twin.errors import TwinError
 from twin.motion.replay import send, sentences
 from twin.motion.series import MotionSeries
 from twin.sim.motion_live import LiveMotion
-from twin.web.motion_udp import MotionListener, allowed_senders
+from twin.web.motion_udp import MotionListener, allowed_senders, listening
 
 pytestmark = pytest.mark.serial  # holds a socket and a thread
 
@@ -87,3 +87,14 @@ def test_allow_list_takes_addresses_only() -> None:
     assert allowed_senders(["192.168.001.20".replace("001", "1")]) >= {"192.168.1.20", "::1"}
     with pytest.raises(TwinError, match="not an IP address"):
         allowed_senders(["mru.local"])
+
+
+def test_listening_starts_and_refuses_a_taken_port() -> None:
+    """`twin serve --motion-udp`'s listener runs for the block; a taken port is a TwinError."""
+    with listening(None) as none:
+        assert none is None
+    with listening(0) as lst:
+        assert lst is not None and lst.is_alive()
+        with pytest.raises(TwinError, match="cannot bind"), listening(lst.address[1]):
+            pass
+    assert not lst.is_alive()

@@ -9,11 +9,12 @@ sender (and binds to all interfaces). A datagram from any other address is count
 
 from __future__ import annotations
 
+import contextlib
 import ipaddress
 import socket
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 
 from twin.errors import TwinError
 from twin.sim.motion_live import LiveMotion
@@ -92,3 +93,28 @@ class MotionListener(threading.Thread):
         self._halt.set()
         if self.is_alive():
             self.join(timeout)
+
+
+@contextlib.contextmanager
+def listening(port: int | None, allow: Iterable[str] = ()) -> Iterator[MotionListener | None]:
+    """`twin serve --motion-udp PORT`: a started listener for the block (None: no port),
+    its address printed; stopped on the way out.
+
+    Raises:
+        TwinError: a port out of range or taken, or an allowed sender that is not an address.
+    """
+    if port is None:
+        yield None
+        return
+    try:
+        listener = MotionListener(LiveMotion(f"udp :{port}"), port, allow)
+    except OSError as exc:
+        raise TwinError(f"--motion-udp {port}: cannot bind ({exc.strerror})") from None
+    listener.start()
+    senders = ", ".join(sorted(listener.allowed))
+    print(f"twin: motion sensor on udp {listener.address[0]}:{listener.address[1]} "
+          f"(senders {senders})", flush=True)  # fmt: skip
+    try:
+        yield listener
+    finally:
+        listener.stop()
