@@ -617,7 +617,6 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     result = simulate(scenario, progress=True)
     if args.out is not None:
         write = {".csv": result.to_csv, ".parquet": result.to_parquet, ".json": result.to_json}
-        args.out.parent.mkdir(parents=True, exist_ok=True)  # `--out out/run.csv` on a fresh clone
         write[args.out.suffix](args.out)
         print(f"twin: wrote {len(result.series['t'])} samples to {args.out}", file=sys.stderr)
     print(json.dumps(result.metrics, indent=2))

@@ -49,13 +49,13 @@ class SimulationResult:
         }
 
     def to_json(self, path: str | Path) -> Path:
-        path = Path(path)
+        path = _writable(path)
         path.write_text(json.dumps(self.to_dict()))
         return path
 
     def to_csv(self, path: str | Path) -> Path:
         """One row per sample, one column per scalar (`flat_columns`)."""
-        path = Path(path)
+        path = _writable(path)
         columns = flat_columns(self.series)
         with path.open("w", newline="") as f:
             writer = csv.writer(f)
@@ -68,10 +68,17 @@ class SimulationResult:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
-        path = Path(path)
+        path = _writable(path)
         table = pa.table(flat_columns(self.series))
         table = table.replace_schema_metadata(
             {"scenario": self.scenario.model_dump_json(), "metrics": json.dumps(self.metrics)}
         )
         pq.write_table(table, path)
         return path
+
+
+def _writable(path: str | Path) -> Path:
+    """`path` as a Path whose folder exists (made if missing: `out/run.csv` on a fresh clone)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
