@@ -1233,8 +1233,7 @@ only that gives π/9.
 ![4-UPR workspace](reproduction/upr4_workspace.png)
 """
     if not planners:
-        peak_rate = max(runs[("upr4", "pid", i)]["metrics"]["leg_rate_max"] for i in range(3))
-    return f"""## Seed 002 — 4-UPR UAV landing platform
+        return f"""## Seed 002 — 4-UPR UAV landing platform
 
 {ws_text}
 ### Table 2 — efficacy η
@@ -1280,8 +1279,7 @@ when this report was generated. Rerun the script once `pid`/`ik` exist.
         )
     p = PlannerParameters()
     if "pid" not in planners:
-        peak_rate = max(runs[("upr4", "pid", i)]["metrics"]["leg_rate_max"] for i in range(3))
-    return f"""## Seed 002 — 4-UPR UAV landing platform
+        return f"""## Seed 002 — 4-UPR UAV landing platform
 
 {ws_text}
 ### Table 2 — efficacy η
@@ -1461,8 +1459,9 @@ def main(n_seeds: int = 10, out: Path = Path("docs"), processes: int = 2) -> Non
 > sensitivities and causes, through `simulate_many`; then {len(todo)} detail runs on
 > {processes} processes). Do not edit by hand: change `scripts/reproduce.py` (and
 > `scripts/reproduce_claims.py`, `twin/sim/claims.py`) and rerun it. Plots are in
-> `{figures.name}/`; the verdicts in `{figures.name}/claims.json`, which
-> tests/test_reproduction_claims.py holds the engine to.
+> `{figures.name}/`; the verdicts over 1,000 seeds in `reproduction/stability.json` (from
+> `python scripts/reproduce_claims.py`), which tests/test_reproduction_claims.py holds the
+> engine to; the first block's statistics in `{figures.name}/claims.json`.
 
 Each paper's numbers beside ours, with the differences explained. Papers: seed 000 (hybrid
 system, PI / WPI / MTMP), seed 004 (DWA), seed 001 (3UPU_UP), seed 002 (4-UPR);

@@ -653,11 +653,13 @@ def stability_cell(row: dict[str, Any] | None) -> str:
 
 
 def sea_cause(key: str, a: dict[str, Any], b: dict[str, Any]) -> str:
-    """One line on why the two seas' verdicts differ: the measured shift of the claim."""
+    """One line on why the two seas' verdicts differ: the spectrum's shape, and the measured
+    shift of the claim from the presets to the defaults."""
+    cause = "spectrum's shape (γ 3.3 → 1, same Hs, Tp): "
     if a["kind"] == "share":
-        return f"holds on {100 * a['mean']:.1f} → {100 * b['mean']:.1f} % of seeds"
+        return cause + f"holds on {100 * a['mean']:.1f} → {100 * b['mean']:.1f} % of seeds"
     d = digits_of(a["unit"])
-    return (
+    return cause + (
         f"mean {fmt(a['mean'], d)} → {fmt(b['mean'], d)} {a['unit']}, the paper's "
         f"percentile P{a['percentile']:.0f} → P{b['percentile']:.0f}"
     )
