@@ -680,7 +680,8 @@ def _attack_rows(soak: Soak) -> dict[str, Any]:
     job = _job(soak, location) if status == 202 else {"status": status}  # on a worker
     out["accepted"] |= {"job": job["status"], "job_s": round(time.monotonic() - start, 1)}
     if job["status"] != "done" or took > UPLOAD_ANSWER:
-        soak.failures.append(f"150,000 rows at 24 headings: {status}, {job} (to be done)")
+        soak.failures.append(f"150,000 rows at 24 headings: {status} in {took:.2f} s, job "
+                             f"{job['status']} (to be done)")  # fmt: skip
     widest = {"kind": "best", "headings": [10.0 * i for i in range(36)]}
     answer = _post_upload(soak, _hourly(200_000), heading=widest)
     refused, message = _refused(soak, answer)

@@ -39,7 +39,7 @@ FORECAST = "time,hs,tp,direction\n" + "".join(
 
 @pytest.fixture(autouse=True)
 def read_before_answering(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Every request here waits for its record's reading (60 s, not the server's 0.9 s), so
+    """Every request here waits for its record's reading (60 s, not the server's 0.7 s), so
     what is checked at submission is, however loaded the machine; the test of the late
     reading sets its own."""
     from twin.web.routers import workability as route

@@ -43,9 +43,10 @@ MAX_LINES = 300_000
 #: most columns on an uploaded record's first line: a scatter table's `hs`, `direction` and up to
 #: 200 Tp columns (pandas' cost grows with the square of the columns)
 MAX_COLUMNS = 202
-#: most steps of a time series' regular grid (span / median step + 1): 20 years hourly; it
-#: bounds the memory of any per-step series built from the rows
-MAX_GRID_STEPS = 175_200
+#: most steps of a time series' regular grid (span / median step + 1): twice the rows a record
+#: may keep (`twin.sim.workability.MAX_ROWS`), 45 years hourly; it bounds the memory of any
+#: per-step series built from the rows
+MAX_GRID_STEPS = 400_000
 #: the name an upload's file gets when the request names none
 DEFAULT_NAME = "upload.csv"
 #: files of assets/site that are not records
@@ -145,7 +146,7 @@ def check_grid(record: SiteRecord) -> None:
     if steps > MAX_GRID_STEPS:
         raise UploadRefused(
             f"record: its span over its median time step is {steps:.3g} steps; allowed at most "
-            f"{MAX_GRID_STEPS} (MAX_GRID_STEPS, 20 years hourly): a record whose rows are far "
+            f"{MAX_GRID_STEPS} (MAX_GRID_STEPS, 45 years hourly): a record whose rows are far "
             "closer together than its span is long", "MAX_GRID_STEPS",
         )  # fmt: skip
 

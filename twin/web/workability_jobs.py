@@ -63,10 +63,11 @@ MAX_STEPS = 500
 #: what reading one record may take, in its child process: a 3 MB, 150,000-row hourly record
 #: takes 0.45 s of one core (0.3 s for 10 years hourly)
 READ_BUDGET = Budget(cpu=5.0, wall=20.0)
-#: [s] how long a submission waits for its reading: done by then, it answers 422 for a bad
+#: [s] how long a submission waits for its reading (the rest of its second goes to reading a
+#: 4 MiB body and answering): done by then, it answers 422 for a bad
 #: record or 202 for a job that may run; not done, it answers 202 with the job queued, and a
 #: reading that fails later fails the job with the same message
-ANSWER_WAIT = 0.9
+ANSWER_WAIT = 0.7
 #: [s] how long a submission waits for a free reading child (two, busy or starting: a child
 #: imports the simulation layer's reader in about 5 s) before a 503
 READ_WAIT = 10.0

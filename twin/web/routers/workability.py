@@ -17,10 +17,10 @@ before any parser sees it, read within a CPU, memory and wall budget in a child 
 (`WorkabilityRunner.read`), and the job priced on the rows read (a 422 over `MAX_RUNS` runs,
 `MAX_TOTAL_STEPS` steps or `MAX_ROW_WORK` row-headings, naming the limit). A malformed record is
 a 422 naming its line; one without a usable row a 422 with the reasons its rows were skipped.
-The request answers within `ANSWER_WAIT` (0.9 s) whatever its body: a reading not done by then
-goes on within its budget, its job stored queued (202) and run once read, or failed with the
-same message as the 422 would have been. The job stores the record's columns, not its text,
-and counts against the store's quota.
+The request answers within `ANSWER_WAIT` (0.7 s) of its body's arrival, whatever it holds: a
+reading not done by then goes on within its budget, its job stored queued (202) and run once
+read, or failed with the same message as the 422 would have been. The job stores the record's
+columns, not its text, and counts against the store's quota.
 """
 
 from __future__ import annotations
