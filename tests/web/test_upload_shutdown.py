@@ -13,6 +13,7 @@ from pathlib import Path
 import httpx
 import pytest
 
+from tests.timing import scaled
 from tests.web.test_cli import start_server
 from tests.web.test_workability_api import TINY, wide_scatter
 from twin.web.lock import DataDirBusy, DataDirLock
@@ -60,5 +61,6 @@ def test_sigterm_with_a_wide_upload_in_flight_ends_within_10_s_holding_the_lock(
         process.communicate(timeout=10)
         sender.join(30)
     assert not free_while_alive, "the data directory's lock was free while the server lived"
-    assert stopped < 10.0, f"the server took {stopped:.1f} s to end after SIGTERM"
+    # 10 s on a quiet machine, stretched by the load measured in this run (tests/timing.py)
+    assert stopped < scaled(10.0), f"the server took {stopped:.1f} s to end after SIGTERM"
     assert answers and answers[0] in (0, 422, 503), answers
