@@ -130,8 +130,10 @@ class LiveControls(BaseModel):
     playing: StrictBool = Field(True, description="whether the loop advances (true or false)")
 
 
-#: Scenario fields a live session takes (`duration` means nothing live).
-LIVE_FIELDS = tuple(name for name in Scenario.model_fields if name != "duration")
+#: Scenario fields a live session takes: not `duration` (it means nothing live), nor
+#: `base_motion` (a session runs without end on the synthesised sea; a stored log, which ends,
+#: drives batch runs, and the live motion input is `twin.sim.motion_live`)
+LIVE_FIELDS = tuple(n for n in Scenario.model_fields if n not in ("duration", "base_motion"))
 #: the patch key of the comparison lane's planner (not a scenario field)
 COMPARE = "compare_planner"
 
