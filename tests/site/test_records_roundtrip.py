@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 from tests.figures import fuzz
 from twin.site.records import MIN_STEP, read_record, utc_column
 
-#: [ulp] how far a value read may be from the value written: `pd.to_numeric`'s rounding
-PARSE_ULPS = 1
+#: [ulp] how far a value read may be from the value written: none (the readers parse with float)
+PARSE_ULPS = 0
 #: the first row's time; later rows follow at random gaps of at least MIN_STEP
 START = np.datetime64("2019-08-01T00:00:00", "ns")
 MIN_GAP = int(MIN_STEP / np.timedelta64(1, "s"))  # [s]

@@ -32,6 +32,7 @@ converts both to `Scenario.heading`).
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -607,12 +608,26 @@ def _empty(column: pd.Series) -> np.ndarray:
     return text.isin({"", "nan", "na", "none", "null", "mm"}).to_numpy()
 
 
+def _float(text: str) -> float:
+    """A decimal number's float, or NaN for anything else (Python's `1_000` included, which no
+    record writes)."""
+    if "_" in text:
+        return math.nan
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
 def _numbers(
     column: pd.Series, path: Path, lines: np.ndarray, name: str, where: str = "line",
     integer: bool = False,
 ) -> np.ndarray:  # fmt: skip
     """Floats of a text column; TwinError at the first value that is not a finite number."""
-    values = pd.to_numeric(column.astype(str).str.strip(), errors="coerce").to_numpy(float)
+    # Python's float, correctly rounded (pandas' own parser is off by up to tens of ulps on
+    # values such as 0.011403: a record read back must give the numbers written)
+    values = np.fromiter((_float(text) for text in column.astype(str).str.strip()), float,
+                         count=len(column))  # fmt: skip
     bad = ~np.isfinite(values)
     if integer:
         bad |= np.isfinite(values) & (values != np.round(values))
