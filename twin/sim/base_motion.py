@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
+from typing import Protocol
 
 import numpy as np
 
@@ -61,6 +62,8 @@ class BaseMotion:
         if terms is None:
             terms = response_amplitudes(components, self.raos, 0.0, speed)
         self.omega_e, self.amplitude = terms
+        #: most steps the engine may sample ahead (None: any; `Measured.horizon`)
+        self.horizon: int | None = None
 
     @classmethod
     def of(cls, scenario: Scenario) -> BaseMotion:
@@ -158,15 +161,29 @@ class BaseMotion:
         return BaseSamples(t, poses, pose_to_transform(poses))
 
 
-class MeasuredBase(BaseMotion):
-    """A base motion from a stored motion log (`twin.sim.measured.MeasuredMotion`): the same
-    interface as the sea's, its poses the measured ones at the mount, its sea calm (nothing to
-    draw but the hull's own motion)."""
+class Measured(Protocol):
+    """A measured source of base poses: a stored log (`twin.sim.measured.MeasuredMotion`) or
+    a live stream (`twin.sim.motion_live.StreamMotion`)."""
 
-    def __init__(self, measured: MeasuredMotion) -> None:
+    mount: Mount
+    #: most steps whose poses may be sampled ahead (None: any; a live stream: what arrived)
+    horizon: int | None
+
+    def poses(self, t: np.ndarray) -> np.ndarray:
+        """(N, 6) [m, rad] the mount's base poses at run times t (N,) [s]."""
+        ...
+
+
+class MeasuredBase(BaseMotion):
+    """A base motion from measured motion (a `Measured`: a stored log or a live stream): the
+    same interface as the sea's, its poses the measured ones at the mount, its sea calm
+    (nothing to draw but the hull's own motion)."""
+
+    def __init__(self, measured: Measured) -> None:
         calm = WaveComponents(*(np.zeros(0) for _ in range(4)))
         super().__init__(calm, measured.mount, terms=(np.zeros(0), np.zeros((0, 6), complex)))
         self.measured = measured
+        self.horizon = measured.horizon
 
     @classmethod
     def of(cls, scenario: Scenario) -> MeasuredBase:

@@ -127,6 +127,10 @@ class Simulation:
             rounding) and the history holds the newest sample alone, so memory does not grow
             with the run's length; the records are still computed, as the metrics are reduced
             from them.
+        motions: makes the lanes' base motions from their scenarios, here and on a sea change
+            (None: `BaseMotion.many`, the sea or a stored log); a live session following a
+            live stream passes its own (`twin.sim.motion_live.stream_motions`). A motion's
+            `horizon` bounds how many steps are sampled ahead.
 
     Raises:
         ValueError: a bad scenario (naming the field), none, or lanes that differ in mechanism
@@ -139,6 +143,7 @@ class Simulation:
         history_limit: int | None = None,
         engine: str = "auto",
         keep: str = "series",
+        motions: Callable[[Sequence[Scenario]], list[BaseMotion]] | None = None,
     ) -> None:
         if keep not in KEEPS:
             raise TwinError(f"keep: unknown {keep!r}; allowed: {list(KEEPS)}")
@@ -163,10 +168,12 @@ class Simulation:
         self.n_steps = max(round(s.duration / s.dt) for s in self.scenarios)
         self.k = 0
         self.mechanism = MECHANISMS[first.mechanism]()
-        self.base_motions = BaseMotion.many(self.scenarios)
-        self._block_size = (
-            LIVE_BLOCK if history_limit else min(MAX_BLOCK, max(16, BLOCK // self.n_lanes))
-        )
+        self._motions = motions
+        self.base_motions = self._motions_of(self.scenarios)
+        self._block_size = min([
+            LIVE_BLOCK if history_limit else min(MAX_BLOCK, max(16, BLOCK // self.n_lanes)),
+            *(m.horizon for m in self.base_motions if m.horizon is not None),
+        ])  # fmt: skip
         x0 = np.stack(
             [
                 self.mechanism.working_state if s.initial_state is None else s.initial_state
@@ -492,7 +499,7 @@ class Simulation:
         base_motions, block = self.base_motions, self._block
         local = self.k - block.start
         if changed & SEA_FIELDS or local >= block.steps:  # a new sea, or the block is used up
-            base_motions = BaseMotion.many(new) if changed & SEA_FIELDS else base_motions
+            base_motions = self._motions_of(new) if changed & SEA_FIELDS else base_motions
             now = block.poses[:, min(local, block.steps)]
             block = self._sample(base_motions, self.k, now, n_steps)
         replan = bool(changed - SEA_FIELDS - {"duration", "joint_limits"})
@@ -508,6 +515,10 @@ class Simulation:
         return changed
 
     # -- internals ---------------------------------------------------------------------------
+    def _motions_of(self, scenarios: Sequence[Scenario]) -> list[BaseMotion]:
+        """The lanes' base motions: `motions`' if given, else `BaseMotion.many`'s."""
+        return (self._motions or BaseMotion.many)(scenarios)
+
     def _pack(
         self, scenarios: Sequence[Scenario], block: _Block, local: int
     ) -> tuple[np.ndarray, np.ndarray]:

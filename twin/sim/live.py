@@ -25,6 +25,14 @@ Replay: `replay(result, run_id)` shows a stored run instead of the simulation: r
 the run's scenario and its recorded samples at the replay time, which the loop advances at
 `speed` while `playing` (nothing is simulated; the live simulation waits). `seek` moves it,
 `reset()` or any scenario patch returns to the live simulation.
+
+Motion source: `patch({"motion_source": {"kind": "udp"}})` makes the hull follow the live
+stream the session was given (`twin serve --motion-udp`; `twin.sim.motion_live`): the stream's
+clock then drives the simulation, which stands still, holding the last pose, while the stream
+is stale. `{"kind": "log", "log": ID, "speed": 1-8}` replays a stored log as the scenario's
+`base_motion` (the batch path), at that speed, pausing at its end; `{"kind": "sea"}` returns to
+the synthesised sea. Each choice restarts live time at t = 0 and is kept across later
+restarts; the vessel motion always enters the one engine as base poses.
 """
 
 from __future__ import annotations
@@ -35,17 +43,19 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, StrictBool
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, model_validator
 
 from twin.errors import TwinError
 from twin.planners import PLANNERS, get_planner
 from twin.sea.components import WaveComponents
 from twin.sim.engine import RESTART_FIELDS, Simulation
+from twin.sim.measured import describe_log
+from twin.sim.motion_live import LiveMotion, StreamMotion, stream_motions
 from twin.sim.result import SimulationResult
-from twin.sim.scenario import Scenario, check_one_sea
+from twin.sim.scenario import MAX_DURATION, Scenario, check_one_sea
 
 log = logging.getLogger(__name__)
 
@@ -136,6 +146,28 @@ class LiveControls(BaseModel):
 LIVE_FIELDS = tuple(n for n in Scenario.model_fields if n not in ("duration", "base_motion"))
 #: the patch key of the comparison lane's planner (not a scenario field)
 COMPARE = "compare_planner"
+#: the patch key of the live motion source (`LiveMotionSource`, not a scenario field)
+MOTION_SOURCE = "motion_source"
+
+
+class LiveMotionSource(BaseModel):
+    """Where the live session's hull motion comes from."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    kind: Literal["sea", "udp", "log"] = Field(
+        "sea", description="sea: the synthesised sea; udp: the live motion input (twin serve "
+        "--motion-udp PORT); log: a stored motion log replayed (POST /api/motion-logs)",
+    )  # fmt: skip
+    log: str | None = Field(None, pattern=r"^[0-9a-f]{16}$",
+                            description="the stored log's ID (kind log only)")  # fmt: skip
+    speed: float = Field(1.0, ge=1.0, le=8.0, description="[-] a log's replay speed, 1-8×")
+
+    @model_validator(mode="after")
+    def _log_named(self) -> LiveMotionSource:
+        if (self.kind == "log") != (self.log is not None):
+            raise TwinError("motion_source: a log ID goes with kind 'log', and only with it")
+        return self
 
 
 @dataclass
@@ -209,9 +241,12 @@ class LiveSession:
         scenario: the starting scenario: a `Scenario`, or a dict of fields on top of
             `LIVE_DEFAULTS`. Its `duration` is ignored: a live session runs until stopped.
         tick: [s] wall-clock period of the loop (default 1/60 s).
+        motion: the live motion input (`twin serve --motion-udp`) that the `udp` motion
+            source follows; None: no such source.
     """
 
-    def __init__(self, scenario: Scenario | dict | None = None, tick: float = 1 / 60) -> None:
+    def __init__(self, scenario: Scenario | dict | None = None, tick: float = 1 / 60,
+                 motion: LiveMotion | None = None) -> None:  # fmt: skip
         base = (
             scenario
             if isinstance(scenario, Scenario)
@@ -226,6 +261,8 @@ class LiveSession:
         self._compare: str | None = None  # the comparison lane's planner, if any
         self._replay: Replay | None = None
         self._live_playing = True  # `playing` of the live simulation while a replay plays
+        self.motion = motion
+        self._source = LiveMotionSource()
         self._sim = Simulation(base, history_limit=HISTORY)
         self._debt = 0.0  # [s] simulated time owed to the wall clock
         self._thread: threading.Thread | None = None
@@ -337,6 +374,7 @@ class LiveSession:
                 "replay": None,
                 "restarts": self.restarts,
                 "restart_reason": self.restart_reason,
+                MOTION_SOURCE: self._motion_state(),
             }
             if compare is not None:
                 other, other_metrics = sim.series(1), sim.metrics_later(1)
@@ -366,7 +404,35 @@ class LiveSession:
             "metrics": metrics,
             "compare": None,
             "replay": r.state(),
+            MOTION_SOURCE: self._motion_state(),
         }
+
+    def motion_state(self) -> dict[str, Any]:
+        """The motion source and how it goes (`snapshot()["motion_source"]`)."""
+        with self._lock:
+            return self._motion_state()
+
+    def _motion_state(self) -> dict[str, Any]:
+        """(Under the lock) `kind`, `log`, `speed` (a log's), `status`: "synthesised", a
+        stream's "waiting" (nothing received yet), "live" or "stale" (the run holds its last
+        pose), a log's "playing" or "ended"; `input`: the live motion input's status
+        (`LiveMotion.status`, None without one); `resyncs` of a followed stream."""
+        source, sim = self._source, self._sim
+        out: dict[str, Any] = {"kind": source.kind, "log": source.log,
+                               "speed": source.speed if source.kind == "log" else None,
+                               "status": "synthesised", "resyncs": None,
+                               "input": None if self.motion is None
+                               else self.motion.status(time.monotonic())}  # fmt: skip
+        if source.kind == "log":
+            ended = sim.t >= sim.scenario.duration - 0.5 * sim.dt
+            out["status"] = "ended" if ended else "playing"
+        elif source.kind == "udp":
+            stream = self._stream()
+            live = out["input"] is not None and out["input"]["live"]
+            out["status"] = ("live" if live else
+                             "waiting" if stream.live.newest() is None else "stale")  # fmt: skip
+            out["resyncs"] = stream.resyncs
+        return out
 
     # -- writers -----------------------------------------------------------------------------
     def patch(self, changes: dict[str, Any]) -> set[str]:
@@ -391,6 +457,11 @@ class LiveSession:
         controls = {k: changes.pop(k) for k in list(changes) if k in LiveControls.model_fields}
         given = COMPARE in changes
         compare = changes.pop(COMPARE, None)
+        raw = changes.pop(MOTION_SOURCE, None)
+        source = None if raw is None else LiveMotionSource.model_validate(raw)
+        if source is not None and source.kind == "udp" and self.motion is None:
+            raise TwinError(f"{MOTION_SOURCE}: kind 'udp' needs the live motion input; start "
+                            "the server with twin serve --motion-udp PORT")  # fmt: skip
         if isinstance(changes.get("sea_state"), int | float):  # the code takes over from hs, tp
             check_one_sea(changes)
             changes = {"hs": None, "tp": None, **changes}
@@ -398,25 +469,28 @@ class LiveSession:
         if unknown:
             raise TwinError(
                 f"{unknown[0]}: not a live field; allowed: {sorted(LIVE_FIELDS)}, "
-                f"{COMPARE} and {sorted(LiveControls.model_fields)}"
+                f"{COMPARE}, {MOTION_SOURCE} and {sorted(LiveControls.model_fields)}"
             )
-        return self._command(lambda: self._patch(changes, controls, compare, given))
+        return self._command(lambda: self._patch(changes, controls, compare, given, source))
 
     def _patch(
-        self, changes: dict[str, Any], controls: dict[str, Any], compare: str | None, given: bool
-    ) -> set[str]:
+        self, changes: dict[str, Any], controls: dict[str, Any], compare: str | None, given: bool,
+        source: LiveMotionSource | None = None,
+    ) -> set[str]:  # fmt: skip
         """`patch`, applied by the session thread (the one writer): validate, build a new
         Simulation if the change restarts it (outside the lock), then change everything under
-        the lock at once."""
+        the lock at once. A log source sets the speed (unless `speed` is given too)."""
+        if source is not None and source.kind == "log" and "speed" not in controls:
+            controls = {**controls, "speed": source.speed}
         new_controls = LiveControls(**{**self.controls.model_dump(), **controls})
-        changed, swap = self._prepare(changes, compare if given else self._compare, given)
+        changed, swap = self._prepare(changes, compare if given else self._compare, given, source)
         with self._lock:
             if swap is not None:
                 swap()
             elif changes:  # an update in place of the running simulation (under the lock)
                 lanes = None if self._compare is None else [{}, {"planner": self._compare}]
                 changed = self._sim.update(changes, lanes)
-            if self._replay is not None and (changes or given):  # back to the live simulation
+            if self._replay is not None and (changes or given or source):  # back to live
                 self._replay = None
                 self.version += 1
                 if "playing" not in controls:
@@ -425,42 +499,53 @@ class LiveSession:
         return changed | set(controls)
 
     def _prepare(
-        self, changes: dict[str, Any], compare: str | None, given: bool
-    ) -> tuple[set[str], Callable[[], None] | None]:
-        """For a change that restarts the simulation: the changed names and the swap that
-        puts the new Simulation (built here, outside the lock) in place; otherwise (set(),
-        None): an update in place. Raises before anything changes."""
+        self, changes: dict[str, Any], compare: str | None, given: bool,
+        source: LiveMotionSource | None = None,
+    ) -> tuple[set[str], Callable[[], None] | None]:  # fmt: skip
+        """For a change that restarts the simulation (a new motion source always does): the
+        changed names and the swap that puts the new Simulation (built here, outside the
+        lock) in place; otherwise (set(), None): an update in place. Raises before anything
+        changes."""
         current = self._sim.scenario
         restart = any(k in RESTART_FIELDS and v != getattr(current, k) for k, v in changes.items())
-        if not restart and compare == self._compare:
+        if not restart and compare == self._compare and source is None:
             return set(), None
-        new = Scenario(**{**current.model_dump(), **changes})
+        new = Scenario(**{**current.model_dump(), **changes,
+                          **(_source_fields(source) if source else {})})  # fmt: skip
         if compare is not None and not given and new.mechanism not in _mechanisms(compare):
             compare = None  # the new mechanism has no such planner: the comparison ends
-        sim = self._build(new, compare)
+        follow = source or self._source
+        sim = self._build(new, compare, follow)
         changed = {k for k in changes if getattr(new, k) != getattr(current, k)}
         if compare != self._compare:
             changed.add(COMPARE)
+        if source is not None:
+            changed.add(MOTION_SOURCE)
 
         def swap() -> None:
-            self._sim, self._compare, self._debt = sim, compare, 0.0
+            self._sim, self._compare, self._debt, self._source = sim, compare, 0.0, follow
             self.restarts += 1
             self.restart_reason = ", ".join(sorted(changed)) + " changed"
             self.version += 1
 
         return changed, swap
 
-    @staticmethod
-    def _build(scenario: Scenario, compare: str | None) -> Simulation:
-        """The live Simulation of a scenario, with a comparison lane under `compare`."""
+    def _build(
+        self, scenario: Scenario, compare: str | None, source: LiveMotionSource
+    ) -> Simulation:
+        """The live Simulation of a scenario, with a comparison lane under `compare`, its
+        hull following the live stream for a `udp` source."""
+        motions = None
+        if source.kind == "udp" and self.motion is not None:
+            motions = stream_motions(self.motion)
         if compare is None:
-            return Simulation(scenario, history_limit=HISTORY)
+            return Simulation(scenario, history_limit=HISTORY, motions=motions)
         try:
             get_planner(compare, scenario.mechanism)
         except ValueError as exc:
             raise TwinError(f"{COMPARE}: {str(exc).removeprefix('planner: ')}") from None
         other = Scenario(**{**scenario.model_dump(), "planner": compare})
-        return Simulation([scenario, other], history_limit=HISTORY)
+        return Simulation([scenario, other], history_limit=HISTORY, motions=motions)
 
     def reset(self) -> None:
         """Start the current scenario (and its comparison lane) again from t = 0; a replay
@@ -468,7 +553,7 @@ class LiveSession:
         self._command(self._reset)
 
     def _reset(self) -> None:
-        sim = self._build(self._sim.scenario, self._compare)  # outside the lock
+        sim = self._build(self._sim.scenario, self._compare, self._source)  # outside the lock
         with self._lock:
             self._sim = sim
             self._debt = 0.0
@@ -569,13 +654,7 @@ class LiveSession:
                 if r.t >= r.duration:
                     self.controls.playing = False  # paused at its end
                 return 0
-            self._debt += wall_dt * self.controls.speed
-            dt = self._sim.dt
-            n = int(self._debt / dt + 1e-9)
-            if n > MAX_CATCH_UP:  # a stall drops simulated time; it is not owed
-                n, self._debt = MAX_CATCH_UP, 0.0
-            else:
-                self._debt -= n * dt
+            n = self._owed(wall_dt)
             # steps run in chunks; after each, the budget is checked (a chunk of a few steps
             # costs well under a millisecond on the compiled engine)
             deadline = time.perf_counter() + (np.inf if budget is None else budget)
@@ -588,6 +667,33 @@ class LiveSession:
                     self._debt = 0.0
                     break
             return taken
+
+    def _owed(self, wall_dt: float) -> int:
+        """(Under the lock) the steps this tick owes: what wall time × speed owes the
+        synthesised sea or a log (which pauses at its end), what arrived of a live stream."""
+        sim, kind = self._sim, self._source.kind
+        if kind == "udp":  # the stream's clock, not the wall's, drives the run
+            self._debt = 0.0
+            return min(self._stream().due(sim.t, sim.dt, time.monotonic()), MAX_CATCH_UP)
+        left = np.inf
+        if kind == "log":
+            left = round((sim.scenario.duration - sim.t) / sim.dt)
+            if left <= 0:  # the log ended: paused there, its last pose held
+                self.controls.playing = False
+                return 0
+        self._debt += wall_dt * self.controls.speed
+        n = int(self._debt / sim.dt + 1e-9)
+        if n > MAX_CATCH_UP:  # a stall drops simulated time; it is not owed
+            n, self._debt = MAX_CATCH_UP, 0.0
+        else:
+            self._debt -= n * sim.dt
+        return int(min(n, left))
+
+    def _stream(self) -> StreamMotion:
+        """(Under the lock) the live stream lane 0 follows (a `udp` source)."""
+        measured = getattr(self._sim.base_motion, "measured", None)
+        assert isinstance(measured, StreamMotion)  # `_build` put it there for `udp`
+        return measured
 
     # -- commands ----------------------------------------------------------------------------
     def _command(self, apply: Callable[[], Any]) -> Any:
@@ -657,6 +763,21 @@ class LiveSession:
             else:  # nothing to step: sleep until a command (a play, a patch) or a stop
                 self._serve_commands(PAUSED_WAIT)
                 last = time.perf_counter()  # a play steps from now, owing nothing
+
+
+def _source_fields(source: LiveMotionSource) -> dict[str, Any]:
+    """The scenario fields a motion source sets: a log's `base_motion` and its length (at most
+    `MAX_DURATION`, its first hour) as the `duration`, where the live run pauses; the sea's and
+    a stream's no `base_motion`.
+
+    Raises:
+        TwinError: a log ID that is not stored.
+    """
+    if source.kind != "log":
+        return {"base_motion": None}
+    assert source.log is not None  # LiveMotionSource checked it
+    length = min(describe_log(source.log)["duration"], MAX_DURATION)
+    return {"base_motion": {"source": "log", "log": source.log}, "duration": length}
 
 
 def _mechanisms(planner: str) -> tuple[str, ...]:

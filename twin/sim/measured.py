@@ -178,6 +178,9 @@ class MeasuredMotion:
             lengths).
     """
 
+    #: a stored log's poses may be sampled any number of steps ahead
+    horizon: int | None = None
+
     def __init__(self, key: str, mount: Mount, offset: float = 0.0, duration: float = 0.0):
         self.series, self.sensor_position = load_log(key)
         self.mount, self.offset = mount, float(offset)
@@ -201,12 +204,24 @@ class MeasuredMotion:
         (a live session that runs on: the engine holds the last pose and counts it), not
         the last sample repeated as if measured."""
         at = np.asarray(t, dtype=float) + self.offset
-        motion = np.zeros((at.size, 6))
-        for c in range(6):
-            column = self.series.motion[:, c]
-            good = np.isfinite(column)
-            if np.count_nonzero(good) >= 2:
-                motion[:, c] = np.interp(at, self.series.time[good], column[good])
-        poses = motion_at(motion, self.sensor_position, self.mount.lever_arm, self.mount.yaw)
+        poses = poses_at(self.series.time, self.series.motion, at, self.sensor_position,
+                         self.mount)  # fmt: skip
         poses[(at < self.series.time[0]) | (at > self.series.time[-1] + 1e-9)] = np.nan
         return poses
+
+
+def poses_at(time: np.ndarray, motion: np.ndarray, at: np.ndarray,
+             sensor_position: tuple[float, float, float], mount: Mount) -> np.ndarray:  # fmt: skip
+    """(N, 6) [m, rad] a mount's base poses at times `at` (N,) [s] from measured samples:
+    times (M,) [s] increasing, motion (M, 6) [m, rad] at the sensor in `CHANNELS` order (NaN:
+    not measured), each channel interpolated linearly (held at its first and last value
+    outside the samples; a channel with fewer than two finite samples is 0), then moved from
+    `sensor_position` [m] to the mount (`motion_at`). The one interpolation of a stored log
+    and a live stream."""
+    sampled = np.zeros((at.size, 6))
+    for c in range(6):
+        column = motion[:, c]
+        good = np.isfinite(column)
+        if np.count_nonzero(good) >= 2:
+            sampled[:, c] = np.interp(at, time[good], column[good])
+    return motion_at(sampled, sensor_position, mount.lever_arm, mount.yaw)
