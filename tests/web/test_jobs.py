@@ -18,6 +18,7 @@ from PIL import Image
 from tests.figures import record
 from tests.web.support import access, wait_for
 from tests.web.test_limits import SHORT, SweepQueueOnly, app_client
+from twin.db import MAX_ATTEMPTS
 from twin.sim import Scenario
 from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
@@ -25,7 +26,7 @@ from twin.sim.sweep import MAX_PANELS, SweepResult, SweepSpec, SweepStopped, hea
 from twin.web import RunStore, SweepRunner, create_app
 from twin.web.actions import submit_sweep
 from twin.web.limits import price_sweep
-from twin.web.store import MAX_ATTEMPTS, QueueFull
+from twin.web.store import QueueFull
 
 ONE_CELL = {"hs": [1.0], "tp": [8.0], "seeds": 1, "duration": 0.05}
 

@@ -15,6 +15,7 @@ from fastapi.testclient import TestClient
 
 from tests.web.support import TOKEN, access, wait_for
 from twin.assets import asset_path
+from twin.db import session
 from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.sim.workability import WorkabilitySpec, run_workability
@@ -308,11 +309,8 @@ def upload(record_csv: str, **fields: Any) -> dict[str, Any]:
 
 def stored_jobs(client: TestClient) -> int:
     """Workability jobs in the app's store."""
-    jobs = WorkabilityStore(client.app.state.services.store.path)  # type: ignore[attr-defined]
-    try:
-        return len(jobs._read("SELECT id FROM workability"))
-    finally:
-        jobs.close()
+    with session(client.app.state.services.store.path, write=False) as db:  # type: ignore[attr-defined]
+        return int(db.execute("SELECT COUNT(*) FROM workability").fetchone()[0])
 
 
 def wide_scatter(columns: int) -> str:
@@ -447,8 +445,9 @@ def test_an_attempt_counts_when_the_job_is_picked_up_before_any_reading(
     worker.start()
     try:
         assert reading.wait(10)
-        attempts = jobs._read("SELECT attempts FROM workability WHERE id = ?", (job_id,))
-        assert attempts[0]["attempts"] == 1
+        with session(tmp_path / "runs.sqlite", write=False) as db:
+            attempts = db.execute("SELECT attempts FROM workability WHERE id = ?", (job_id,))
+            assert attempts.fetchone()["attempts"] == 1
     finally:
         release.set()
         worker.join(10)
@@ -465,16 +464,19 @@ def test_a_cancelled_jobs_upload_is_deleted_and_only_its_columns_are_stored(
         f"2020-01-{1 + h // 24:02d}T{h % 24:02d}:00,1.0,8.0,270,{'x' * 2000}\n"
         for h in range(200))  # fmt: skip
     assert len(padded) > 400_000
-    jobs = WorkabilityStore(client.app.state.services.store.path)  # type: ignore[attr-defined]
+    path = client.app.state.services.store.path  # type: ignore[attr-defined]
     location = client.post("/api/workability", json=upload(padded)).headers["location"]
     job_id = location.rsplit("/", 1)[1]
-    size = jobs._read("SELECT size, LENGTH(upload) AS up FROM workability WHERE id = ?",
-                      (job_id,))[0]  # fmt: skip
+    with session(path, write=False) as db:
+        size = db.execute("SELECT size, LENGTH(upload) AS up FROM workability WHERE id = ?",
+                          (job_id,)).fetchone()  # fmt: skip
     assert size["up"] is not None and size["size"] < 20_000  # 200 rows' columns, not 400 kB
     client.post(location + "/cancel")
-    after = jobs._read("SELECT size, upload FROM workability WHERE id = ?", (job_id,))[0]
+    with session(path, write=False) as db:
+        after = db.execute(
+            "SELECT size, upload FROM workability WHERE id = ?", (job_id,)
+        ).fetchone()
     assert after["upload"] is None and after["size"] < size["size"]
-    jobs.close()
 
 
 def test_uploads_count_against_the_store_quota(tmp_path: Path, executor: Executor) -> None:

@@ -50,7 +50,6 @@ import hashlib
 import io
 import itertools
 import json
-import sqlite3
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
@@ -64,6 +63,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from tqdm import tqdm
 
 import twin
+from twin.db import session
 from twin.errors import TwinError
 from twin.planners import get_planner
 from twin.sim.executor import SWEEP_PRIORITY, Executor
@@ -352,25 +352,18 @@ class CellCache:
 
     def __init__(self, data_dir: str | Path | None) -> None:
         self.path = None if data_dir is None else Path(data_dir) / CELL_DATABASE
-        if self.path is not None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
         self._memory: dict[str, dict[str, Any]] = {}
         if self.path is not None:
-            with self._connect() as db:
+            with session(self.path) as db:
                 db.execute("CREATE TABLE IF NOT EXISTS cells (key TEXT PRIMARY KEY, engine TEXT, "
                            "summary TEXT NOT NULL, created REAL)")  # fmt: skip
-
-    def _connect(self) -> sqlite3.Connection:
-        if self.path is None:  # callers check: the in-memory cache has no database
-            raise RuntimeError("cell cache: in memory (no data dir), no database to open")
-        return sqlite3.connect(self.path, timeout=30.0)
 
     def get(self, keys: Sequence[str]) -> dict[str, dict[str, Any]]:
         """The summaries of those keys that are cached."""
         if self.path is None:
             return {k: self._memory[k] for k in keys if k in self._memory}
         found: dict[str, dict[str, Any]] = {}
-        with self._connect() as db:
+        with session(self.path, write=False) as db:
             unique = list(dict.fromkeys(keys))
             for start in range(0, len(unique), 500):  # SQLite's bound on parameters
                 part = unique[start : start + 500]
@@ -386,7 +379,7 @@ class CellCache:
             self._memory.update(items)
             return
         now = time.time()
-        with self._connect() as db:
+        with session(self.path) as db:
             db.executemany(
                 "INSERT OR REPLACE INTO cells VALUES (?, ?, ?, ?)",
                 [(k, ENGINE_VERSION, json.dumps(v), now) for k, v in items.items()],
@@ -395,7 +388,7 @@ class CellCache:
     def __len__(self) -> int:
         if self.path is None:
             return len(self._memory)
-        with self._connect() as db:
+        with session(self.path, write=False) as db:
             return int(db.execute("SELECT COUNT(*) FROM cells").fetchone()[0])
 
 

@@ -7,11 +7,12 @@ It calls only the simulation layer (`twin.sim`) and reads the registries.
 
 from __future__ import annotations
 
+from twin.db import StoreUnavailable
 from twin.web.access import Access
 from twin.web.api import create_app
 from twin.web.jobs import SYNC_MAX_STEPS, JobRunner, SweepRunner
 from twin.web.server import serve
-from twin.web.store import Run, RunNotFound, RunStore, StoreUnavailable, Sweep
+from twin.web.store import Run, RunNotFound, RunStore, Sweep
 
 __all__ = [
     "SYNC_MAX_STEPS",

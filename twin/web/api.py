@@ -39,6 +39,7 @@ from fastapi.staticfiles import StaticFiles
 from starlette.concurrency import run_in_threadpool
 
 import twin
+from twin.db import StoreUnavailable
 from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web import routers
@@ -67,7 +68,7 @@ from twin.web.models import (
 from twin.web.routers import motion as motion_routes
 from twin.web.routers import onboard as onboard_routes
 from twin.web.routers.registries import STATIC_DIR
-from twin.web.store import RunNotFound, RunStore, StoreUnavailable
+from twin.web.store import RunNotFound, RunStore
 from twin.web.warmup import Warmup
 from twin.web.workability_jobs import UPLOAD_BODY, WorkabilityRunner
 from twin.web.workability_store import WorkabilityStore

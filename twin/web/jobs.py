@@ -49,9 +49,10 @@ import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
+from twin.db import StoreUnavailable
 from twin.sim import Scenario
 from twin.sim.executor import RUN_BUDGET, BudgetExceeded, Executor, RunOutput, run_scenario
-from twin.web.store import Run, RunNotFound, RunStore, StoreUnavailable
+from twin.web.store import Run, RunNotFound, RunStore
 
 log = logging.getLogger(__name__)
 

@@ -19,13 +19,9 @@ raises `StoreUnavailable` (a 503) instead of writing runs into a file nobody can
 from __future__ import annotations
 
 import json
-import os
 import sqlite3
-import threading
 import time
 import uuid
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -34,6 +30,16 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, Field
 
+from twin.db import (
+    CANCELLED,
+    MAX_ATTEMPTS,
+    UNFINISHED,
+    WAS_CANCELLED,
+    Database,
+    cancel_sql,
+    migrate,
+    requeue,
+)
 from twin.errors import TwinError
 from twin.sim import Scenario, SimulationResult
 from twin.sim.executor import pack_series, unpack_series
@@ -49,13 +55,6 @@ Status = Literal["queued", "running", "done", "failed"]
 SYNCHRONOUS = "NORMAL"
 #: bumped when the table changes; a newer file is refused rather than misread
 SCHEMA_VERSION = 1
-#: times a job may be started (then interrupted by a stop or a crash) before the next start
-#: fails it instead of queueing it again: a job that ties a server up must not do so forever
-MAX_ATTEMPTS = 3
-#: what a cancelled job's `error` starts with
-CANCELLED = "cancelled"
-#: SQL: the row is a cancelled job (its outcome, arriving later, is not stored over it)
-_WAS_CANCELLED = f"(status = 'failed' AND error LIKE '{CANCELLED}%')"
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (
@@ -151,14 +150,12 @@ class QueueFull(TwinError):
 
 
 __all__ = [
-    "MAX_ATTEMPTS",
     "QueueFull",
     "Quota",
     "Run",
     "RunNotFound",
     "RunStore",
     "StoreFull",
-    "StoreUnavailable",
     "Sweep",
     "SweepNotFound",
     "pack_series",
@@ -238,76 +235,6 @@ def _unreadable(row: sqlite3.Row, exc: Exception) -> dict[str, Any]:
     }  # fmt: skip
 
 
-def connect(path: Path) -> sqlite3.Connection:
-    """The one connection of a store to the file `path` (its folder made if missing), rows as
-    `sqlite3.Row`. One connection guarded by a lock (the caller's): FastAPI calls from its
-    thread pool; autocommit mode (isolation_level=None) so each write is exactly one explicit
-    transaction (`transaction`)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    conn = sqlite3.connect(path, timeout=10.0, isolation_level=None, check_same_thread=False)
-    conn.row_factory = sqlite3.Row
-    return conn
-
-
-@contextmanager
-def transaction(conn: sqlite3.Connection, path: Path) -> Iterator[None]:
-    """One write transaction on `conn` (the caller holds its lock): BEGIN IMMEDIATE, COMMIT at
-    the end, ROLLBACK on any error. SQLite's operational errors (locked, disk full, file gone)
-    become `StoreUnavailable` (a 503), naming the store file `path`."""
-    try:
-        conn.execute("BEGIN IMMEDIATE")
-    except sqlite3.OperationalError as exc:
-        raise StoreUnavailable(f"run store {path}: {exc}") from exc
-    try:
-        yield
-    except BaseException as exc:
-        conn.execute("ROLLBACK")
-        if isinstance(exc, sqlite3.OperationalError):
-            raise StoreUnavailable(f"run store {path}: {exc}") from exc
-        raise
-    conn.execute("COMMIT")
-
-
-def cancel_sql(table: str, size: str | None = None) -> str:
-    """The UPDATE that fails a queued or running job of `table` as cancelled (parameters:
-    finished [s since the epoch], error, id); `size` is the SQL the row's size [bytes] becomes,
-    None for a table without one."""
-    resize = "" if size is None else f", size = {size}"
-    return (
-        f"UPDATE {table} SET status = 'failed', finished = ?, error = ?{resize} "
-        "WHERE id = ? AND status IN ('queued', 'running')"
-    )
-
-
-def requeue(
-    conn: sqlite3.Connection, table: str, reset: str, max_attempts: int, size: str | None = None
-) -> list[str]:
-    """Jobs of `table` a stopped server left queued or running, set back to queued (`reset`:
-    the SQL assignments that undo their progress), oldest first, in one transaction (the
-    caller holds the lock); those already started `max_attempts` times are failed instead,
-    saying so (`size`: as in `cancel_sql`)."""
-    unfinished = "status IN ('queued', 'running')"
-    resize = "" if size is None else f", size = {size}"
-    conn.execute("BEGIN IMMEDIATE")
-    try:
-        conn.execute(
-            f"UPDATE {table} SET status = 'failed', finished = ?, error = 'interrupted: "
-            "started ' || attempts || ' times, each stopped by a server stop or crash "
-            f"before it finished; not queued again (resubmit it, smaller)'{resize} "
-            f"WHERE {unfinished} AND attempts >= ?",
-            (time.time(), max_attempts),
-        )
-        rows = conn.execute(
-            f"SELECT id FROM {table} WHERE {unfinished} ORDER BY created, rowid"
-        ).fetchall()
-        conn.execute(f"UPDATE {table} SET status = 'queued', {reset} WHERE status = 'running'")
-    except BaseException:
-        conn.execute("ROLLBACK")
-        raise
-    conn.execute("COMMIT")
-    return [row["id"] for row in rows]
-
-
 #: tables whose rows count as stored runs against `Quota.max_runs` (a workability job keeps
 #: its uploaded record's columns: issue 43)
 COUNTED = ("runs", "workability")
@@ -384,6 +311,32 @@ def make_room(conn: sqlite3.Connection, quota: Quota, table: str, need: int) -> 
             conn.execute(f"DELETE FROM {part} WHERE id = ?", (victim["id"],))
 
 
+def insert_capped(
+    db: Database,
+    quota: Quota,
+    table: str,
+    cap: int | None,
+    insert: str,
+    parameters: tuple[Any, ...],
+    what: str | None = None,
+) -> None:
+    """`insert` into `table` of `db` (its last parameter: the row's size [bytes]) only while
+    fewer than `cap` jobs of `table` (`what`, in the refusal; default the table's name) are
+    queued or running and `quota` has room (`make_room`): count, room and insert in one write
+    transaction, so concurrent submissions cannot pass a cap between the count and the insert.
+
+    Raises:
+        QueueFull: `cap` jobs are queued or running (nothing stored).
+        StoreFull: no room can be made.
+    """
+    with db.writing() as conn:
+        count = conn.execute(f"SELECT COUNT(*) FROM {table} WHERE {UNFINISHED}").fetchone()[0]
+        if cap is not None and count >= cap:
+            raise QueueFull(what or table, count, cap)
+        make_room(conn, quota, table, parameters[-1])
+        conn.execute(insert, parameters)
+
+
 def _run(row: sqlite3.Row) -> Run:
     try:
         return _run_fields(row)
@@ -404,10 +357,6 @@ def _run_fields(row: sqlite3.Row) -> Run:
     )
 
 
-class StoreUnavailable(RuntimeError):
-    """The store's file is gone or replaced, or SQLite cannot write it (a 503, not a 500)."""
-
-
 class RunStore:
     """Runs persisted in an SQLite file; safe to share between threads and processes.
 
@@ -421,86 +370,30 @@ class RunStore:
     def __init__(self, path: str | Path, quota: Quota | None = None) -> None:
         self.path = Path(path)
         self.quota = quota if quota is not None else Quota()
-        self._conn = connect(self.path)
-        self._lock = threading.Lock()
-        try:
-            self._open()
-        except sqlite3.DatabaseError as exc:  # not a database, or a damaged one
-            self._conn.close()
-            raise TwinError(
-                f"run store {self.path} cannot be read ({exc}): move it aside (mv {self.path} "
-                f"{self.path}.bad) to start with an empty store, or restore it from a backup"
-            ) from None
+        self._db = Database(self.path, self._open, SYNCHRONOUS)
 
-    def _open(self) -> None:
-        """Pragmas, schema and the version check (sqlite3.DatabaseError: a bad file)."""
-        with self._lock:
-            self._conn.execute("PRAGMA journal_mode = WAL")  # readers never block the writer
-            self._conn.execute(f"PRAGMA synchronous = {SYNCHRONOUS}")
-            version = self._conn.execute("PRAGMA user_version").fetchone()[0]
-            if version > SCHEMA_VERSION:
-                self._conn.close()
-                raise TwinError(
-                    f"{self.path}: run store schema {version} is newer than this twin's "
-                    f"({SCHEMA_VERSION}); upgrade wave-twin or use another data directory"
-                )
-            self._conn.executescript(
-                f"BEGIN IMMEDIATE; {_SCHEMA} PRAGMA user_version = {SCHEMA_VERSION}; COMMIT;"
+    def _open(self, conn: sqlite3.Connection) -> None:
+        """Schema, the version check and the sizes of rows from before sizes were kept
+        (sqlite3.DatabaseError: a bad file)."""
+        migrate(conn, f"run store {self.path}", _SCHEMA, _ADDED, SCHEMA_VERSION)
+        for table in _ADDED:
+            conn.execute(
+                f"UPDATE {table} SET size = {_ROW_BYTES[table]} + {ROW_OVERHEAD} WHERE size = 0"
             )
-            for table, columns in _ADDED.items():
-                have = {r["name"] for r in self._conn.execute(f"PRAGMA table_info({table})")}
-                for name, kind in columns.items():
-                    if name not in have:
-                        self._conn.execute(f"ALTER TABLE {table} ADD COLUMN {name} {kind}")
-                self._conn.execute(  # rows from before sizes were kept
-                    f"UPDATE {table} SET size = {_ROW_BYTES[table]} + {ROW_OVERHEAD} "
-                    "WHERE size = 0"
-                )
-            # a damaged page shows here, at start-up, not as a 500 in the middle of a request
-            problem = self._conn.execute("PRAGMA quick_check(1)").fetchone()[0]
-            if problem != "ok":
-                raise sqlite3.DatabaseError(f"integrity check: {problem}")
-            self._identity = self._stat()
-
-    def _stat(self) -> tuple[int, int] | None:
-        try:
-            info = os.stat(self.path)
-        except OSError:
-            return None
-        return info.st_dev, info.st_ino
-
-    def _check(self) -> None:
-        """Raise `StoreUnavailable` if the file opened is no longer the one at `path`."""
-        now = self._stat()
-        if now != self._identity:
-            what = "deleted" if now is None else "replaced by another file"
-            raise StoreUnavailable(
-                f"run store {self.path} was {what} while the server runs: nothing more is "
-                "stored, so no run is written where nobody could read it back; restart the "
-                "server (with the file restored, or to start a new store)"
-            )
+        # a damaged page shows here, at start-up, not as a 500 in the middle of a request
+        problem = conn.execute("PRAGMA quick_check(1)").fetchone()[0]
+        if problem != "ok":
+            raise sqlite3.DatabaseError(f"integrity check: {problem}")
 
     @property
     def available(self) -> bool:
         """Whether the file opened is still the one at `path`."""
-        return self._stat() == self._identity
-
-    def _execute(self, sql: str, parameters: tuple[Any, ...] = ()) -> sqlite3.Cursor:
-        """A read, under the lock, after the file check (SQLite errors are a 503)."""
-        self._check()
-        try:
-            return self._conn.execute(sql, parameters)
-        except sqlite3.OperationalError as exc:
-            raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
+        return self._db.available
 
     # -- writers -----------------------------------------------------------------------------
     def _write(self, sql: str, parameters: tuple[Any, ...]) -> int:
         """One statement in one transaction; returns the number of rows changed."""
-        with self._lock:
-            self._check()
-            with transaction(self._conn, self.path):
-                changed = self._conn.execute(sql, parameters).rowcount
-            return changed
+        return self._db.write((sql, parameters))
 
     def create(self, scenario: Scenario, max_pending: int | None = None) -> Run:
         """Store a new run of `scenario` as queued.
@@ -518,41 +411,18 @@ class RunStore:
         run_id = uuid.uuid4().hex
         text = scenario.model_dump_json()
         size = price_run(scenario).bytes + len(text) + ROW_OVERHEAD
-        self._insert_capped(
-            "runs", max_pending,
+        insert_capped(
+            self._db, self.quota, "runs", max_pending,
             "INSERT INTO runs (id, created, status, scenario, size) VALUES (?, ?, 'queued', ?, ?)",
             (run_id, time.time(), text, size),
         )  # fmt: skip
         return self.get(run_id)
 
-    def _insert_capped(
-        self, table: str, cap: int | None, insert: str, parameters: tuple[Any, ...]
-    ) -> None:
-        """`insert` (its last parameter: the row's size [bytes]) only while fewer than `cap`
-        rows of `table` are queued or running and the quota has room (`_make_room`): count,
-        room and insert in one write transaction, so concurrent submissions cannot pass a cap
-        between the count and the insert."""
-        pending = f"SELECT COUNT(*) FROM {table} WHERE status IN ('queued', 'running')"
-        with self._lock:
-            self._check()
-            with transaction(self._conn, self.path):
-                count = self._conn.execute(pending).fetchone()[0]
-                if cap is not None and count >= cap:
-                    raise QueueFull(table, count, cap)
-                self._make_room(table, parameters[-1])
-                self._conn.execute(insert, parameters)
-
     def usage(self) -> tuple[int, int]:
         """([bytes] stored or reserved by runs and sweeps, runs stored)."""
-        with self._lock:
-            self._check()
-            return self._usage()
-
-    def _usage(self) -> tuple[int, int]:
-        return usage(self._conn)
-
-    def _make_room(self, table: str, need: int) -> None:
-        make_room(self._conn, self.quota, table, need)
+        with self._db.lock:
+            self._db.check()
+            return usage(self._db.conn)
 
     def mark_running(self, run_id: str) -> bool:
         """A queued run starts (a run in any other status stays as it is); whether it did.
@@ -604,7 +474,7 @@ class RunStore:
             run_id,
             "UPDATE runs SET status = 'done', progress = 1, finished = ?, metrics = ?, "
             f"series = ?, error = NULL, size = LENGTH(scenario) + ? + {ROW_OVERHEAD} "
-            "WHERE id = ? AND NOT " + _WAS_CANCELLED,
+            "WHERE id = ? AND NOT " + WAS_CANCELLED,
             (time.time(), text, series, len(text) + len(series), run_id),
         )
         return self.get(run_id)
@@ -644,7 +514,7 @@ class RunStore:
             run_id,
             "UPDATE runs SET status = 'failed', finished = ?, error = ?, "
             f"size = LENGTH(scenario) + ? + {ROW_OVERHEAD} "
-            "WHERE id = ? AND NOT " + _WAS_CANCELLED,
+            "WHERE id = ? AND NOT " + WAS_CANCELLED,
             (time.time(), error, len(error.encode()), run_id),
         )
 
@@ -655,18 +525,11 @@ class RunStore:
 
     def _requeue(self, table: str, reset: str, max_attempts: int) -> list[str]:
         own = "scenario" if table == "runs" else "spec"
-        with self._lock:
-            self._check()
-            return requeue(
-                self._conn, table, reset, max_attempts, f"LENGTH({own}) + {ROW_OVERHEAD}"
-            )
+        return requeue(self._db, table, reset, max_attempts, f"LENGTH({own}) + {ROW_OVERHEAD}")
 
     def pending(self, table: Literal["runs", "sweeps"] = "runs") -> int:
         """How many runs (or sweeps) are queued or running."""
-        with self._lock:
-            return self._execute(
-                f"SELECT COUNT(*) FROM {table} WHERE status IN ('queued', 'running')"
-            ).fetchone()[0]
+        return int(self._db.read(f"SELECT COUNT(*) FROM {table} WHERE {UNFINISHED}")[0][0])
 
     def _changed(self, run_id: str, sql: str, parameters: tuple[Any, ...]) -> None:
         """A write to one run: RunNotFound if there is none (a cancelled one stays as is)."""
@@ -675,11 +538,10 @@ class RunStore:
 
     # -- readers -----------------------------------------------------------------------------
     def _row(self, run_id: str, columns: str) -> sqlite3.Row:
-        with self._lock:
-            row = self._execute(f"SELECT {columns} FROM runs WHERE id = ?", (run_id,)).fetchone()
-        if row is None:
+        rows = self._db.read(f"SELECT {columns} FROM runs WHERE id = ?", (run_id,))
+        if not rows:
             raise RunNotFound(f"unknown run id {run_id!r}")
-        return row
+        return rows[0]
 
     def get(self, run_id: str) -> Run:
         """The run without its series.
@@ -691,11 +553,9 @@ class RunStore:
 
     def list_runs(self, limit: int = 50) -> list[Run]:
         """The newest `limit` runs, newest first."""
-        with self._lock:
-            rows = self._execute(
-                f"SELECT {_COLUMNS} FROM runs ORDER BY created DESC, rowid DESC LIMIT ?",
-                (limit,),
-            ).fetchall()
+        rows = self._db.read(
+            f"SELECT {_COLUMNS} FROM runs ORDER BY created DESC, rowid DESC LIMIT ?", (limit,)
+        )
         return [_run(row) for row in rows]
 
     def scenario(self, run_id: str) -> Scenario:
@@ -746,8 +606,8 @@ class RunStore:
         sweep_id = uuid.uuid4().hex
         text = json.dumps(spec, allow_nan=False)
         size = price_sweep(SweepSpec.model_construct(**spec)).bytes + len(text) + ROW_OVERHEAD
-        self._insert_capped(
-            "sweeps", max_pending,
+        insert_capped(
+            self._db, self.quota, "sweeps", max_pending,
             "INSERT INTO sweeps (id, created, status, total, spec, size) "
             "VALUES (?, ?, 'queued', ?, ?, ?)",
             (sweep_id, time.time(), total, text, size),
@@ -793,7 +653,7 @@ class RunStore:
             sweep_id,
             "UPDATE sweeps SET status = 'done', done = total, finished = ?, result = ?, "
             f"heatmap = ?, error = NULL, size = LENGTH(spec) + ? + {ROW_OVERHEAD} "
-            "WHERE id = ? AND NOT " + _WAS_CANCELLED,
+            "WHERE id = ? AND NOT " + WAS_CANCELLED,
             (time.time(), text, heatmap, len(text) + len(heatmap), sweep_id),
         )
         return self.get_sweep(sweep_id)
@@ -802,7 +662,7 @@ class RunStore:
         self._sweep_changed(
             sweep_id,
             "UPDATE sweeps SET status = 'failed', finished = ?, error = ?, "
-            f"size = LENGTH(spec) + {ROW_OVERHEAD} WHERE id = ? AND NOT " + _WAS_CANCELLED,
+            f"size = LENGTH(spec) + {ROW_OVERHEAD} WHERE id = ? AND NOT " + WAS_CANCELLED,
             (time.time(), error, sweep_id),
         )
 
@@ -837,18 +697,14 @@ class RunStore:
             self.get_sweep(sweep_id)
 
     def _sweep_row(self, sweep_id: str, columns: str) -> sqlite3.Row:
-        with self._lock:
-            row = self._execute(
-                f"SELECT {columns} FROM sweeps WHERE id = ?", (sweep_id,)
-            ).fetchone()
-        if row is None:
+        rows = self._db.read(f"SELECT {columns} FROM sweeps WHERE id = ?", (sweep_id,))
+        if not rows:
             raise SweepNotFound(f"unknown sweep id {sweep_id!r}")
-        return row
+        return rows[0]
 
     # -- lifetime ----------------------------------------------------------------------------
     def close(self) -> None:
-        with self._lock:
-            self._conn.close()
+        self._db.close()
 
     def __enter__(self) -> RunStore:
         return self

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import json
 import sqlite3
-import threading
 import time
 import uuid
 from datetime import UTC, datetime
@@ -39,22 +38,18 @@ from typing import Any
 
 from pydantic import BaseModel, Field
 
-from twin.errors import TwinError
-from twin.web.store import (
+from twin.db import (
     CANCELLED,
     MAX_ATTEMPTS,
-    ROW_OVERHEAD,
-    QueueFull,
-    Quota,
-    RunNotFound,
-    Status,
-    StoreUnavailable,
+    UNFINISHED,
+    WAS_CANCELLED,
+    Database,
     cancel_sql,
-    connect,
-    make_room,
+    migrate,
     requeue,
-    transaction,
 )
+from twin.errors import TwinError
+from twin.web.store import ROW_OVERHEAD, Quota, RunNotFound, Status, insert_capped
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS workability (
@@ -80,9 +75,8 @@ CREATE TABLE IF NOT EXISTS workability_plots (
 );
 """
 _COLUMNS = "id, created, finished, status, done, total, spec, record, result, error"
-_WAS_CANCELLED = f"(status = 'failed' AND error LIKE '{CANCELLED}%')"
 #: columns added after the table's first version: added to an older file when it is opened
-_ADDED = {"size": "INTEGER NOT NULL DEFAULT 0", "upload": "BLOB"}
+_ADDED = {"workability": {"size": "INTEGER NOT NULL DEFAULT 0", "upload": "BLOB"}}
 #: [bytes] what a job holds once its upload is gone: its fields, its result and its files
 #: (SQLite computes a SET from the row as it was, so this is the size of a row whose upload the
 #: same UPDATE drops)
@@ -142,40 +136,10 @@ class WorkabilityStore:
     def __init__(self, path: str | Path, quota: Quota | None = None) -> None:
         self.path = Path(path)
         self.quota = quota if quota is not None else Quota()
-        # as RunStore: one connection under a lock, autocommit, one transaction per write
-        self._conn = connect(self.path)
-        self._lock = threading.Lock()
-        try:
-            with self._lock:
-                self._conn.execute("PRAGMA journal_mode = WAL")
-                self._conn.execute("PRAGMA synchronous = FULL")
-                self._conn.executescript(f"BEGIN IMMEDIATE; {_SCHEMA} COMMIT;")
-                have = {r["name"] for r in self._conn.execute("PRAGMA table_info(workability)")}
-                for name, kind in _ADDED.items():
-                    if name not in have:
-                        self._conn.execute(f"ALTER TABLE workability ADD COLUMN {name} {kind}")
-        except sqlite3.DatabaseError as exc:
-            self._conn.close()
-            raise TwinError(f"run store {self.path} cannot be read ({exc})") from None
-
-    # -- plumbing ----------------------------------------------------------------------------
-    def _write(self, *statements: tuple[str, tuple[Any, ...]]) -> int:
-        """Statements in one transaction; the rows the first one changed."""
-        with self._lock:
-            if not self.path.exists():
-                raise StoreUnavailable(f"run store {self.path} was deleted while the server runs")
-            with transaction(self._conn, self.path):
-                changed = self._conn.execute(*statements[0]).rowcount
-                for sql, parameters in statements[1:]:
-                    self._conn.execute(sql, parameters)
-            return changed
-
-    def _read(self, sql: str, parameters: tuple[Any, ...] = ()) -> list[sqlite3.Row]:
-        with self._lock:
-            try:
-                return self._conn.execute(sql, parameters).fetchall()
-            except sqlite3.OperationalError as exc:
-                raise StoreUnavailable(f"run store {self.path}: {exc}") from exc
+        # as RunStore's: one connection under a lock, one transaction per write
+        self._db = Database(
+            self.path, lambda conn: migrate(conn, f"run store {self.path}", _SCHEMA, _ADDED), "FULL"
+        )
 
     # -- writers -----------------------------------------------------------------------------
     def create(
@@ -199,34 +163,26 @@ class WorkabilityStore:
         job_id = uuid.uuid4().hex
         spec_text, record_text = json.dumps(spec, allow_nan=False), json.dumps(record)
         size = len(spec_text) + len(record_text) + len(upload or b"") + reserve + ROW_OVERHEAD
-        with self._lock:
-            if not self.path.exists():
-                raise StoreUnavailable(f"run store {self.path} was deleted while the server runs")
-            with transaction(self._conn, self.path):
-                count = self._conn.execute(
-                    "SELECT COUNT(*) FROM workability WHERE status IN ('queued', 'running')"
-                ).fetchone()[0]
-                if max_pending is not None and count >= max_pending:
-                    raise QueueFull("workability jobs", count, max_pending)
-                make_room(self._conn, self.quota, "workability", size)
-                self._conn.execute(
-                    "INSERT INTO workability (id, created, status, total, spec, record, upload, "
-                    "size) VALUES (?, ?, 'queued', ?, ?, ?, ?, ?)",
-                    (job_id, time.time(), total, spec_text, record_text, upload, size),
-                )  # fmt: skip
+        insert_capped(
+            self._db, self.quota, "workability", max_pending,
+            "INSERT INTO workability (id, created, status, total, spec, record, upload, size) "
+            "VALUES (?, ?, 'queued', ?, ?, ?, ?, ?)",
+            (job_id, time.time(), total, spec_text, record_text, upload, size),
+            "workability jobs",
+        )  # fmt: skip
         return self.get(job_id)
 
     def attach(self, job_id: str, upload: bytes, total: int) -> bool:
         """A queued job's record columns, read after it was stored (`create`'s `reserve`), and
         its runs priced on them; whether it was still queued."""
-        return bool(self._write((
+        return bool(self._db.write((
             f"UPDATE workability SET upload = ?, total = ?, size = {_SIZE} + ? "
             "WHERE id = ? AND status = 'queued'", (upload, total, len(upload), job_id),
         )))  # fmt: skip
 
     def running(self, job_id: str) -> bool:
         """A queued job starts (a cancelled one stays as it is); whether it did."""
-        changed = self._write((
+        changed = self._db.write((
             "UPDATE workability SET status = 'running', done = 0, attempts = attempts + 1 "
             "WHERE id = ? AND status IN ('queued', 'running')", (job_id,),
         ))  # fmt: skip
@@ -236,7 +192,7 @@ class WorkabilityStore:
 
     def progress(self, job_id: str, done: int, total: int) -> None:
         """Runs done of those a running job needs (`total` as the evaluation counts them)."""
-        self._write((
+        self._db.write((
             "UPDATE workability SET done = MAX(done, ?), total = ? "
             "WHERE id = ? AND status = 'running'", (done, max(total, 1), job_id),
         ))  # fmt: skip
@@ -245,9 +201,9 @@ class WorkabilityStore:
         """Store a finished job's result and files (status done: the PNG plots, `ROWS_FILE`),
         unless it was cancelled; its upload goes."""
         text = json.dumps(result, allow_nan=False)
-        self._write(
+        self._db.write(
             ("UPDATE workability SET status = 'done', done = total, finished = ?, result = ?, "
-             "error = NULL WHERE id = ? AND NOT " + _WAS_CANCELLED,
+             "error = NULL WHERE id = ? AND NOT " + WAS_CANCELLED,
              (time.time(), text, job_id)),
             ("DELETE FROM workability_plots WHERE id = ?", (job_id,)),
             *[("INSERT INTO workability_plots (id, name, png) SELECT ?, ?, ? WHERE EXISTS "
@@ -258,9 +214,9 @@ class WorkabilityStore:
 
     def fail(self, job_id: str, error: str) -> None:
         """A job failed with `error` (unless it was cancelled); its upload goes."""
-        self._write((
+        self._db.write((
             "UPDATE workability SET status = 'failed', finished = ?, error = ? "
-            "WHERE id = ? AND NOT " + _WAS_CANCELLED, (time.time(), error, job_id),
+            "WHERE id = ? AND NOT " + WAS_CANCELLED, (time.time(), error, job_id),
         ), (_DROP_UPLOAD, (job_id,)))  # fmt: skip
 
     def cancel(self, job_id: str, reason: str = "by request") -> bool:
@@ -270,7 +226,7 @@ class WorkabilityStore:
         Raises:
             WorkabilityNotFound: no job has this id.
         """
-        changed = self._write(
+        changed = self._db.write(
             (cancel_sql("workability"), (time.time(), f"{CANCELLED} {reason}", job_id)),
             (_DROP_UPLOAD, (job_id,)),
         )
@@ -280,7 +236,7 @@ class WorkabilityStore:
 
     def delete(self, job_id: str) -> bool:
         """Forget a job with its plots; whether there was one."""
-        return bool(self._write(
+        return bool(self._db.write(
             ("DELETE FROM workability WHERE id = ?", (job_id,)),
             ("DELETE FROM workability_plots WHERE id = ?", (job_id,)),
         ))  # fmt: skip
@@ -288,23 +244,21 @@ class WorkabilityStore:
     def requeue_unfinished(self, max_attempts: int = MAX_ATTEMPTS) -> list[str]:
         """Jobs a stopped server left queued or running, queued again, oldest first; those
         started `max_attempts` times already are failed instead, saying so."""
-        with self._lock:
-            ids = requeue(self._conn, "workability", "done = 0", max_attempts)
-            with transaction(self._conn, self.path):  # those failed let their uploads go
-                self._conn.execute(
-                    f"UPDATE workability SET upload = NULL, size = {_SIZE} "
-                    "WHERE status = 'failed' AND upload IS NOT NULL"
-                )
-            return ids
+        ids = requeue(self._db, "workability", "done = 0", max_attempts)
+        self._db.write((  # those failed let their uploads go
+            f"UPDATE workability SET upload = NULL, size = {_SIZE} "
+            "WHERE status = 'failed' AND upload IS NOT NULL", (),
+        ))  # fmt: skip
+        return ids
 
     # -- readers -----------------------------------------------------------------------------
     def pending(self) -> int:
         """Jobs queued or running."""
-        rows = self._read("SELECT COUNT(*) FROM workability WHERE status IN ('queued', 'running')")
+        rows = self._db.read(f"SELECT COUNT(*) FROM workability WHERE {UNFINISHED}")
         return int(rows[0][0])
 
     def _row(self, job_id: str, columns: str) -> sqlite3.Row:
-        rows = self._read(f"SELECT {columns} FROM workability WHERE id = ?", (job_id,))
+        rows = self._db.read(f"SELECT {columns} FROM workability WHERE id = ?", (job_id,))
         if not rows:
             raise WorkabilityNotFound(f"unknown workability id {job_id!r}")
         return rows[0]
@@ -316,7 +270,7 @@ class WorkabilityStore:
             WorkabilityNotFound: no job has this id.
         """
         row = self._row(job_id, _COLUMNS)
-        names = [r["name"] for r in self._read(
+        names = [r["name"] for r in self._db.read(
             "SELECT name FROM workability_plots WHERE id = ? ORDER BY name", (job_id,)
         )]  # fmt: skip
         record = json.loads(row["record"])
@@ -349,7 +303,7 @@ class WorkabilityStore:
         job = self.get(job_id)
         if job.status != "done":
             raise TwinError(f"workability {job_id} is {job.status}; its plots exist once done")
-        rows = self._read(
+        rows = self._db.read(
             "SELECT png FROM workability_plots WHERE id = ? AND name = ?", (job_id, name)
         )
         if not rows:
@@ -357,5 +311,4 @@ class WorkabilityStore:
         return bytes(rows[0]["png"])
 
     def close(self) -> None:
-        with self._lock:
-            self._conn.close()
+        self._db.close()
