@@ -35,7 +35,7 @@ process, so a figure cannot take the process that answers requests.
 Cancel (issue 30): `JobRunner.cancel` and `SweepRunner.cancel` mark a queued or running job
 failed ("cancelled …") and cancel its futures; a sweep in hand stops after the chunk that is
 running. A run already on a worker cannot be interrupted mid-chunk: it ends within its budget
-and its outcome is dropped. Restarts: a job started `store.MAX_ATTEMPTS` times without
+and its outcome is dropped. Restarts: a job started `twin.db.MAX_ATTEMPTS` times without
 finishing (each stopped by a shutdown or a crash) is failed on the next start, with the
 reason, instead of being queued again.
 """

@@ -11,7 +11,7 @@ over row-headings alone held the GIL for 16 s, and health waited as long). The t
 waits, storing the progress the task reports (a Dask event topic of its own), and stores the
 result, its PNGs and the per-row CSV. Cancel marks the job failed and sets the task's stop
 event: it stops after the chunk in hand (`run_workability`'s `stop`). A stopped server leaves
-its job queued; the next start queues it again, up to `store.MAX_ATTEMPTS` starts.
+its job queued; the next start queues it again, up to `twin.db.MAX_ATTEMPTS` starts.
 
 Operability cells are cached in the server's data dir (the run store's folder, `cells.sqlite`,
 `twin.sim.workability.CellCache`), written by the worker that runs the job.

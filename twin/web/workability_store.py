@@ -17,7 +17,7 @@ has and `RunStore`'s schema version is untouched):
   the per-row table (`rows.csv.gz`).
 
 A cancelled job's late result is not stored over it (as sweeps). Jobs left unfinished by a
-stopped server are queued again at the next start, up to `store.MAX_ATTEMPTS` starts; the
+stopped server are queued again at the next start, up to `twin.db.MAX_ATTEMPTS` starts; the
 attempt is counted when the runner picks a job up, before anything of it is read.
 
 Counted by the store's quota (issue 43: 80 submit-and-cancel cycles took a 300 MB store to
