@@ -13,6 +13,10 @@ import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # imported where used: `twin --help` stays fast
+    from twin.sim.motion_live import LiveMotion
 
 #: mechanisms a command may name (twin.mechanisms.MECHANISMS)
 MECHANISM_NAMES = ("hybrid", "upu3up", "upr4")
@@ -227,6 +231,11 @@ def _add_serve_clients(serve: argparse.ArgumentParser) -> None:
         "--motion-udp-allow", action="append", default=[], metavar="ADDRESS",
         help="another sender address whose datagrams --motion-udp reads (repeatable; binds all "
         "interfaces); datagrams from any other address are counted and dropped",
+    )  # fmt: skip
+    serve.add_argument(
+        "--motion-sensor", type=Path, default=None, metavar="FILE",
+        help="the --motion-udp sensor's file (YAML/JSON, docs/motion.md): its position on the "
+        "hull, from which the motion is moved to the mount; default: the centre of motion",
     )  # fmt: skip
     serve.add_argument(
         "--private", action="store_true",
@@ -554,12 +563,15 @@ def _add_warm(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> 
 
 def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from twin.errors import TwinError
+    from twin.motion.sensor import Sensor
     from twin.web.motion_udp import listening
     from twin.web.server import Terminated
 
     try:
-        with listening(args.motion_udp, args.motion_udp_allow):
-            _serve_with(args)
+        sensor = None if args.motion_sensor is None else Sensor.load(args.motion_sensor)
+        position = (0.0, 0.0, 0.0) if sensor is None else sensor.position
+        with listening(args.motion_udp, args.motion_udp_allow, position) as listener:
+            _serve_with(args, None if listener is None else listener.live)
     except (KeyboardInterrupt, Terminated):  # how a server is stopped; serve has cleaned up
         pass
     except TwinError as exc:  # a token or bind refused, or the data directory held by another
@@ -567,8 +579,8 @@ def _serve(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return 0
 
 
-def _serve_with(args: argparse.Namespace) -> None:
-    """`serve` with the parsed options."""
+def _serve_with(args: argparse.Namespace, motion: LiveMotion | None = None) -> None:
+    """`serve` with the parsed options and the live motion input (`--motion-udp`), if any."""
     from twin.web.server import serve
 
     serve(
@@ -590,6 +602,7 @@ def _serve_with(args: argparse.Namespace) -> None:
         max_runs=args.max_runs,
         retain=args.retain,
         worker_nice=args.worker_nice,
+        motion=motion,
         **({} if args.run_budget is None else {"run_budget": args.run_budget}),
     )
 

@@ -776,7 +776,10 @@ def _source_fields(source: LiveMotionSource) -> dict[str, Any]:
     if source.kind != "log":
         return {"base_motion": None}
     assert source.log is not None  # LiveMotionSource checked it
-    length = min(describe_log(source.log)["duration"], MAX_DURATION)
+    try:
+        length = min(describe_log(source.log)["duration"], MAX_DURATION)
+    except TwinError as exc:
+        raise TwinError(f"{MOTION_SOURCE}: {exc}") from None
     return {"base_motion": {"source": "log", "log": source.log}, "duration": length}
 
 

@@ -22,16 +22,20 @@ from pydantic import (
 )
 from pydantic.fields import FieldInfo
 
-from twin.mechanisms import MECHANISMS
-from twin.planners import PLANNERS, PlannerParameters, get_planner
-from twin.sea.sea_states import WMO_SEA_STATES
 from twin.sim import Scenario
-from twin.sim.live import COMPARE, LiveControls
+from twin.sim.live import COMPARE, MOTION_SOURCE, LiveControls, LiveMotionSource
 from twin.sim.live import LIVE_FIELDS as SESSION_FIELDS
+from twin.sim.registries import (
+    MECHANISMS,
+    PLANNERS,
+    WMO_SEA_STATES,
+    PlannerParameters,
+    available_raos,
+    get_planner,
+)
 from twin.sim.scenario import DEFAULT_PLANNER, check_one_sea
 from twin.sim.sweep import SweepSpec
 from twin.validation import error_message
-from twin.vessel.rao import available_raos
 
 # -- response models -------------------------------------------------------------------------
 
@@ -230,6 +234,14 @@ _PATCH_FIELDS: dict[str, Any] = {
               "motion, with the same knobs (the viewer draws it as a ghost); null stops it. "
               "Setting or changing it restarts the session at t = 0"),
     ),
+    MOTION_SOURCE: (
+        LiveMotionSource | None,
+        Field(None, description='where the hull motion comes from: {"kind": "sea"} the '
+              'synthesised sea; {"kind": "udp"} the live motion input (twin serve --motion-udp '
+              'PORT; the stream\'s clock drives the session, which holds while it is stale); '
+              '{"kind": "log", "log": ID, "speed": 1-8} a stored log replayed (pausing at its '
+              "end). Restarts the session at t = 0"),
+    ),
     **{name: _optional(LiveControls, name) for name in LiveControls.model_fields},
 }  # fmt: skip
 _PATCH_VALIDATORS: dict[str, Any] = {
@@ -300,6 +312,10 @@ _STATE_FIELDS: dict[str, Any] = dict(
                "restarted live time at t = 0")),
     replay=(ReplayState | None, Field(None, description="the stored run replayed, if any; "
             "scenario fields, `t` and metrics are then the run's")),
+    motion_source=(dict[str, Any] | None, Field(None, description="the hull motion's source: "
+                   "`kind` (sea, udp, log), `log`, `speed`, `status` (synthesised; a stream's "
+                   "waiting, live or stale; a log's playing or ended), `input` (the live "
+                   "motion input's source, live, age_s, counts, latest sample) and `resyncs`")),
     faults=(
         dict[str, Any],
         Field(
@@ -354,6 +370,8 @@ RANGES = {
     ("PATCH", "/api/live"): {
         **_ranges(RunRequest, LiveControls),
         COMPARE: "a planner of the mechanism (GET /api/mechanisms) or null",
+        MOTION_SOURCE: '{"kind": "sea"}, {"kind": "udp"} (with twin serve --motion-udp) or '
+        '{"kind": "log", "log": ID (GET /api/motion-logs), "speed": 1 ≤ speed ≤ 8}',
     },
     ("POST", "/api/live/replay"): _ranges(ReplayRequest),
     ("POST", "/api/sweeps"): _ranges(SweepSpec),

@@ -96,9 +96,14 @@ class MotionListener(threading.Thread):
 
 
 @contextlib.contextmanager
-def listening(port: int | None, allow: Iterable[str] = ()) -> Iterator[MotionListener | None]:
+def listening(
+    port: int | None, allow: Iterable[str] = (),
+    sensor_position: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> Iterator[MotionListener | None]:  # fmt: skip
     """`twin serve --motion-udp PORT`: a started listener for the block (None: no port),
-    its address printed; stopped on the way out.
+    its address printed; stopped on the way out. `sensor_position` [m]: where the sensor
+    sits on the hull (`--motion-sensor`), from which the live session moves the motion to
+    the mount.
 
     Raises:
         TwinError: a port out of range or taken, or an allowed sender that is not an address.
@@ -107,7 +112,8 @@ def listening(port: int | None, allow: Iterable[str] = ()) -> Iterator[MotionLis
         yield None
         return
     try:
-        listener = MotionListener(LiveMotion(f"udp :{port}"), port, allow)
+        live = LiveMotion(f"udp :{port}", sensor_position=sensor_position)
+        listener = MotionListener(live, port, allow)
     except OSError as exc:
         raise TwinError(f"--motion-udp {port}: cannot bind ({exc.strerror})") from None
     listener.start()
