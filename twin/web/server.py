@@ -10,10 +10,10 @@ CPU to this process; or `--scheduler tcp://HOST:PORT`), started once; the
 run store, the live session, the viewer and the REST app. Stop (Ctrl-C, SIGTERM, `docker
 stop`): requests still waiting for a run answer 503 at once, the runs' futures are cancelled
 and their runs left queued for the next start, and the process exits within seconds
-(`GRACEFUL` for open connections, `executor.CLOSE_TIMEOUT` for the workers). SIGTERM also arms
-a timer in the kernel (`STOP_DEADLINE`): whatever is still in flight then (a thread holding the
-GIL, a stuck close), SIGALRM's default action ends the process. The data directory's lock is
-held until the process is gone (`DataDirLock.hold_until_exit`).
+(`GRACEFUL` for open connections, `executor.CLOSE_TIMEOUT` for the workers). SIGTERM also starts
+a deadline the moment it arrives (`twin.web.stop_watchdog`, `STOP_DEADLINE`): whatever is still
+in flight then (a thread holding the GIL, a stuck close), a watchdog process ends this one. The
+data directory's lock is held until the process is gone (`DataDirLock.hold_until_exit`).
 """
 
 from __future__ import annotations
@@ -38,7 +38,6 @@ from twin.sim.executor import RUN_BUDGET, Executor
 from twin.sim.heap import freeze_startup
 from twin.sim.live import LiveSession, live_demo
 from twin.sim.measured import LOG_DIR_ENV
-from twin.sim.motion_live import LiveMotion
 from twin.web.access import Access, is_loopback
 from twin.web.api import create_app
 from twin.web.connections import (
@@ -52,6 +51,7 @@ from twin.web.connections import (
 from twin.web.deps import Services
 from twin.web.jobs import JobRunner, SweepRunner
 from twin.web.lock import DataDirLock
+from twin.web.stop_watchdog import StopWatchdog
 from twin.web.store import Quota, RunStore
 from twin.web.warmup import WarmingPage, Warmup
 
@@ -61,9 +61,6 @@ DATABASE = "runs.sqlite"
 log = logging.getLogger("twin.web.server")
 #: [s] how long open requests may take to finish once the server is told to stop
 GRACEFUL = 3
-#: [s] after SIGTERM, the process ends by then whatever it is doing (issue 43: a parse that
-#: held the GIL kept one alive for 160 s); under `docker stop`'s 10 s before its SIGKILL
-STOP_DEADLINE = 9.5
 
 __all__ = ["DATABASE", "GRACEFUL", "Terminated", "is_loopback", "serve", "url", "uvicorn_config"]
 
@@ -84,19 +81,22 @@ class _Uvicorn(uvicorn.Server):
     """uvicorn that tells the app (`services.stopping`) the moment it is asked to stop, so a
     request waiting for its run answers at once instead of holding the shutdown."""
 
-    def __init__(self, config: uvicorn.Config, stopping: threading.Event) -> None:
+    def __init__(
+        self, config: uvicorn.Config, stopping: threading.Event, watchdog: StopWatchdog | None
+    ) -> None:
         super().__init__(config)
         self._stopping = stopping
+        self._watchdog = watchdog
 
     def handle_exit(self, sig: int, frame: FrameType | None) -> None:
         self._stopping.set()
-        if sig == signal.SIGTERM:
-            stop_deadline()
         super().handle_exit(sig, frame)
 
     async def startup(self, sockets: list[socket.socket] | None = None) -> None:
         import asyncio
 
+        if self._watchdog is not None:  # uvicorn has just installed its SIGTERM handler
+            self._watchdog.arm()
         throttled_exceptions(asyncio.get_running_loop())  # accept errors: once per interval
         await super().startup(sockets)
 
@@ -176,11 +176,9 @@ class _StartUp(threading.Thread):
         *,
         executor: Callable[[], Executor],
         viewer: Callable[[LiveSession], Any] | None,
-        motion: LiveMotion | None = None,
     ) -> None:
         super().__init__(name="twin-start-up", daemon=True)
         self.services, self.warmup, self.page = services, warmup, page
-        self.motion = motion  # the live motion input the session may follow (--motion-udp)
         self._start_executor, self._start_viewer = executor, viewer
         self._lock = threading.Lock()
         self._built: list[Any] = []  # closed in reverse order by `stop`
@@ -206,7 +204,7 @@ class _StartUp(threading.Thread):
             if executor.dashboard_link:
                 warmup.say(f"Dask dashboard {executor.dashboard_link}")
             warmup.begin("starting the live session")
-            session = self._keep(LiveSession(live_demo(), motion=self.motion))
+            session = self._keep(LiveSession(live_demo()))
             session.start()
             if self._start_viewer is not None and self.page is not None:
                 self.page.close()
@@ -260,19 +258,7 @@ def quiet_resource_tracker() -> None:
         os.environ["PYTHONWARNINGS"] = ",".join(filter(None, (current, TRACKER_WARNING)))
 
 
-def stop_deadline(seconds: float = STOP_DEADLINE) -> None:
-    """End this process `seconds` from now, whatever it is doing then: a kernel timer whose
-    signal (SIGALRM) keeps its default action, which needs neither the GIL nor any thread
-    of this process (a Python handler would wait for both). Main thread only (signals); a
-    deadline already set stays (uvicorn hands SIGTERM on once it has stopped)."""
-    main = threading.current_thread() is threading.main_thread()
-    if main and signal.getitimer(signal.ITIMER_REAL)[0] == 0.0:
-        signal.signal(signal.SIGALRM, signal.SIG_DFL)
-        signal.setitimer(signal.ITIMER_REAL, seconds)
-
-
 def _terminate(sig: int, frame: FrameType | None) -> None:
-    stop_deadline()
     raise Terminated(f"signal {sig}")
 
 
@@ -297,7 +283,6 @@ def serve(
     max_runs: int | None = None,
     retain: bool = False,
     worker_nice: int = 0,
-    motion: LiveMotion | None = None,
 ) -> None:
     """Run the twin until interrupted (Ctrl-C: KeyboardInterrupt; SIGTERM: `Terminated`, each
     raised once all is stopped).
@@ -334,8 +319,6 @@ def serve(
         max_runs: runs the store may hold; None: no limit.
         retain: when full, delete the oldest finished unpinned results instead of refusing.
         worker_nice: niceness 0-19 of the LocalCluster's workers once warm (`WORKER_NICE`).
-        motion: the live motion input (`twin serve --motion-udp`) the live session may follow
-            (`PATCH /api/live {"motion_source": {"kind": "udp"}}`).
 
     Raises:
         TwinError: `host` is not loopback and there is no token, a short token, a bad
@@ -354,11 +337,11 @@ def serve(
         app, held.startup = _assemble(
             held.store, access, host, port, viser_port, viewer=viewer, scheduler=scheduler,
             workers=workers, dashboard=dashboard, run_budget=run_budget, graphics=graphics,
-            worker_nice=worker_nice, motion=motion,
+            worker_nice=worker_nice,
         )  # fmt: skip
         held.startup.start()
         config = uvicorn_config(app, host, port, forwarded_allow_ips=forwarded_allow_ips)
-        _Uvicorn(config, app.state.services.stopping).run(sockets=[held.rest])
+        _Uvicorn(config, app.state.services.stopping, held.watchdog).run(sockets=[held.rest])
 
 
 def _checked_access(
@@ -398,11 +381,11 @@ def _checked_access(
 
 class _Held:
     """What `serve` holds from before start-up until after shutdown: the data directory's lock,
-    the REST port's socket and, on the main thread, SIGTERM (raising `Terminated`); then the
-    run store and the start-up, once `serve` has made them. Leaving the `with` block closes
-    them in this order: the socket, the start-up (viewer, session, executor: newest first),
-    the store, and SIGTERM goes back to its previous handler; the lock stays held until the
-    process ends."""
+    the REST port's socket and, on the main thread, SIGTERM (raising `Terminated`, its
+    deadline armed at delivery by a `StopWatchdog`); then the run store and the start-up, once
+    `serve` has made them. Leaving the `with` block closes them in this order: the socket, the
+    start-up (viewer, session, executor: newest first), the store, and SIGTERM goes back to
+    its previous handler; the lock stays held until the process ends."""
 
     def __init__(self, data_dir: str | Path, host: str, port: int) -> None:
         self.data_dir, self.host, self.port = data_dir, host, port
@@ -427,9 +410,11 @@ class _Held:
             self.lock.release()
             raise
         self.previous = signal.getsignal(signal.SIGTERM)
-        self.main = threading.current_thread() is threading.main_thread()
-        if self.main:  # PID 1 in a container ignores SIGTERM unless something handles it
+        main = threading.current_thread() is threading.main_thread()
+        self.watchdog = StopWatchdog() if main else None
+        if self.watchdog is not None:  # PID 1 in a container ignores SIGTERM unless handled
             signal.signal(signal.SIGTERM, _terminate)
+            self.watchdog.arm()
         return self
 
     def __exit__(self, *exc_info: object) -> None:
@@ -440,7 +425,8 @@ class _Held:
         if self.store is not None:
             self.store.close()
         self.lock.hold_until_exit()  # the kernel lets it go with the process
-        if self.main:
+        if self.watchdog is not None:
+            self.watchdog.close()
             signal.signal(signal.SIGTERM, self.previous)
 
 
@@ -458,7 +444,6 @@ def _assemble(
     run_budget: float,
     graphics: str,
     worker_nice: int = 0,
-    motion: LiveMotion | None = None,
 ) -> tuple[FastAPI, _StartUp]:
     """`serve`'s start-up once the store is open: the warming page (with the viewer, on its
     port, which the viewer takes when the page closes), the REST app (answering at once), the
@@ -494,6 +479,5 @@ def _assemble(
                 access, ports=frozenset({port})),  # and its own actual port's
             store=store, sweeps=sweeps, api_url=url(host, port), graphics=graphics,
         ),
-        motion=motion,
     )  # fmt: skip
     return app, startup
