@@ -38,6 +38,7 @@ from twin.sim.executor import RUN_BUDGET, Executor
 from twin.sim.heap import freeze_startup
 from twin.sim.live import LiveSession, live_demo
 from twin.sim.measured import LOG_DIR_ENV
+from twin.sim.motion_live import LiveMotion
 from twin.web.access import Access, is_loopback
 from twin.web.api import create_app
 from twin.web.connections import (
@@ -176,9 +177,11 @@ class _StartUp(threading.Thread):
         *,
         executor: Callable[[], Executor],
         viewer: Callable[[LiveSession], Any] | None,
+        motion: LiveMotion | None = None,
     ) -> None:
         super().__init__(name="twin-start-up", daemon=True)
         self.services, self.warmup, self.page = services, warmup, page
+        self.motion = motion  # the live motion input the session may follow (--motion-udp)
         self._start_executor, self._start_viewer = executor, viewer
         self._lock = threading.Lock()
         self._built: list[Any] = []  # closed in reverse order by `stop`
@@ -204,7 +207,7 @@ class _StartUp(threading.Thread):
             if executor.dashboard_link:
                 warmup.say(f"Dask dashboard {executor.dashboard_link}")
             warmup.begin("starting the live session")
-            session = self._keep(LiveSession(live_demo()))
+            session = self._keep(LiveSession(live_demo(), motion=self.motion))
             session.start()
             if self._start_viewer is not None and self.page is not None:
                 self.page.close()
@@ -283,6 +286,7 @@ def serve(
     max_runs: int | None = None,
     retain: bool = False,
     worker_nice: int = 0,
+    motion: LiveMotion | None = None,
 ) -> None:
     """Run the twin until interrupted (Ctrl-C: KeyboardInterrupt; SIGTERM: `Terminated`, each
     raised once all is stopped).
@@ -319,6 +323,8 @@ def serve(
         max_runs: runs the store may hold; None: no limit.
         retain: when full, delete the oldest finished unpinned results instead of refusing.
         worker_nice: niceness 0-19 of the LocalCluster's workers once warm (`WORKER_NICE`).
+        motion: the live motion input (`twin serve --motion-udp`) the live session may follow
+            (`PATCH /api/live {"motion_source": {"kind": "udp"}}`).
 
     Raises:
         TwinError: `host` is not loopback and there is no token, a short token, a bad
@@ -337,7 +343,7 @@ def serve(
         app, held.startup = _assemble(
             held.store, access, host, port, viser_port, viewer=viewer, scheduler=scheduler,
             workers=workers, dashboard=dashboard, run_budget=run_budget, graphics=graphics,
-            worker_nice=worker_nice,
+            worker_nice=worker_nice, motion=motion,
         )  # fmt: skip
         held.startup.start()
         config = uvicorn_config(app, host, port, forwarded_allow_ips=forwarded_allow_ips)
@@ -444,6 +450,7 @@ def _assemble(
     run_budget: float,
     graphics: str,
     worker_nice: int = 0,
+    motion: LiveMotion | None = None,
 ) -> tuple[FastAPI, _StartUp]:
     """`serve`'s start-up once the store is open: the warming page (with the viewer, on its
     port, which the viewer takes when the page closes), the REST app (answering at once), the
@@ -479,5 +486,6 @@ def _assemble(
                 access, ports=frozenset({port})),  # and its own actual port's
             store=store, sweeps=sweeps, api_url=url(host, port), graphics=graphics,
         ),
+        motion=motion,
     )  # fmt: skip
     return app, startup
