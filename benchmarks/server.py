@@ -47,6 +47,7 @@ import websockets
 
 from twin.sim.live import LiveSession
 from twin.web import JobRunner, RunStore, create_app
+from twin.web.access import Access
 from twin.web.viewer import start_viewer
 from twin.web.viewer.viser_adapter import camera_hello
 
@@ -94,7 +95,7 @@ def live_rows(row: Row, window: float = LIVE_WINDOW) -> None:
     """Scene updates per second to 1 and to 10 websocket clients, and CPU per update."""
     session = LiveSession({"sea_state": 4})
     session.start()
-    viewer = start_viewer(session, port=free_port())
+    viewer = start_viewer(session, access=Access(), port=free_port())
     try:
         time.sleep(1.0)  # numba, BLAS and the first frames warmed up
         for clients in (1, 10):

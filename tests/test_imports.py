@@ -119,3 +119,37 @@ def test_a_deferred_import_counts_and_type_checking_does_not(tmp_path: Path) -> 
     )
     modules = {"pkg.m": source, "pkg.b": source, "pkg.c": source}
     assert imports_of("pkg.m", source, modules) == {"pkg.c"}
+
+
+#: the packages below the engine; the web layer reads them through `twin.sim.registries`
+BELOW_SIM = ("twin.mechanisms", "twin.planners", "twin.sea", "twin.vessel")
+
+
+def layer_edges(importer: str, imported: tuple[str, ...]) -> list[tuple[str, str]]:
+    """(module, import) pairs where a module of the package `importer` imports a module of one
+    of the packages `imported`."""
+    modules = module_names()
+
+    def inside(name: str, packages: tuple[str, ...]) -> bool:
+        return any(name == p or name.startswith(p + ".") for p in packages)
+
+    return sorted(
+        (name, target)
+        for name, path in modules.items()
+        if inside(name, (importer,))
+        for target in imports_of(name, path, modules)
+        if inside(target, imported)
+    )
+
+
+def test_web_reads_mechanisms_planners_sea_and_vessel_only_through_sim() -> None:
+    """No module of twin.web imports twin.mechanisms, planners, sea or vessel (it reads their
+    registries through `twin.sim.registries`), while twin.sim does (so the check can fail)."""
+    assert layer_edges("twin.web", BELOW_SIM) == []
+    assert layer_edges("twin.sim", BELOW_SIM)
+
+
+def test_the_viewer_is_handed_access_and_connections_by_the_server() -> None:
+    """twin.web.viewer imports neither the access policy nor the connection guards when run."""
+    assert layer_edges("twin.web.viewer", ("twin.web.access", "twin.web.connections")) == []
+    assert layer_edges("twin.web.viewer", ("twin.web.viewer",))  # the viewer's modules were read

@@ -19,6 +19,8 @@ import uvicorn
 
 from tests.figures import record
 from tests.web.support import wait_for
+from twin.web.access import Access
+from twin.web.connections import quiet_malformed_messages
 from twin.web.server import listen
 
 
@@ -89,7 +91,7 @@ def test_every_accepted_viewer_connection_has_nodelay() -> None:
     from twin.web.viewer import start_viewer
 
     session = LiveSession({"sea_state": 3})
-    viewer = start_viewer(session, port=free_port())
+    viewer = start_viewer(session, access=Access(), port=free_port())
     try:
         with socket.create_connection(("127.0.0.1", viewer.port)) as client:
             client.sendall(b"GET / HTTP/1.1\r\nHost: localhost\r\n\r\n")
@@ -250,7 +252,6 @@ def moved_viewer() -> Iterator[tuple[Any, int]]:
     policy is the one `twin serve` gives it: the REST port's origins, and its own port's."""
     from tests.web.support import free_port
     from twin.sim.live import LiveSession
-    from twin.web.access import Access
     from twin.web.viewer import start_viewer
 
     squatter = socket.socket()
@@ -259,7 +260,9 @@ def moved_viewer() -> Iterator[tuple[Any, int]]:
     taken = squatter.getsockname()[1]
     session = LiveSession({"sea_state": 3})
     policy = Access.for_server("127.0.0.1", (free_port(),))
-    viewer = start_viewer(session, port=taken, access=policy)
+    viewer = start_viewer(
+        session, port=taken, access=policy, quiet_logs=quiet_malformed_messages
+    )
     try:
         assert viewer.port != taken
         yield viewer, taken

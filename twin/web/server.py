@@ -47,6 +47,7 @@ from twin.web.connections import (
     REQUEST_TIMEOUT,
     connection_cap,
     guarded_protocol,
+    quiet_malformed_messages,
     throttled_exceptions,
 )
 from twin.web.deps import Services
@@ -485,6 +486,7 @@ def _assemble(
             session, host, viser_port, access=dataclasses.replace(
                 access, ports=frozenset({port})),  # and its own actual port's
             store=store, sweeps=sweeps, api_url=url(host, port), graphics=graphics,
+            quiet_logs=quiet_malformed_messages,
         ),
         motion=motion,
     )  # fmt: skip

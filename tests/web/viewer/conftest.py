@@ -15,6 +15,7 @@ from tests.web.support import free_port
 from tests.web.viewer.support import connect
 from tests.web.viser_client import ViserClient
 from twin.sim.live import LiveSession
+from twin.web.access import Access
 from twin.web.viewer import ClientPanel, Viewer, start_viewer
 
 HERE = Path(__file__).parent
@@ -37,7 +38,7 @@ def session() -> Iterator[LiveSession]:
 
 @pytest.fixture
 def viewer(session: LiveSession) -> Iterator[Viewer]:
-    handle = start_viewer(session, port=free_port())
+    handle = start_viewer(session, access=Access(), port=free_port())
     yield handle
     handle.stop()
 

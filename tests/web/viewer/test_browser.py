@@ -62,7 +62,7 @@ ARGS = [
 def live() -> Iterator[tuple[LiveSession, Viewer]]:
     session = LiveSession({"sea_state": 4})
     session.start()
-    viewer = start_viewer(session, port=free_port())
+    viewer = start_viewer(session, access=Access(), port=free_port())
     yield session, viewer
     viewer.stop()
     session.stop()
@@ -216,7 +216,7 @@ def test_browser_ghost_replay_heatmap_and_a_clean_console_through_switches(
     sweeps.start(executor)
     session = LiveSession({"sea_state": 3})
     session.start()
-    viewer = start_viewer(session, port=free_port(), store=store, sweeps=sweeps,
+    viewer = start_viewer(session, access=Access(), port=free_port(), store=store, sweeps=sweeps,
                           api_url="http://127.0.0.1:8000", graphics="light")  # fmt: skip
     errors: list[str] = []
     try:

@@ -29,6 +29,7 @@ from tests.figures import record
 from tests.web.support import free_port, wait_for
 from tests.web.viewer.test_browser import ARGS, CHROMIUM, HALF_RESOLUTION
 from twin.sim.live import LiveSession
+from twin.web.access import Access
 from twin.web.viewer import FRAMING, Viewer, framed_points, mechanism_points, start_viewer
 from twin.web.viewer.cameras import VIEWS
 from twin.web.viewer.frame_state import read_frame
@@ -66,7 +67,7 @@ def full_viewer() -> Iterator[tuple[LiveSession, Viewer]]:
     """A playing session served with the default ("full") graphics."""
     session = LiveSession({"sea_state": 4})
     session.start()
-    viewer = start_viewer(session, port=free_port(), graphics="full")
+    viewer = start_viewer(session, access=Access(), port=free_port(), graphics="full")
     yield session, viewer
     viewer.stop()
     session.stop()

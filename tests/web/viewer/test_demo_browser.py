@@ -17,6 +17,7 @@ from tests.web.support import free_port, wait_for
 from tests.web.viewer.test_browser import ARGS, CHROMIUM, HALF_RESOLUTION
 from tests.web.viewer.test_browser_scene import HEIGHT, WIDTH, project
 from twin.sim.live import LiveSession, live_demo
+from twin.web.access import Access
 from twin.web.viewer import FRAMING, mechanism_points, start_viewer
 from twin.web.viewer.frame_state import read_frame
 
@@ -40,7 +41,7 @@ def test_each_mechanism_at_its_demo_defaults_looks_right(mechanism: str, tmp_pat
     session = LiveSession(live_demo(mechanism))
     session.pause()
     session.step(400)  # 20 s at dt = 0.05 s
-    viewer = start_viewer(session, port=free_port(), graphics="light")
+    viewer = start_viewer(session, access=Access(), port=free_port(), graphics="light")
     try:
         with sync_playwright() as p:
             browser = p.chromium.launch(executable_path=str(CHROMIUM), args=ARGS)

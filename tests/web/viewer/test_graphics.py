@@ -30,7 +30,7 @@ def test_graphics_reach_a_browser(session: LiveSession, graphics: str) -> None:
     gets the sky's ambient light; a "full" viewer sends viser's built-in map ("city") and
     the sun's shadows, and no ambient light. Both replace viser's overhead key light with a
     low sun (`configure_graphics`), and both ask the page for its WebGL renderer."""
-    viewer = start_viewer(session, port=free_port(), graphics=graphics)
+    viewer = start_viewer(session, access=Access(), port=free_port(), graphics=graphics)
     try:
         with ViserClient(viewer.port) as client:
             client.hello()
@@ -64,7 +64,7 @@ def test_graphics_reach_a_browser(session: LiveSession, graphics: str) -> None:
 def test_unknown_graphics_are_refused_before_anything_starts(session: LiveSession) -> None:
     port = free_port()
     with pytest.raises(TwinError, match="graphics 'fancy' unknown; one of: full, light"):
-        start_viewer(session, port=port, graphics="fancy")
+        start_viewer(session, access=Access(), port=port, graphics="fancy")
     with socket.socket() as probe:  # the port was never bound
         probe.bind(("127.0.0.1", port))
 

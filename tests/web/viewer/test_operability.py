@@ -7,6 +7,7 @@ import pytest
 from tests.web.support import free_port, wait_for
 from tests.web.viewer.support import connect
 from twin.sim.live import LiveSession
+from twin.web.access import Access
 from twin.web.viewer import (
     SWEEP_SETTINGS,
     start_viewer,
@@ -25,7 +26,9 @@ def test_the_sweep_grid_comes_from_the_panel(session: LiveSession, tmp_path) -> 
 
     with RunStore(tmp_path / "runs.sqlite") as store:
         # a runner never started: the sweep stays queued, its spec as the panel submitted it
-        viewer = start_viewer(session, port=free_port(), store=store, sweeps=SweepRunner(store))
+        viewer = start_viewer(
+            session, access=Access(), port=free_port(), store=store, sweeps=SweepRunner(store)
+        )
         try:
             client, panel = connect(viewer)
             assert {name: panel.settings[name].value for name in SWEEP_SETTINGS} == {
@@ -91,7 +94,9 @@ def test_no_sweep_starts_while_one_is_being_submitted(session: LiveSession, tmp_
     from twin.web.store import RunStore
 
     with RunStore(tmp_path / "runs.sqlite") as store:
-        viewer = start_viewer(session, port=free_port(), store=store, sweeps=SweepRunner(store))
+        viewer = start_viewer(
+            session, access=Access(), port=free_port(), store=store, sweeps=SweepRunner(store)
+        )
         try:
             client, _ = connect(viewer)
             with viewer.gui._lock:  # as another browser's press, mid-submission

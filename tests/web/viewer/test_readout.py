@@ -12,6 +12,7 @@ from tests.web.support import free_port, wait_for
 from tests.web.viewer.support import caught_up, connect
 from tests.web.viser_client import ViserClient
 from twin.sim.live import LiveSession
+from twin.web.access import Access
 from twin.web.viewer import (
     ClientPanel,
     Viewer,
@@ -43,7 +44,7 @@ def test_nan_base_motion_never_reaches_the_scene_and_the_readout_flags_it(
     nan_sea(0.22, 0.58)
     session = LiveSession({"sea_state": 3})
     session.pause()
-    viewer = start_viewer(session, port=free_port())
+    viewer = start_viewer(session, access=Access(), port=free_port())
     client, _ = connect(viewer)  # the scene and the readout are drawn for a browser
     try:
         session.step(10)  # t = 0.5: inside the window

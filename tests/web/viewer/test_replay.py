@@ -9,6 +9,7 @@ from tests.web.support import free_port, wait_for
 from tests.web.viewer.support import caught_up, connect
 from twin.mechanisms.urdf import joint_configuration
 from twin.sim.live import LiveSession
+from twin.web.access import Access
 from twin.web.viewer import (
     start_viewer,
 )
@@ -26,7 +27,7 @@ def test_the_panel_compares_planners_and_replays_a_stored_run(
         scenario = Scenario(duration=2.0, planner="wpi")
         run = store.create(scenario)
         store.finish(run.id, simulate(scenario))
-        viewer = start_viewer(session, port=free_port(), store=store)
+        viewer = start_viewer(session, access=Access(), port=free_port(), store=store)
         try:
             client, panel = connect(viewer)
             client.update(client.wait_widget("Compare with"), value="pi")

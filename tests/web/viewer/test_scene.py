@@ -21,6 +21,7 @@ from twin.assets import asset_path
 from twin.mechanisms.urdf import joint_configuration
 from twin.sim.live import LiveSession
 from twin.spatial import matrix_to_wxyz, pose_to_transform
+from twin.web.access import Access
 from twin.web.viewer import (
     FOV,
     PAINT_METALLIC,
@@ -176,7 +177,7 @@ def test_views_frame_the_mechanism_and_its_target(mechanism: str) -> None:
     70 m ship too; the views differ."""
     session = LiveSession({"sea_state": 4, "mechanism": mechanism, "planner": None})
     session.pause()
-    viewer = start_viewer(session, port=free_port(), graphics="light")
+    viewer = start_viewer(session, access=Access(), port=free_port(), graphics="light")
     try:
         session.step()
         fs = read_frame(session)
@@ -226,7 +227,7 @@ def test_tip_error_is_where_the_landing_point_is_from_where_it_is_held(mechanism
     the recorded tip error (against the level state it can reach) is under a micrometre."""
     session = LiveSession({"sea_state": 4, "mechanism": mechanism, "planner": None})
     session.pause()
-    viewer = start_viewer(session, port=free_port(), graphics="light")
+    viewer = start_viewer(session, access=Access(), port=free_port(), graphics="light")
     client, _ = connect(viewer)  # the scene is drawn for a browser
     try:
         offsets = []

@@ -10,6 +10,7 @@ import viser.infra._infra as viser_infra
 from tests.web.support import free_port
 from tests.web.viewer.support import connect
 from twin.errors import TwinError
+from twin.web.access import Access
 from twin.web.viewer import Viewer, start_viewer, viser_adapter
 from twin.web.viewer.viser_adapter import ViserInternalsMissing, check_internals
 
@@ -58,7 +59,7 @@ def test_a_viser_without_an_internal_fails_loudly(
     message = str(caught.value)
     assert f"viser {viser.__version__}" in message and named in message
     with pytest.raises(ViserInternalsMissing):
-        start_viewer(None, port=free_port())  # type: ignore[arg-type]  # fails first
+        start_viewer(None, access=Access(), port=free_port())  # type: ignore[arg-type]  # fails first
 
 
 def test_a_server_without_its_websocket_internals_fails_loudly(

@@ -35,8 +35,8 @@ from fastapi.responses import FileResponse
 from pydantic import Field, ValidationError, ValidationInfo, field_validator, model_validator
 
 from twin.errors import TwinError
-from twin.planners import get_planner
 from twin.sim import sweep as sweep_module
+from twin.sim.registries import get_planner
 from twin.sim.workability import WorkabilitySpec
 from twin.site.records import READ_KINDS
 from twin.web.deps import GUARDED, AdmissionDep, ServicesDep

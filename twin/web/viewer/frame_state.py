@@ -8,9 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from twin.mechanisms.urdf import joint_configuration, leg_joint_names
-from twin.sea.components import WaveComponents
 from twin.sim.live import LiveSession
+from twin.sim.registries import WaveComponents, joint_configuration, leg_joint_names
 from twin.sim.scenario import Scenario
 from twin.spatial import pose_to_transform
 

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from twin.errors import TwinError
-from twin.sea.components import WaveComponents
+from twin.sim.registries import WaveComponents
 from twin.web.viewer.meshes import SKY
 
 #: what the browsers render (`configure_graphics`): "full" lights the scene

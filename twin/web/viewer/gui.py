@@ -22,13 +22,12 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import viser
 
 from twin.sim.live import COMPARE, LiveControls, LiveSession
-from twin.web.access import Access
 from twin.web.viewer import viser_adapter
 from twin.web.viewer.cameras import View
 from twin.web.viewer.frame_state import FrameState
@@ -39,6 +38,9 @@ from twin.web.viewer.panel import FOLDERS, LOCKED, NO_COMPARE, ClientPanel
 from twin.web.viewer.plots import PLOT_PERIOD, PLOT_SAMPLES, LivePlots, PlotSpec
 from twin.web.viewer.readout import Readout
 from twin.web.viewer.replay import NO_RUN, RUNS_PERIOD, Replays, replay_line
+
+if TYPE_CHECKING:  # the server's policy, handed in (`start_viewer`)
+    from twin.web.access import Access
 
 log = logging.getLogger(__name__)
 
@@ -131,7 +133,7 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
         session: LiveSession,
         fs: FrameState,
         on_camera: Callable[[View, Iterable[viser.ClientHandle]], None],
-        access: Access | None = None,
+        access: Access,
         store: Any = None,
         sweeps: Any = None,
         api_url: str | None = None,
@@ -151,7 +153,7 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
         self.heatmap: viser.GuiImageHandle | None = None
         self._stop = threading.Event()
         self.on_camera = on_camera
-        self.access = access if access is not None else Access()
+        self.access = access
         self._failures = self.access.failure_limit()
         self._unlocked: set[int] = set()  # client ids that entered the token
         # panels, unlocked ids, trail, last_error, sweep_id and submitting: callbacks, render loop

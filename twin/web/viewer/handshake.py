@@ -17,12 +17,14 @@ from __future__ import annotations
 import http
 import logging
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from urllib.parse import parse_qs, urlsplit
 
-from twin.web.access import Access
 from twin.web.viewer.graphics import RENDERER_PATH
 from twin.web.viewer.viser_adapter import Handshake
+
+if TYPE_CHECKING:  # the server's policy, handed in (`start_viewer`)
+    from twin.web.access import Access
 
 logger = logging.getLogger(__name__)
 

@@ -14,9 +14,8 @@ import annotated_types as at
 import numpy as np
 from pydantic import BaseModel
 
-from twin.planners import PlannerParameters
-from twin.planners.registry import PLANNERS
 from twin.sim.live import LiveControls
+from twin.sim.registries import PLANNERS, PlannerParameters
 from twin.sim.scenario import Scenario
 
 log = logging.getLogger(__name__)

@@ -9,11 +9,17 @@ from collections.abc import Iterable
 import numpy as np
 import trimesh
 
-from twin.sea.components import WaveComponents
+from twin.sim.registries import (
+    HULL_GRIDS,
+    HULLS,
+    MOUNTS,
+    Hull,
+    WaveComponents,
+    wetted_surface,
+    wigley_half_breadth,
+)
 from twin.sim.scenario import Scenario
 from twin.spatial import pose_to_transform
-from twin.vessel import MOUNTS
-from twin.vessel.hulls import HULLS, Hull
 
 #: vertices per side of the waves' square of the sea mesh, and rings of ever wider cells
 #: around it out to the horizon ((40 + 2 × 8)² × 12 B ≈ 38 kB per frame)
@@ -132,20 +138,14 @@ def wetted_mesh(hull: Hull) -> trimesh.Trimesh:
     """The hull below the waterline as its RAOs were computed: the panels of
     `twin.vessel.hulls.wetted_surface` at the panel size of `twin.vessel.bem.GRIDS` (the mesh
     `scripts/compute_raos.py` hands Capytaine)."""
-    from twin.vessel.bem import GRIDS
-    from twin.vessel.hulls import wetted_surface
-
-    return panel_mesh(*wetted_surface(hull, GRIDS[hull.name].panel_size))
+    return panel_mesh(*wetted_surface(hull, HULL_GRIDS[hull.name].panel_size))
 
 
 def topsides(hull: Hull, deck: float) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
     """A monohull above the waterline: walls standing on the waterline of the wetted surface
     (the Wigley form's, or the box's) up to the deck at height `deck`, and the deck."""
-    from twin.vessel.bem import GRIDS
-    from twin.vessel.hulls import wigley_half_breadth
-
     L, B = hull.length, hull.beam
-    panel = GRIDS[hull.name].panel_size
+    panel = HULL_GRIDS[hull.name].panel_size
     x = np.linspace(-L / 2, L / 2, 2 * int(np.ceil(L / (2 * panel))) + 1)
     half = np.full_like(x, B / 2)
     if hull.shape == "wigley":

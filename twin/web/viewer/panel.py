@@ -25,8 +25,8 @@ from typing import TYPE_CHECKING, Any
 
 import viser
 
-from twin.planners.registry import PLANNERS
 from twin.sim.live import COMPARE, live_demo
+from twin.sim.registries import PLANNERS
 from twin.sim.scenario import Scenario
 from twin.web.viewer.cameras import View
 from twin.web.viewer.graphics import GRAPHICS

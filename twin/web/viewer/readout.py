@@ -11,9 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from twin.mechanisms.hybrid import JOINT_NAMES
-from twin.mechanisms.limits import LEG_PAST
 from twin.sim.faults import HOLDS, Fault
+from twin.sim.registries import HYBRID_JOINT_NAMES, LEG_PAST
 from twin.web.viewer.frame_state import FrameState
 from twin.web.viewer.plots import PLOT_DT
 
@@ -91,7 +90,7 @@ def state_units(fs: FrameState) -> list[tuple[float, str]]:
     names = fs.mechanism.state_names
     if fs.scenario.mechanism == "hybrid":
         angles = {"roll", "pitch", "yaw", "q1", "q2"}
-        return [(np.degrees(1.0), "°") if n in angles else (1.0, " m") for n in JOINT_NAMES]
+        return [(np.degrees(1.0), "°") if n in angles else (1.0, " m") for n in HYBRID_JOINT_NAMES]
     length = " mm" if fs.scenario.mechanism == "upu3up" else " m"
     return [(1.0, length)] + [(np.degrees(1.0), "°")] * (len(names) - 1)
 

@@ -34,11 +34,8 @@ import numpy as np
 import viser
 
 from twin.assets import asset_path
-from twin.sea.components import WaveComponents
-from twin.sea.surface import gerstner_points
+from twin.sim.registries import MOUNTS, Hull, WaveComponents, gerstner_points
 from twin.spatial import invert_transform, matrix_to_wxyz
-from twin.vessel import MOUNTS
-from twin.vessel.hulls import Hull
 from twin.web.viewer.cameras import FOV, FRAMING, Cameras, mechanism_size
 from twin.web.viewer.frame_state import FrameState
 from twin.web.viewer.graphics import SUN_AZIMUTH, sun_azimuth, sun_position

@@ -22,7 +22,8 @@ import logging
 import secrets
 import threading
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import viser
@@ -34,8 +35,6 @@ except ImportError:
 
 from twin.errors import TwinError
 from twin.sim.live import LiveSession
-from twin.web.access import Access
-from twin.web.connections import quiet_malformed_messages
 from twin.web.viewer import viser_adapter
 from twin.web.viewer.frame_state import FrameState, read_frame
 from twin.web.viewer.graphics import (
@@ -49,6 +48,9 @@ from twin.web.viewer.gui import TwinGui
 from twin.web.viewer.handshake import request_check
 from twin.web.viewer.meshes import SKY
 from twin.web.viewer.scene import TwinScene
+
+if TYPE_CHECKING:  # the server's policy, handed in (`start_viewer`)
+    from twin.web.access import Access
 
 logger = logging.getLogger(__name__)
 
@@ -82,7 +84,7 @@ class Viewer:
         self,
         session: LiveSession,
         server: viser.ViserServer,
-        access: Access | None = None,
+        access: Access,
         *,
         store: Any = None,
         sweeps: Any = None,
@@ -260,8 +262,9 @@ def start_viewer(
     session: LiveSession,
     host: str = "127.0.0.1",
     port: int = 8080,
-    access: Access | None = None,
     *,
+    access: Access,
+    quiet_logs: Callable[[], object] | None = None,
     store: Any = None,
     sweeps: Any = None,
     api_url: str | None = None,
@@ -276,10 +279,12 @@ def start_viewer(
         session: the live session to show and control.
         host: interface to bind (viser's own default would be 0.0.0.0: all of them).
         port: port to listen on; viser takes the next free one if it is in use.
-        access: the server's access policy: the Host names every request must carry, the
-            origins the websocket accepts (its own, at the viewer's actual port too) and the
-            token that unlocks a browser's controls. Default: loopback names and origins, no
-            token.
+        access: the server's access policy (`twin.web.access.Access`): the Host names every
+            request must carry, the origins the websocket accepts (its own, at the viewer's
+            actual port too) and the token that unlocks a browser's controls.
+        quiet_logs: called once before the viewer listens: the server's
+            `twin.web.connections.quiet_malformed_messages` (a client's malformed messages
+            logged once per client per interval, without a traceback); None leaves the logs.
         store: the run store (`twin.web.store.RunStore`): its done runs can be replayed
             from the panel's Replay folder.
         sweeps: the runner of sweeps (`twin.web.jobs.SweepRunner`, the REST app's): with a
@@ -301,8 +306,8 @@ def start_viewer(
     """
     check_graphics(graphics)
     viser_adapter.check_internals()  # a viser this adapter does not know: say so, start nothing
-    quiet_malformed_messages()  # a client's garbage: one line per client per minute (issue 30)
-    access = access if access is not None else Access()
+    if quiet_logs is not None:  # a client's garbage: one line per client per minute (issue 30)
+        quiet_logs()
     bound: list[int] = []
     viewers: list[Viewer] = []  # the viewer, once it is built (renderer reports)
 
