@@ -298,8 +298,7 @@ def serve(
     Args:
         host: interface to bind both servers to; 127.0.0.1 keeps them local, 0.0.0.0 (as in
             the Docker image) exposes them.
-        port: REST API and landing page.
-        viser_port: 3D viewer.
+        port: REST API and landing page; viser_port: 3D viewer.
         data_dir: folder of the run store (created if missing); one server at a time.
         token: if set (≥ 16 characters), POST and PATCH need `Authorization: Bearer <token>`,
             and the 3D viewer's controls stay read-only until a browser enters it. Required
@@ -318,14 +317,12 @@ def serve(
         forwarded_allow_ips: proxies (addresses, or "*") whose X-Forwarded-For names the
             client; default none: the client is the socket's peer.
         private: with a token, reading stored runs and sweeps needs it too (default: open).
-        dashboard: serve the Dask scheduler's dashboard (on 127.0.0.1, a free port, printed);
-            default off.
+        dashboard: serve the Dask dashboard (on 127.0.0.1, a free port, printed); default off.
         max_store: [bytes] the store's quota (`twin.web.store.Quota`); None: none.
         max_runs: runs the store may hold; None: no limit.
         retain: when full, delete the oldest finished unpinned results instead of refusing.
         worker_nice: niceness 0-19 of the LocalCluster's workers once warm (`WORKER_NICE`).
-        motion: the live motion input (`twin serve --motion-udp`) the live session may follow
-            (`PATCH /api/live {"motion_source": {"kind": "udp"}}`).
+        motion: the live motion input (`--motion-udp`) the live session may follow.
 
     Raises:
         TwinError: `host` is not loopback and there is no token, a short token, a bad
