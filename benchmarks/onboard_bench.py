@@ -26,8 +26,8 @@ from collections.abc import Callable
 import numpy as np
 
 from twin.motion.estimate import cross_spectra, estimate_sea
+from twin.runs.executor import Executor
 from twin.sea.synthesis import wave_components
-from twin.sim.executor import Executor
 from twin.sim.onboard import OnboardSpec, estimate_windows, onboard_report
 from twin.vessel import DOFS, load_raos, vessel_motion
 

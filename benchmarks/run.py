@@ -56,11 +56,11 @@ import twin
 from twin.compiled import numba_threads
 from twin.mechanisms import HybridBoardingSystem
 from twin.planners import PLANNERS
+from twin.runs.sweep import SweepSpec, run_sweep
 from twin.sim import PAPER_PRESETS, Scenario, Simulation, simulate, simulate_many
 from twin.sim.base_motion import BaseMotion
 from twin.sim.lanes import HybridLanes, PlatformLanes, numba_available
 from twin.sim.live import LiveSession
-from twin.sim.sweep import SweepSpec, run_sweep
 from twin.sim.target import held_targets
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -269,7 +269,7 @@ PAUSE_CODE = """
 import gc, time
 import twin.web.api, twin.web.viewer, twin.web.server
 from twin.sim.engine import warm
-from twin.sim.heap import freeze_startup
+from twin.runs.heap import freeze_startup
 from twin.sim.live import LiveSession
 warm()
 session = LiveSession()
@@ -680,7 +680,7 @@ What is measured:
   cache, compiling, then in another fresh process loading them from that cache.
 - **garbage collection**: a full collection (`gc.collect()`, the GIL held throughout) in a
   fresh process holding what `twin serve` holds once started (kernels, live session, viewer
-  and REST modules; no port bound), before `twin.sim.heap.freeze_startup` (which the server
+  and REST modules; no port bound), before `twin.runs.heap.freeze_startup` (which the server
   and each run worker call once up), and after it and a minute of the live session; best of 3
   each.
 - **live session**: `LiveSession` with its background loop and nothing else (no viewer, no

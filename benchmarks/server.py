@@ -125,14 +125,14 @@ def live_rows(row: Row, window: float = LIVE_WINDOW) -> None:
 def _serving(store: RunStore, workers: int) -> tuple[Any, Callable[[], None], int]:
     """The REST app as `twin serve` builds it, with `workers` run workers: (app, close, workers).
 
-    With `twin.sim.executor` (runs on a Dask LocalCluster of single-threaded workers, kernels
+    With `twin.runs.executor` (runs on a Dask LocalCluster of single-threaded workers, kernels
     warmed on each, started once before the app) or, before it, the app's own `JobRunner`
     process pool. Every bench client is 127.0.0.1, so the per-address submission limit is
     lifted (see the module's doc).
     """
     limits: dict[str, Any] = {"run_rate": 1e9, "run_burst": 10**9}
     try:
-        from twin.sim.executor import Executor
+        from twin.runs.executor import Executor
     except ImportError:
         jobs = JobRunner(store, workers=workers)
         app = create_app(LiveSession(), store, jobs=jobs, **limits)

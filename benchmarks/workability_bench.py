@@ -35,8 +35,8 @@ import numpy as np
 import pandas as pd
 
 from twin.assets import asset_path
+from twin.runs.executor import Executor
 from twin.sim import PAPER_PRESETS, Scenario, simulate, simulate_many
-from twin.sim.executor import Executor
 from twin.sim.workability import WorkabilitySpec, run_workability
 from twin.site import SiteRecord, read_record
 

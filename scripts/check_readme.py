@@ -69,7 +69,7 @@ def _sea_state_4(text: str) -> list[str]:
 
 def _ports(text: str) -> list[str]:
     from twin.cli import build_parser, command_parser
-    from twin.sim.executor import RUN_BUDGET
+    from twin.runs.executor import RUN_BUDGET
 
     serve = command_parser(build_parser(), "serve")
     defaults = serve.parse_args([])
@@ -123,7 +123,7 @@ def _preset(text: str) -> list[str]:
 
 
 def _sweep(text: str) -> list[str]:
-    from twin.sim.sweep import SweepSpec
+    from twin.runs.sweep import SweepSpec
 
     out = []
     spec = SweepSpec.model_validate_json((ROOT / "examples" / "sweep.json").read_text())

@@ -4,7 +4,7 @@
     python scripts/operability.py --workers 2     # on a two-worker Dask LocalCluster
     python scripts/operability.py --seeds 2 --out /tmp/op   # a quick look
 
-Runs `twin.sim.sweep.run_sweep` over Hs 0.5-4 m (0.5 m steps) × Tp 5-11 s (1 s steps) ×
+Runs `twin.runs.sweep.run_sweep` over Hs 0.5-4 m (0.5 m steps) × Tp 5-11 s (1 s steps) ×
 heading {150°, 180°} × planner {mtmp, dwa, conv2, qp}, each cell on sea seeds 0 … n − 1
 (10 by default), 200 s at dt = 0.05 s, `joint_limits="record"`, every other knob at its
 default. A run is *operable* when it has no limit violation (`violations` = 0: no virtual joint
@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from twin.sim.sweep import SweepSpec, run_sweep
+from twin.runs.sweep import SweepSpec, run_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 PLANNERS = ("mtmp", "dwa", "conv2", "qp")

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.sim.executor import Executor
+from twin.runs.executor import Executor
 from twin.sim.workability import OPERABLE_LEVEL, WorkabilitySpec, run_workability
 from twin.site import SiteRecord
 

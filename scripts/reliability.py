@@ -153,7 +153,7 @@ ATTACKS = {
         "one Dask executor started once with the server (a LocalCluster of one worker per core, "
         "kernels warmed on each, or `--scheduler`); runs and sweeps are futures on it with "
         "progress from the workers; `twin sweep` uses the same code, and scripts map over "
-        "it with `twin.sim.executor.map_unordered`",
+        "it with `twin.runs.executor.map_unordered`",
         "test_load.py",
     ),
 }
@@ -286,7 +286,7 @@ SECURITY = """\
   only, on free ports. Scheduler and workers take pickled functions from whoever connects, so
   they speak mutual TLS with a key made for the cluster and held only in the server's memory
   (`Security.temporary()`): another local user, in plain TCP or with a key of their own, is
-  turned away (tests/sim/test_sweep.py). Their HTTP endpoints (health, metrics, task info)
+  turned away (tests/runs/test_sweep.py). Their HTTP endpoints (health, metrics, task info)
   are read-only; the scheduler's dashboard is off unless `--dashboard` asks for it (then on
   127.0.0.1). `--scheduler` joins a cluster the operator secures.
 - **Docker** runs as the non-root user `twin` (uid 10001) and stops on `docker stop` (SIGTERM,

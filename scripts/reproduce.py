@@ -32,8 +32,8 @@ from tqdm import tqdm
 
 from twin.mechanisms import HybridBoardingSystem, Upr4, Upu3Up
 from twin.planners import PLANNERS, PlannerParameters
+from twin.runs.executor import map_unordered
 from twin.sim import PAPER_PRESETS, simulate
-from twin.sim.executor import map_unordered
 from twin.sim.metrics import SETTLE
 from twin.sim.presets import MATCHED_HEADING, REPORT_SEEDS, SEED004_INITIAL_STATE
 from twin.spatial import invert_transform, pose_to_transform, se3_log
@@ -1458,7 +1458,7 @@ def main(n_seeds: int = 10, out: Path = Path("docs"), processes: int = 2) -> Non
 > ({claims_time:.0f} s for the {n_claims} claims over {len(REPORT_SEEDS)} sea seeds with their
 > sensitivities and causes, through `simulate_many`; then {len(todo)} detail runs on
 > {processes} processes). Do not edit by hand: change `scripts/reproduce.py` (and
-> `scripts/reproduce_claims.py`, `twin/sim/claims.py`) and rerun it. Plots are in
+> `scripts/reproduce_claims.py`, `twin/runs/claims.py`) and rerun it. Plots are in
 > `{figures.name}/`; the verdicts over 1,000 seeds in `reproduction/stability.json` (from
 > `python scripts/reproduce_claims.py`), which tests/test_reproduction_claims.py holds the
 > engine to; the first block's statistics in `{figures.name}/claims.json`.

@@ -1,10 +1,10 @@
 """The statistical part of docs/reproduction.md: every claim over held-out sea seeds.
 
 Imported by scripts/reproduce.py (it sits beside it). Runs, through the one engine's lanes
-(`twin.sim.claims`, `simulate_many`):
+(`twin.runs.claims`, `simulate_many`):
 
 1. every claim of seeds 000, 004, 001 and 002 on `REPORT_SEEDS` (50-149, held out from the
-   calibration's seeds 0-49), judged by `twin.sim.claims`'s rules;
+   calibration's seeds 0-49), judged by `twin.runs.claims`'s rules;
 2. the sensitivity of each number to `n_components` and dt (on the first 50 report seeds);
 3. the most likely causes of the unfitted mismatches, one cause at a time: each variant of
    the `seed000` sea has its own Hs refitted so PI's leg maximum is Table 7's again (on
@@ -30,15 +30,7 @@ import numpy as np
 
 from twin.mechanisms import Upu3Up
 from twin.planners import PlannerParameters
-from twin.sea.presets import (
-    SEED001_DURATION,
-    SEED001_TRAJECTORIES,
-    seed001_signals,
-    seed001_trajectory,
-)
-from twin.sea.spectra import dnv_gamma
-from twin.sim import PAPER_PRESETS
-from twin.sim.claims import (
+from twin.runs.claims import (
     BLOCK,
     BLOCKS,
     RESAMPLES,
@@ -59,6 +51,14 @@ from twin.sim.claims import (
     seed002_values,
     stable_verdict,
 )
+from twin.sea.presets import (
+    SEED001_DURATION,
+    SEED001_TRAJECTORIES,
+    seed001_signals,
+    seed001_trajectory,
+)
+from twin.sea.spectra import dnv_gamma
+from twin.sim import PAPER_PRESETS
 from twin.sim.presets import CALIBRATION_SEEDS, REPORT_SEEDS
 
 #: sensitivity runs: label → changes to the presets
@@ -322,7 +322,7 @@ def section_claims(data: dict[str, Any]) -> str:
 The verdicts that stand are the section above's (1,000 seeds, ten blocks). This section shows
 one block, **{n} sea seeds ({REPORT_SEEDS.start}–{REPORT_SEEDS.stop - 1})**, judged by the same
 rules, with each number's sensitivity to the sea's discretisation and dt; its verdicts are
-that block's (a seed-dependent claim can go either way here). The rules (`twin.sim.claims`):
+that block's (a seed-dependent claim can go either way here). The rules (`twin.runs.claims`):
 
 - a paper's number is **matched** when the 95 % bootstrap CI of our mean contains it,
   **reproduced** when it lies within our 10–90 % band of per-seed values (a comparison claim
@@ -691,7 +691,7 @@ def section_stability(data: dict[str, Any]) -> str:
     block = data["test_block"]
     return f"""## Verdicts over {last - first + 1} seeds
 
-**The rule** (`twin.sim.claims`). Every claim is evaluated on sea seeds {first}–{last}
+**The rule** (`twin.runs.claims`). Every claim is evaluated on sea seeds {first}–{last}
 (held out: the calibration used seeds {CALIBRATION_SEEDS.start}–{CALIBRATION_SEEDS.stop - 1})
 and on each of the ten blocks of 100 seeds in them.
 

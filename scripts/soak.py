@@ -326,7 +326,7 @@ def slowloris_process(port: int, connections: int, stop: Any, opened: Any, close
 
 def heatmap_attack(soak: Soak) -> None:
     """The sweep that held a server for over an hour, and one at the panel limit."""
-    from twin.sim.sweep import MAX_PANELS
+    from twin.runs.sweep import MAX_PANELS
 
     attack = {"hs": [1.0], "tp": [8.0], "seeds": 1, "duration": 0.05,
               "heading": [float(h) for h in range(5000)]}  # fmt: skip

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.assets import asset_path
-from twin.sim.executor import Executor
+from twin.runs.executor import Executor
 from twin.sim.workability import WorkabilitySpec, run_workability
 from twin.site import SiteRecord, read_record
 

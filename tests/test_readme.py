@@ -7,7 +7,7 @@ import re
 from pathlib import Path
 
 from twin.cli import build_parser, command_parser
-from twin.sim.sweep import SweepSpec
+from twin.runs.sweep import SweepSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()

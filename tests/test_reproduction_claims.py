@@ -1,5 +1,5 @@
 """Each stable verdict of docs/reproduction.md holds: the engine is re-run on one 100-seed block
-and judged by the report's rules (`twin.sim.claims`); a stable verdict that flips fails,
+and judged by the report's rules (`twin.runs.claims`); a stable verdict that flips fails,
 naming its claim.
 
 The report states a verdict only where at least 9 of the 10 blocks of seeds 50-1049 agree
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from twin.sim.claims import block_verdict, claims, evaluate
+from twin.runs.claims import block_verdict, claims, evaluate
 
 STABILITY_JSON = Path(__file__).resolve().parents[1] / "docs" / "reproduction" / "stability.json"
 
@@ -32,7 +32,7 @@ def recomputed(stored: dict) -> dict:
 
 
 def test_every_claim_is_in_the_report(stored: dict) -> None:
-    """No claim of `twin.sim.claims` is missing from the stored verdicts of the presets."""
+    """No claim of `twin.runs.claims` is missing from the stored verdicts of the presets."""
     assert {c.key for c in claims()} == set(stored["seas"]["presets"])
 
 

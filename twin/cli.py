@@ -215,7 +215,7 @@ def _add_serve_clients(serve: argparse.ArgumentParser) -> None:
     serve.add_argument(
         "--run-budget", type=seconds, metavar="SECONDS",
         help="wall-clock budget of one run; over it the run fails with a message (default: "
-        "twin.sim.executor.RUN_BUDGET, 60 s)",
+        "twin.runs.executor.RUN_BUDGET, 60 s)",
     )  # fmt: skip
     serve.add_argument(
         "--forwarded-allow-ips", action="append", default=[], metavar="ADDRESS",
@@ -298,7 +298,7 @@ def _add_sweep(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     sweep.add_argument(
-        "spec", metavar="SPEC", type=Path, help="a JSON file of SweepSpec fields (twin.sim.sweep)"
+        "spec", metavar="SPEC", type=Path, help="a JSON file of SweepSpec fields (twin.runs.sweep)"
     )
     sweep.add_argument(
         "--scheduler",
@@ -639,7 +639,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 def _sweep(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from pydantic import ValidationError
 
-    from twin.sim.sweep import SweepSpec, heatmap_png, run_sweep
+    from twin.runs.sweep import SweepSpec, heatmap_png, run_sweep
     from twin.validation import explain
 
     if not args.spec.is_file():

@@ -16,8 +16,8 @@ import numpy as np
 
 from tests.figures import record
 from twin.mechanisms import HybridBoardingSystem
+from twin.runs.sweep import run_chunk
 from twin.sim import Simulation, simulate, simulate_many
-from twin.sim.sweep import run_chunk
 
 H = HybridBoardingSystem()
 SEEDS = range(10)

@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 from tests.figures import fuzz
 from twin.assets import asset_path
 from twin.errors import TwinError
+from twin.runs.executor import Executor
 from twin.sim import workability
-from twin.sim.executor import Executor
 from twin.sim.workability import (
     HeadingStrategy,
     WorkabilitySpec,

@@ -24,9 +24,9 @@ from tests.figures import record
 from tests.web.support import SAME_ORIGIN, TOKEN, access, wait_for
 from twin.mechanisms import MECHANISMS
 from twin.planners import PLANNERS, PlannerParameters
+from twin.runs.executor import IN_PROCESS, Executor
 from twin.sea.sea_states import WMO_SEA_STATES
 from twin.sim import Scenario, simulate
-from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.sim.result import flat_columns
 from twin.web import JobRunner, RunStore, create_app

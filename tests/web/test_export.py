@@ -16,8 +16,8 @@ from fastapi.testclient import TestClient
 from tests.figures import record
 from tests.web.support import TOKEN, access
 from tests.web.test_limits import QueueOnly
+from twin.runs.executor import pack_series
 from twin.sim import Scenario
-from twin.sim.executor import pack_series
 from twin.sim.live import LiveSession
 from twin.web import RunStore, create_app, export
 

@@ -12,8 +12,8 @@ from fastapi.testclient import TestClient
 
 from tests.web.support import access
 from twin.cli import main
+from twin.runs.sweep import SweepSpec
 from twin.sim.live import LiveSession
-from twin.sim.sweep import SweepSpec
 from twin.web.api import create_app
 from twin.web.store import RunStore
 

@@ -53,9 +53,9 @@ from schemathesis.specs.openapi.checks import (
 
 from tests.figures import record
 from tests.web.support import access
+from twin.runs.sweep import SweepSpec, heatmap_png, run_sweep
 from twin.sim import Scenario, simulate
 from twin.sim.live import LiveSession
-from twin.sim.sweep import SweepSpec, heatmap_png, run_sweep
 from twin.web import JobRunner, RunStore, SweepRunner, create_app
 
 TOKEN = "fuzz-token-0123456"

@@ -19,10 +19,10 @@ from tests.figures import record
 from tests.web.support import access, wait_for
 from tests.web.test_limits import SHORT, SweepQueueOnly, app_client
 from twin.db import MAX_ATTEMPTS
+from twin.runs.executor import IN_PROCESS, Executor
+from twin.runs.sweep import MAX_PANELS, SweepResult, SweepSpec, SweepStopped, heatmap_bytes
 from twin.sim import Scenario
-from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
-from twin.sim.sweep import MAX_PANELS, SweepResult, SweepSpec, SweepStopped, heatmap_bytes
 from twin.web import RunStore, SweepRunner, create_app
 from twin.web.actions import submit_sweep
 from twin.web.limits import price_sweep
@@ -156,7 +156,7 @@ def test_cancelling_a_running_sweep_stops_it_and_the_next_one_runs(
 ) -> None:
     """The sweep in hand sees the cancel at its next chunk; it stays cancelled (no outcome
     written over it) and the queue goes on."""
-    import twin.sim.sweep as sweep_module
+    import twin.runs.sweep as sweep_module
 
     release = threading.Event()
     calls: list[str] = []

@@ -13,8 +13,8 @@ from typing import Any
 import pytest
 
 from tests.web.support import HeldRuns, record_run_threads, refuse_runs, wait_for
+from twin.runs.executor import IN_PROCESS, Executor
 from twin.sim import Scenario
-from twin.sim.executor import IN_PROCESS, Executor
 from twin.web.jobs import INLINE_MAX_STEPS, JobRunner, steps
 from twin.web.store import RunStore
 

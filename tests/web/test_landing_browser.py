@@ -13,7 +13,7 @@ from playwright.sync_api import ConsoleMessage, Request, Response, sync_playwrig
 
 from tests.web.support import free_port, wait_for
 from tests.web.viewer.test_browser import ARGS, CHROMIUM
-from twin.sim.executor import IN_PROCESS, Executor
+from twin.runs.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web.access import Access
 from twin.web.api import create_app

@@ -12,7 +12,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.web.support import access, record_run_threads, refuse_runs
-from twin.sim.executor import IN_PROCESS, Executor
+from twin.runs.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web import JobRunner, RunStore, create_app
 

@@ -15,7 +15,7 @@ from fastapi.testclient import TestClient
 
 from tests.web.support import access, wait_for
 from twin.errors import TwinError
-from twin.sim.executor import IN_PROCESS, Executor
+from twin.runs.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web.api import create_app
 from twin.web.store import RunStore

@@ -16,7 +16,7 @@ from fastapi.testclient import TestClient
 from tests.web.support import TOKEN, access, wait_for
 from twin.assets import asset_path
 from twin.db import session
-from twin.sim.executor import IN_PROCESS, Executor
+from twin.runs.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.sim.workability import WorkabilitySpec, run_workability
 from twin.site import read_record

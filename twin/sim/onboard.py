@@ -49,8 +49,8 @@ from twin.motion.estimate import (
     window_starts,
 )
 from twin.motion.mount import vessel_motion_from
+from twin.runs.executor import Executor
 from twin.sim.base_motion import mount_for, raos_named
-from twin.sim.executor import Executor
 from twin.sim.workability import (
     OPERABLE_LEVEL,
     HeadingStrategy,

@@ -1,11 +1,11 @@
 """Site workability: from a site's wave record to the share of time a planner can work.
 
 For every record row (a sea state: Hs, Tp, direction, time or occurrence) and every planner, the
-probability that a run is *operable* — the criterion of operability sweeps (`twin.sim.sweep`):
+probability that a run is *operable* — the criterion of operability sweeps (`twin.runs.sweep`):
 no joint or leg limit violated and the tip position error under `tip_error_threshold` — over
 `seeds` sea seeds (0 … seeds − 1, the same for every row and planner, so planners are compared
 on the same wave records). Runs are ordinary `Scenario`s stepped by `simulate_many` on the one
-executor (`twin.sim.executor`) in chunks, below the priority of single runs, like sweeps.
+executor (`twin.runs.executor`) in chunks, below the priority of single runs, like sweeps.
 
     spec = WorkabilitySpec(planners=["mtmp", "qp"], seeds=5)
     record = read_record(asset_path("site", "46097h2019_08.txt"))
@@ -66,7 +66,7 @@ import twin
 from twin.db import session
 from twin.errors import TwinError
 from twin.planners import get_planner
-from twin.sim.executor import SWEEP_PRIORITY, Executor
+from twin.runs.executor import SWEEP_PRIORITY, Executor
 from twin.sim.scenario import DEFAULT_PLANNER, TP_RANGE, Scenario
 from twin.site.heading import angular_distance, relative_heading
 from twin.site.records import Duplicates, SiteRecord, read_record, utc_column

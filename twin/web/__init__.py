@@ -1,8 +1,9 @@
 """Web layer: the REST API, the run store and its jobs, and `serve`, which runs them with the
 live session, the 3D viewer (`twin.web.viewer`) and the one executor of runs and sweeps
-(`twin.sim.executor`) in one process.
+(`twin.runs.executor`) in one process.
 
-It calls only the simulation layer (`twin.sim`) and reads the registries.
+It calls the runs layer (`twin.runs`) and the simulation layer (`twin.sim`), and reads
+the registries below them through `twin.sim.registries`.
 """
 
 from __future__ import annotations

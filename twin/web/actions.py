@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 
 from twin.errors import TwinError
+from twin.runs.sweep import AXES, SweepSpec
 from twin.sim.live import LiveSession
-from twin.sim.sweep import AXES, SweepSpec
 from twin.web.jobs import SweepRunner
 from twin.web.models import RunRequest
 from twin.web.store import RunStore, Sweep

@@ -40,7 +40,7 @@ from starlette.concurrency import run_in_threadpool
 
 import twin
 from twin.db import StoreUnavailable
-from twin.sim.executor import IN_PROCESS, Executor
+from twin.runs.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web import routers
 from twin.web.access import Access, Guard

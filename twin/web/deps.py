@@ -19,7 +19,7 @@ from typing import Annotated
 from fastapi import Depends, HTTPException, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
-from twin.sim.executor import Executor
+from twin.runs.executor import Executor
 from twin.sim.live import LiveSession
 from twin.web.access import GRANTED, Access
 from twin.web.jobs import JobRunner, SweepRunner

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from twin.errors import TwinError
-from twin.sim.executor import PACK_ROWS, PARQUET_MAGIC, unpack_series
+from twin.runs.executor import PACK_ROWS, PARQUET_MAGIC, unpack_series
 from twin.sim.result import flat_columns
 
 #: samples read per chunk (a chunk of every column of the widest run is ~ 2 MB of CSV)

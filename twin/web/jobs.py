@@ -1,7 +1,7 @@
 """Runs and sweeps of the REST API as futures on the server's one executor.
 
 Every run is first a row in the `RunStore` (queued), then a future on the executor
-(`twin.sim.executor.Executor.run`): a worker process of the server's Dask cluster steps it,
+(`twin.runs.executor.Executor.run`): a worker process of the server's Dask cluster steps it,
 reports progress as Dask events, and sends the result back packed. The server process is the
 store's only writer: one thread stores, in order, what the workers report (running, progress,
 the result or the failure). Status survives the server: on start, `JobRunner.start` queues
@@ -29,7 +29,7 @@ it (`BudgetExceeded`) and it is stored as failed with a message. A worker that d
 
 Sweeps (`SweepRunner`) run one at a time from a thread that drives `run_sweep` on the same
 executor: their chunks queue behind single runs (a lower Dask priority). A sweep's heatmap is
-drawn by a task on the executor too (`twin.sim.sweep.heatmap_bytes`), never in the server
+drawn by a task on the executor too (`twin.runs.sweep.heatmap_bytes`), never in the server
 process, so a figure cannot take the process that answers requests.
 
 Cancel (issue 30): `JobRunner.cancel` and `SweepRunner.cancel` mark a queued or running job
@@ -50,8 +50,8 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 from twin.db import StoreUnavailable
+from twin.runs.executor import RUN_BUDGET, BudgetExceeded, Executor, RunOutput, run_scenario
 from twin.sim import Scenario
-from twin.sim.executor import RUN_BUDGET, BudgetExceeded, Executor, RunOutput, run_scenario
 from twin.web.store import Run, RunNotFound, RunStore
 
 log = logging.getLogger(__name__)
@@ -554,7 +554,7 @@ class SweepRunner(QueuedJobs):
 
     def _work(self, job_id: str, stop: Any) -> None:
         """Run one stored sweep to the end, storing progress, table and heatmap."""
-        from twin.sim.sweep import SweepSpec, heatmap_bytes, run_sweep
+        from twin.runs.sweep import SweepSpec, heatmap_bytes, run_sweep
 
         spec = SweepSpec(**self.store.get_sweep(job_id).spec)
         if not self.store.sweep_running(job_id):

@@ -202,7 +202,7 @@ def price_run(scenario: Any) -> Price:
 
 def price_sweep(spec: Any) -> Price:
     """The price of a sweep (`SweepSpec`): its steps, cells, panels and stored bytes."""
-    from twin.sim.sweep import AXES, panel_count
+    from twin.runs.sweep import AXES, panel_count
 
     cells = math.prod(len(getattr(spec, axis)) for axis in AXES)
     panels = panel_count(spec)
@@ -215,7 +215,7 @@ def price_sweep(spec: Any) -> Price:
 def sweep_over_limits(spec: Any) -> list[dict[str, Any]]:
     """The limits a sweep is over, as 422 errors naming each (empty: it may run). The grid's
     own caps (cells, runs, steps) are `SweepSpec`'s; this adds the heatmap's panels."""
-    from twin.sim.sweep import MAX_PANELS, PANEL_AXES
+    from twin.runs.sweep import MAX_PANELS, PANEL_AXES
 
     price = price_sweep(spec)
     if price.panels <= MAX_PANELS:

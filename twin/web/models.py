@@ -22,6 +22,7 @@ from pydantic import (
 )
 from pydantic.fields import FieldInfo
 
+from twin.runs.sweep import SweepSpec
 from twin.sim import Scenario
 from twin.sim.live import COMPARE, MOTION_SOURCE, LiveControls, LiveMotionSource
 from twin.sim.live import LIVE_FIELDS as SESSION_FIELDS
@@ -34,7 +35,6 @@ from twin.sim.registries import (
     get_planner,
 )
 from twin.sim.scenario import DEFAULT_PLANNER, check_one_sea
-from twin.sim.sweep import SweepSpec
 from twin.validation import error_message
 
 # -- response models -------------------------------------------------------------------------

@@ -33,9 +33,9 @@ import uvicorn
 from fastapi import FastAPI
 
 from twin.errors import TwinError
+from twin.runs.executor import RUN_BUDGET, Executor
+from twin.runs.heap import freeze_startup
 from twin.sim.engine import warm_in_processes
-from twin.sim.executor import RUN_BUDGET, Executor
-from twin.sim.heap import freeze_startup
 from twin.sim.live import LiveSession, live_demo
 from twin.sim.measured import LOG_DIR_ENV
 from twin.sim.motion_live import LiveMotion

@@ -41,8 +41,8 @@ from twin.db import (
     requeue,
 )
 from twin.errors import TwinError
+from twin.runs.executor import pack_series, unpack_series
 from twin.sim import Scenario, SimulationResult
-from twin.sim.executor import pack_series, unpack_series
 
 Status = Literal["queued", "running", "done", "failed"]
 
@@ -600,7 +600,7 @@ class RunStore:
             QueueFull: `max_pending` sweeps are queued or running (checked atomically with the
                 insert, as `create` does).
         """
-        from twin.sim.sweep import SweepSpec
+        from twin.runs.sweep import SweepSpec
         from twin.web.limits import price_sweep
 
         sweep_id = uuid.uuid4().hex

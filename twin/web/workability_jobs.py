@@ -129,7 +129,7 @@ def evaluate_job(
     """
     from distributed import Event, worker_client
 
-    from twin.sim.executor import Executor, report
+    from twin.runs.executor import Executor, report
     from twin.sim.workability import WorkabilitySpec, run_workability
 
     site = unpack_record(record) if isinstance(record, bytes) else load_record(record)
@@ -224,7 +224,7 @@ class WorkabilityRunner(QueuedJobs):
     def start(self, executor: Any) -> list[str]:
         """Start on `executor` (`QueuedJobs.start`), listening for its jobs' progress; on a
         cluster (a server's), the reading children start now rather than at the first upload."""
-        from twin.sim.executor import IN_PROCESS
+        from twin.runs.executor import IN_PROCESS
 
         executor.client.subscribe_topic(self.topic, self._on_report)
         if executor.where != IN_PROCESS:

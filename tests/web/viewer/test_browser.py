@@ -32,8 +32,8 @@ from playwright.sync_api import sync_playwright
 from tests.figures import record
 from tests.web.support import TOKEN, access, free_port, wait_for
 from tests.web.viser_client import PROTOCOL
+from twin.runs.executor import IN_PROCESS, Executor
 from twin.sim import Scenario, simulate
-from twin.sim.executor import IN_PROCESS, Executor
 from twin.sim.live import LiveSession
 from twin.web.access import Access
 from twin.web.api import create_app

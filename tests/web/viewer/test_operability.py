@@ -20,7 +20,7 @@ def test_the_sweep_grid_comes_from_the_panel(session: LiveSession, tmp_path) -> 
     grid of the sweep it starts, around the current sea, and it is told how many runs that
     is; a grid `spec_around` refuses (a hostile value past a slider's range) starts nothing and
     says why."""
-    from twin.sim.sweep import SweepSpec
+    from twin.runs.sweep import SweepSpec
     from twin.web.jobs import SweepRunner
     from twin.web.store import RunStore
 

@@ -6,7 +6,7 @@ from typing import Any
 
 from fastapi import APIRouter, HTTPException, Request, Response
 
-from twin.sim.sweep import SweepSpec
+from twin.runs.sweep import SweepSpec
 from twin.web.actions import SweepScenarioError, submit_sweep
 from twin.web.deps import GUARDED, AdmissionDep, Store, Sweeps
 from twin.web.limits import sweep_over_limits
@@ -31,7 +31,7 @@ def create_sweep(
     Answers 202 at once; poll `GET /api/sweeps/{id}` (the Location header) for status and
     progress (runs done of total) and, once done, the operability table. It runs on the
     server's executor, its chunks behind single runs. An empty axis or a grid over the caps
-    (`twin.sim.sweep.MAX_CELLS`, `MAX_RUNS`, `MAX_TOTAL_STEPS`) is a 422 naming the field.
+    (`twin.runs.sweep.MAX_CELLS`, `MAX_RUNS`, `MAX_TOTAL_STEPS`) is a 422 naming the field.
     Sweeps share the runs' rate limit; at most `MAX_PENDING_SWEEPS` wait at a time.
     """
     ranges = RANGES[("POST", "/api/sweeps")]

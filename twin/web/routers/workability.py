@@ -35,7 +35,7 @@ from fastapi.responses import FileResponse
 from pydantic import Field, ValidationError, ValidationInfo, field_validator, model_validator
 
 from twin.errors import TwinError
-from twin.sim import sweep as sweep_module
+from twin.runs import sweep as sweep_module
 from twin.sim.registries import get_planner
 from twin.sim.workability import WorkabilitySpec
 from twin.site.records import READ_KINDS

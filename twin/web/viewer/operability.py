@@ -98,7 +98,7 @@ class Sweeps:
     def run_sweep(self, panel: ClientPanel) -> None:
         """A sweep around the current scenario, submitted as `POST /api/sweeps` is; its
         progress, then its heatmap with the current sea ringed, show in every browser."""
-        from twin.sim.sweep import spec_around
+        from twin.runs.sweep import spec_around
         from twin.web.actions import submit_sweep
         from twin.web.deps import MAX_PENDING_SWEEPS
 
@@ -178,7 +178,7 @@ class Sweeps:
         import pandas as pd
         from PIL import Image
 
-        from twin.sim.sweep import SweepResult, SweepSpec, heatmap_png
+        from twin.runs.sweep import SweepResult, SweepSpec, heatmap_png
 
         result = SweepResult(
             SweepSpec(**sweep.spec), pd.DataFrame(), pd.DataFrame(sweep.result["cells"]),

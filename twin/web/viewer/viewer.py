@@ -282,9 +282,8 @@ def start_viewer(
         access: the server's access policy (`twin.web.access.Access`): the Host names every
             request must carry, the origins the websocket accepts (its own, at the viewer's
             actual port too) and the token that unlocks a browser's controls.
-        quiet_logs: called once before the viewer listens: the server's
-            `twin.web.connections.quiet_malformed_messages` (a client's malformed messages
-            logged once per client per interval, without a traceback); None leaves the logs.
+        quiet_logs: called once before it listens (the server's `twin.web.connections.
+            quiet_malformed_messages`: one line per client per interval); None: logs as are.
         store: the run store (`twin.web.store.RunStore`): its done runs can be replayed
             from the panel's Replay folder.
         sweeps: the runner of sweeps (`twin.web.jobs.SweepRunner`, the REST app's): with a

@@ -10,7 +10,7 @@ import operator
 import dask
 from dask.utils import parse_timedelta
 
-from twin.sim.executor import IN_PROCESS, QUIET_DASK, Executor
+from twin.runs.executor import IN_PROCESS, QUIET_DASK, Executor
 
 
 def _ms(key: str) -> float:
@@ -47,7 +47,7 @@ _NICE_CHILD = """
 import os, sys
 import twin.sim.engine
 twin.sim.engine.warm = lambda: None  # the kernels are not what is tested here
-from twin.sim.executor import _warm_plugin, lower_priority
+from twin.runs.executor import _warm_plugin, lower_priority
 start = os.nice(0)
 _warm_plugin(freeze=False, nice=7).setup(None)  # a worker not of our own: left as it is
 foreign = os.nice(0)

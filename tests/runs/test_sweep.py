@@ -13,9 +13,8 @@ import pytest
 from distributed import Client, Security
 
 from tests.timing import scaled
-from twin.sim import simulate
-from twin.sim.executor import BudgetExceeded, Executor, map_unordered, unpack_series
-from twin.sim.sweep import (
+from twin.runs.executor import BudgetExceeded, Executor, map_unordered, unpack_series
+from twin.runs.sweep import (
     MAX_CELLS,
     MAX_RUNS,
     SweepSpec,
@@ -23,6 +22,7 @@ from twin.sim.sweep import (
     heatmap_png,
     run_sweep,
 )
+from twin.sim import simulate
 
 SMALL = {"hs": [0.0, 2.5], "tp": [7.0], "planner": ["mtmp", "pi"], "seeds": 2, "duration": 3.0}
 #: the longest run a scenario may be: 200 000 steps on the finest sea
@@ -176,8 +176,8 @@ def test_a_sweep_around_a_scenario_centres_its_sea_and_runs_any_mechanism(tmp_pa
     """`spec_around` (the viewer's Operability folder) spans Hs × Tp with the scenario's own
     sea in the middle and keeps its planner and knobs; a small platform's sweep runs; the
     heatmap rings a sea given to it."""
+    from twin.runs.sweep import spec_around
     from twin.sim.scenario import Scenario
-    from twin.sim.sweep import spec_around
 
     scenario = Scenario(mechanism="upr4", sea_state=3, kp=90.0, joint_limits="hold")
     spec = spec_around(scenario, seeds=1, duration=2.0)
@@ -216,8 +216,8 @@ def test_spec_around_takes_its_grid_from_points_and_spans(
 ) -> None:
     """`spec_around`'s counts and spans (the viewer's Operability sliders) set the axes; the
     scenario's own Hs and Tp are cells exactly, Tp stays within the allowed periods."""
+    from twin.runs.sweep import spec_around
     from twin.sim.scenario import TP_RANGE, Scenario
-    from twin.sim.sweep import spec_around
 
     scenario = Scenario(**fields)
     hs, tp = scenario.sea()
@@ -231,8 +231,8 @@ def test_spec_around_takes_its_grid_from_points_and_spans(
 
 def test_spec_around_defaults_are_the_old_grid() -> None:
     """No counts or spans given: 5 Hs over 0.5 … 1.5 × Hs, 3 Tp over ± 2 s, as before."""
+    from twin.runs.sweep import spec_around
     from twin.sim.scenario import Scenario
-    from twin.sim.sweep import spec_around
 
     spec = spec_around(Scenario(hs=2.0, tp=8.0))
     assert spec.hs == [1.0, 1.5, 2.0, 2.5, 3.0] and spec.tp == [6.0, 8.0, 10.0]
@@ -260,8 +260,8 @@ def test_spec_around_defaults_are_the_old_grid() -> None:
 def test_spec_around_names_a_bad_grid_argument(arguments: dict, message: str) -> None:
     """spec_around with a bad grid argument raises TwinError naming it."""
     from twin.errors import TwinError
+    from twin.runs.sweep import spec_around
     from twin.sim.scenario import Scenario
-    from twin.sim.sweep import spec_around
 
     with pytest.raises(TwinError, match=message.replace("(", r"\(")):
         spec_around(Scenario(hs=1.0, tp=8.0), **arguments)

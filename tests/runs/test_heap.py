@@ -6,8 +6,8 @@ from __future__ import annotations
 import gc
 import weakref
 
+from twin.runs.heap import freeze_startup
 from twin.sim.engine import warm
-from twin.sim.heap import freeze_startup
 
 
 class Node:

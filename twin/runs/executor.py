@@ -269,7 +269,7 @@ def lower_priority(nice: int) -> int:
 def _warm_plugin(freeze: bool, nice: int = 0) -> Any:
     """A Dask worker plugin that loads the compiled kernels when a worker starts and, with
     `freeze`, ignores SIGINT, lowers the worker's priority to `nice` (`lower_priority`) and
-    then freezes its start-up objects (`twin.sim.heap.freeze_startup`): for the worker
+    then freezes its start-up objects (`twin.runs.heap.freeze_startup`): for the worker
     processes of our own LocalCluster, not for a worker in the caller's process nor for another
     cluster's workers."""
     from distributed.diagnostics.plugin import WorkerPlugin
@@ -279,8 +279,8 @@ def _warm_plugin(freeze: bool, nice: int = 0) -> Any:
         idempotent = True
 
         def setup(self, worker: Any) -> None:
+            from twin.runs.heap import freeze_startup
             from twin.sim.engine import warm
-            from twin.sim.heap import freeze_startup
 
             if freeze:
                 # our own worker processes: a terminal's Ctrl-C reaches the whole process

@@ -1,4 +1,4 @@
-"""The verdict rules of twin.sim.claims: bootstrap CI of the mean, Wilson interval, which
+"""The verdict rules of twin.runs.claims: bootstrap CI of the mean, Wilson interval, which
 verdict a paper's number or a share gets, and the block-stability rule (docs/reproduction.md,
 "Verdicts over 1000 seeds")."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twin.sim.claims import BLOCK, BLOCKS, Claim, judge, mean_ci, stable_verdict, wilson
+from twin.runs.claims import BLOCK, BLOCKS, Claim, judge, mean_ci, stable_verdict, wilson
 
 NUMBER = Claim("x", "test", "a number", 10.0)
 SHARE = Claim("s", "test", "a claim", None, kind="share")

@@ -14,7 +14,7 @@ leg limit violated (`violations` = 0) and the gangway tip's largest position err
     heatmap_png(result, "operability.png")
 
 Runs are chunked (`chunk_size` scenarios of one planner each) and each chunk is one task on the
-executor (`twin.sim.executor`, the one `twin serve` keeps for runs and sweeps alike) calling
+executor (`twin.runs.executor`, the one `twin serve` keeps for runs and sweeps alike) calling
 `simulate_many`, below the priority of single runs; every seed of a cell uses the sea seeds
 0 … seeds − 1, so cells (and planners) are compared on the same wave records.
 """
@@ -37,8 +37,8 @@ from tqdm import tqdm
 from twin.compiled import limit_threads
 from twin.errors import TwinError
 from twin.planners import get_planner
+from twin.runs.executor import SWEEP_PRIORITY, Executor
 from twin.sim.engine import simulate_many
-from twin.sim.executor import SWEEP_PRIORITY, Executor
 from twin.sim.scenario import DEFAULT_PLANNER, TP_RANGE, Scenario
 
 #: most grid cells (Hs × Tp × heading × planner × β × k_e × k_c) one sweep may ask for
@@ -249,7 +249,7 @@ def run_sweep(
 
     Args:
         spec: a `SweepSpec` or a dict of its fields (validated).
-        executor: where the chunks run (`twin.sim.executor.Executor`, e.g. a server's, which
+        executor: where the chunks run (`twin.runs.executor.Executor`, e.g. a server's, which
             lives longer than the sweep). None starts one for the sweep from `scheduler` and
             `n_workers` and closes it at the end.
         scheduler: without `executor`: None (a LocalCluster of one single-threaded worker
