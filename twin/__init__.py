@@ -1,7 +1,8 @@
 """Digital twin of offshore wave-motion compensation systems.
 
 Layers, each a subpackage, data flowing one way:
-sea → vessel → mechanisms → planners → simulation → web.
+sea → vessel → mechanisms → planners → simulation → runs (executor, sweeps, workability,
+claims) → web.
 """
 
 from __future__ import annotations
