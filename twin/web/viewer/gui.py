@@ -22,6 +22,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -33,6 +34,7 @@ from twin.web.viewer.cameras import View
 from twin.web.viewer.frame_state import FrameState
 from twin.web.viewer.graphics import GRAPHICS
 from twin.web.viewer.knobs import PLANNER_KNOBS, READOUT_ORDER, SEA_KNOBS, assign
+from twin.web.viewer.onboard import OnboardFolder
 from twin.web.viewer.operability import Sweeps
 from twin.web.viewer.panel import FOLDERS, LOCKED, NO_COMPARE, ClientPanel
 from twin.web.viewer.plots import PLOT_PERIOD, PLOT_SAMPLES, LivePlots, PlotSpec
@@ -194,6 +196,8 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
                     "current mechanism, planner and knobs, on the server's executor.",
                     order=READOUT_ORDER,
                 )
+        data_dir = None if store is None else Path(store.path).parent  # the cells' cache
+        self.onboard = OnboardFolder(gui, session, data_dir, order=len(shown) - 0.5)
         self._plot_folder = gui.add_folder("Plots", order=len(shown))
         with gui.add_folder("Help", order=len(shown) + 1, expand_by_default=False):
             gui.add_markdown(HELP)
@@ -327,8 +331,9 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
         return getattr(self.session.scenario, name)
 
     def close(self) -> None:
-        """Stop following a sweep (the viewer is stopping)."""
+        """Stop following a sweep and the onboard report (the viewer is stopping)."""
         self._stop.set()
+        self.onboard.close()
 
     # -- session → GUI ------------------------------------------------------------------------
     def update(self, fs: FrameState) -> None:
@@ -373,5 +378,6 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
         if slow:
             self._next["readout"] = now + READOUT_PERIOD
             self.readout.content = self._readout(fs)
+            self.onboard.update()
             if "Replay" in self.folders:
                 self.replay_status.content = replay_line(fs)
