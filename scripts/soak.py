@@ -53,7 +53,6 @@ import random
 import resource
 import signal
 import socket
-import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -514,8 +513,10 @@ def _sigterm_with_a_sweep_open(soak: Soak, stretch: float) -> float | None:
 
 
 def _lost(soak: Soak) -> list[str]:
+    from twin.db import session
+
     database = soak.data / "runs.sqlite"
-    with sqlite3.connect(database) as conn:
+    with session(database, write=False) as conn:
         stored = {row[0] for row in conn.execute("SELECT id FROM runs")}
     return sorted(soak.accepted - soak.deleted - stored)
 
@@ -692,6 +693,8 @@ def _attack_rows(soak: Soak) -> dict[str, Any]:
 
 
 def _attack_disk(soak: Soak) -> dict[str, Any]:
+    from twin.db import session
+
     padded = _hourly(1_000, pad=2_000)  # 2 MB, 1,000 rows' columns
     codes: Counter[int] = Counter()
     for _ in range(80):
@@ -699,7 +702,7 @@ def _attack_disk(soak: Soak) -> dict[str, Any]:
         codes[status] += 1
         if status == 202:
             httpx.post(f"{soak.url}{location}/cancel", headers=AUTH, timeout=30)
-    with sqlite3.connect(soak.data / "runs.sqlite", timeout=10) as db:
+    with session(soak.data / "runs.sqlite", write=False) as db:
         stored = db.execute("SELECT COALESCE(SUM(size), 0), COALESCE(SUM(LENGTH(upload)), 0) "
                             "FROM workability").fetchone()  # fmt: skip
     size = sum(f.stat().st_size for f in soak.data.glob("runs.sqlite*"))
