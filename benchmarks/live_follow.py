@@ -1,0 +1,101 @@
+"""Benchmark of the live session following a live motion stream (issue 40, the live path): the
+CPU the session's thread spends following a 50 Hz MRU stream beside the same session on the
+synthesised sea, how far the simulation trails the newest sample, every sentence received,
+and the Onboard panel's evaluation time (`twin.sim.onboard_live.LiveOnboard.evaluate`).
+
+    python benchmarks/live_follow.py [--seconds 20]
+
+The real sender (`twin.motion.replay.send`, `$PSXN,23` at 50 Hz) feeds the real listener
+(`twin.web.motion_udp.MotionListener`) on a free loopback port; the live session (the
+`twin serve` demo, `live_demo()`) runs its own thread and follows it (`motion_source` udp).
+CPU is that thread's (`time.pthread_getcpuclockid`) over the wall time, in % of one core. The
+lag is sampled every 0.1 s: the newest sample's time minus the stream time the simulation has
+reached (`t + offset`), the latency a sample waits before it moves the hull.
+"""
+
+from __future__ import annotations
+
+import argparse
+import threading
+import time
+
+import numpy as np
+
+from twin.motion.replay import send
+from twin.motion.series import MotionSeries
+from twin.sim.live import LiveSession, live_demo
+from twin.sim.motion_live import LiveMotion
+from twin.sim.onboard_live import LiveOnboard
+from twin.web.motion_udp import MotionListener
+
+RATE = 50.0  # [Hz] the fastest MRU rate the twin reads
+
+
+def _log(seconds: float) -> MotionSeries:
+    """A heave-roll-pitch log at RATE."""
+    t = np.arange(0.0, seconds, 1.0 / RATE)
+    m = np.zeros((t.size, 6))
+    m[:, 2], m[:, 3], m[:, 4] = np.sin(0.6 * t), 0.03 * np.sin(0.5 * t), 0.02 * np.cos(t)
+    return MotionSeries(t, m, ("heave", "roll", "pitch"))
+
+
+def _cpu(thread: threading.Thread) -> float:
+    """[s] CPU time of a running thread."""
+    assert thread.ident is not None
+    return time.clock_gettime(time.pthread_getcpuclockid(thread.ident))
+
+
+def run(seconds: float, follow: bool) -> dict[str, float]:
+    """One session for `seconds`: on the sea, or following a stream sent meanwhile."""
+    live = LiveMotion("bench")
+    listener = MotionListener(live, 0)
+    listener.start()
+    session = LiveSession(live_demo(), motion=live)
+    if follow:
+        session.patch({"motion_source": {"kind": "udp"}})
+    session.start()
+    thread = session._thread
+    assert thread is not None
+    sender = threading.Thread(target=send, args=(_log(seconds), "127.0.0.1",
+                                                 listener.address[1], "psxn", RATE))  # fmt: skip
+    lags: list[float] = []
+    begin, cpu0 = time.monotonic(), _cpu(thread)
+    sender.start()
+    while sender.is_alive():
+        time.sleep(0.1)
+        stream = getattr(session._sim.base_motion, "measured", None)
+        newest = live.newest()
+        if follow and stream is not None and stream.offset is not None and newest is not None:
+            lags.append(newest - (session._sim.t + stream.offset))
+    wall, cpu = time.monotonic() - begin, _cpu(thread) - cpu0
+    onboard = LiveOnboard(session)
+    started = time.perf_counter()
+    onboard.evaluate()
+    evaluate = time.perf_counter() - started
+    steps = session._sim.k
+    session.stop()
+    listener.stop()
+    return {"cpu": 100.0 * cpu / wall, "steps": steps, "sent": len(_log(seconds)),
+            "stored": live.counts["samples"], "lag_mean": float(np.mean(lags)) if lags else 0.0,
+            "lag_max": float(np.max(lags)) if lags else 0.0, "evaluate": evaluate}  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=20.0, help="stream length [s]")
+    seconds = parser.parse_args().seconds
+    sea, follow = run(seconds, False), run(seconds, True)
+    print(f"session on the synthesised sea       {sea['cpu']:6.2f} % of a core, "
+          f"{sea['steps']} steps")  # fmt: skip
+    print(f"session following the 50 Hz stream  {follow['cpu']:6.2f} % of a core, "
+          f"{follow['steps']} steps")  # fmt: skip
+    print(f"sentences sent {follow['sent']}, samples stored {follow['stored']}, dropped "
+          f"{follow['sent'] - follow['stored']}")  # fmt: skip
+    print(f"lag behind the newest sample: mean {1000 * follow['lag_mean']:.0f} ms, max "
+          f"{1000 * follow['lag_max']:.0f} ms")  # fmt: skip
+    print(f"onboard evaluation (a {seconds:.0f} s window: the estimator's refusal) "
+          f"{1000 * follow['evaluate']:.0f} ms")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
