@@ -7,11 +7,13 @@ hands out NaN; a source that has sent nothing for `stale_after` seconds is stale
 
 The live session follows a stream through `StreamMotion`, a `Measured` source of base poses
 for the one engine (`twin.sim.base_motion.MeasuredBase`, as a stored log's): the stream's
-clock drives the simulation, which trails the newest sample by `LAG` and steps only as far
-as samples have arrived. While the stream is stale the simulation stands still, holding the
-last pose (never NaN); when samples come again after a gap (or the stream's clock jumps by
-more than `RESYNC`), it re-anchors to the newest sample and goes on from there, the gap
-skipped, not bridged by a straight line.
+clock drives the simulation, anchored `LAG` behind the newest sample, which then steps only
+as far as samples have arrived (a pose is interpolated between two received samples, never
+extrapolated), so it trails the newest by under one step plus one tick of the loop. While
+the stream is stale the simulation stands still, holding the last pose (never NaN); when
+samples come again after a gap (or the stream's clock jumps by more than `RESYNC`), it
+re-anchors to the newest sample and goes on from there, the gap skipped, not bridged by a
+straight line.
 """
 
 from __future__ import annotations
@@ -34,8 +36,8 @@ from twin.vessel import Mount
 STALE_AFTER = 1.0
 #: samples kept: 60 s at 50 Hz, the fastest rate an MRU sends; older ones are dropped
 BUFFER = 3000
-#: [s] how far the followed simulation trails the newest sample: latency enough for one
-#: 10 Hz sample, five at 50 Hz, to arrive before its pose is needed
+#: [s] how far behind the newest sample the followed simulation is anchored (the first
+#: sample, after a gap): one 10 Hz sample, five at 50 Hz
 LAG = 0.1
 #: [s] a difference between the stream's clock and the simulation's, past their `LAG`, after
 #: which the simulation re-anchors (a gap, a sender restarted on another clock)
