@@ -153,6 +153,31 @@ def _planners(text: str) -> list[str]:
     return [] if listed == [hybrid, platforms] else [f"planners: {hybrid}, {platforms}"]
 
 
+def _live_motion(text: str) -> list[str]:
+    """The live path's commands take the options the README gives them, the motion sources
+    it names are the session's kinds, and its replay speeds are the allowed ones."""
+    from twin.cli import build_parser
+    from twin.sim.live import LiveMotionSource
+
+    out = []
+    for line in re.findall(r"^\.venv/bin/twin (serve --motion-udp .+|motion-replay .+)$", text,
+                           re.MULTILINE):  # fmt: skip
+        try:
+            build_parser().parse_args(line.split())
+        except SystemExit:
+            out.append(f"live motion: `twin {line}` does not parse")
+    kinds = set(re.findall(r'\{"kind": "(\w+)"', text))
+    allowed = set(LiveMotionSource.model_json_schema()["properties"]["kind"]["enum"])
+    if not kinds or not kinds <= allowed:
+        out.append(f"live motion: README kinds {sorted(kinds)}, allowed {sorted(allowed)}")
+    speed = LiveMotionSource.model_fields["speed"].metadata
+    bounds = sorted(float(getattr(m, k)) for m in speed for k in ("ge", "le") if hasattr(m, k))
+    said = re.search(r"at (\d+)–(\d+)×", text)
+    if said is None or [float(v) for v in said.groups()] != bounds:
+        out.append(f"live motion: README's replay speeds, allowed {bounds}")
+    return out
+
+
 #: every check: what it verifies → the function returning its failures
 CHECKS: dict[str, Callable[[str], list[str]]] = {
     "kernel count": _kernels,
@@ -165,6 +190,7 @@ CHECKS: dict[str, Callable[[str], list[str]]] = {
     "seed000's duration": _preset,
     "sweep spec defaults and example": _sweep,
     "planner names": _planners,
+    "live motion path": _live_motion,
 }
 
 
