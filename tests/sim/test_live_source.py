@@ -17,6 +17,7 @@ from twin.sim import simulate
 from twin.sim.live import LiveSession
 from twin.sim.measured import LOG_DIR_ENV, store_log
 from twin.sim.motion_live import LAG, LiveMotion
+from twin.vessel import MOUNTS
 from twin.web.motion_udp import MotionListener
 
 SENSOR = (15.0, -4.0, 8.0)
@@ -149,3 +150,19 @@ def test_a_bad_source_is_refused_and_changes_nothing(
         session.patch({"motion_source": source})
     assert session._sim.t == t and session.restarts == restarts
     assert session.motion_state()["kind"] == "sea"
+
+
+def test_a_comparison_lane_sees_the_same_stream() -> None:
+    """With a comparison planner, both lanes follow the one stream at one offset: equal base
+    poses, each its own planner; a mechanism switch keeps following it."""
+    live = LiveMotion("test", stale_after=600.0, sensor_position=SENSOR)
+    session = LiveSession(SCENARIO, motion=live)
+    live.push(samples(0.0, 1.0), time.monotonic())
+    session.patch({"motion_source": {"kind": "udp"}, "compare_planner": "mtmp"})
+    live.push(samples(1.0, 3.0), time.monotonic())
+    assert session.advance(0.0) > 0
+    np.testing.assert_array_equal(session.series(0)["base_pose"], session.series(1)["base_pose"])
+    session.patch({"mechanism": "upr4", "planner": "pid"})
+    assert session.motion_state()["kind"] == "udp" and session._stream().mount == MOUNTS["upr4"]
+    live.push(samples(3.0, 3.5), time.monotonic())
+    assert session.advance(0.0) > 0 and np.isfinite(session.series()["base_pose"]).all()
