@@ -1,12 +1,25 @@
 """The Onboard folder's text (`twin.web.viewer.onboard.onboard_text`): the source line with the
 newest sample, a stale stream said to hold, the estimator's refusal, the estimate with its
-uncertainty, operability and advice, and an alert line only under the threshold."""
+uncertainty, operability and advice, and an alert line only under the threshold; its source
+dropdown switches the live session under the viewer's lock."""
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pytest
+
+from tests.web.support import TOKEN, free_port, wait_for
+from tests.web.viewer.support import connect
+from twin.motion.series import MotionSeries
+from twin.sim.live import LiveSession
+from twin.sim.measured import LOG_DIR_ENV, store_log
+from twin.sim.motion_live import LiveMotion
+from twin.web.access import Access
+from twin.web.viewer import start_viewer
 from twin.web.viewer.onboard import onboard_text
 
 STREAM = {"kind": "udp", "status": "live", "log": None, "speed": None,
@@ -49,3 +62,36 @@ def test_the_estimate_advice_and_an_alert_under_the_threshold() -> None:
     assert "qp: 180° (0.90, turn -29°) · 150° (0.62, turn +1°)" in text
     assert "**ALERT** operability under the threshold: qp 0.62 < 0.80" in text
     assert "ALERT" not in onboard_text(ESTIMATED, STREAM, 0.5)
+
+
+def test_the_source_dropdown_switches_under_the_lock(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A locked browser's choice of the UDP stream is refused and undone; unlocked, it makes
+    the session follow the stream; a log chosen through the session shows as an entry."""
+    live = LiveMotion("test", stale_after=600.0)
+    session = LiveSession({"sea_state": 3}, motion=live)
+    session.pause()
+    viewer = start_viewer(session, access=Access(token=TOKEN), port=free_port())
+    try:
+        client, _panel = connect(viewer)
+        with client:
+            dropdown = client.wait_widget("Motion source")
+            client.update(dropdown, value="UDP stream")
+            assert wait_for(lambda: any("locked" in n for n in client.notifications()))
+            assert session.motion_state()["kind"] == "sea"
+            assert wait_for(lambda: viewer.gui.onboard.source.value == "synthesised sea")
+            (client_id,) = viewer.gui.panels
+            viewer.gui._unlocked.add(client_id)  # as a browser that entered the token
+            client.update(dropdown, value="UDP stream")
+            assert wait_for(lambda: session.motion_state()["kind"] == "udp")
+            monkeypatch.setenv(LOG_DIR_ENV, str(tmp_path))
+            t = np.arange(100) / 10
+            key = store_log(MotionSeries(t, np.c_[0 * t, 0 * t, np.sin(t), 0 * t, 0 * t, 0 * t],
+                                         ("heave",)))  # fmt: skip
+            session.patch({"motion_source": {"kind": "log", "log": key, "speed": 2}})
+            entry = f"log {key} at 2×"
+            assert wait_for(lambda: viewer.gui.onboard.source.value == entry)
+    finally:
+        viewer.stop()
+        session.stop()

@@ -197,7 +197,7 @@ class TwinGui(LivePlots, Readout, Replays, Sweeps):
                     order=READOUT_ORDER,
                 )
         data_dir = None if store is None else Path(store.path).parent  # the cells' cache
-        self.onboard = OnboardFolder(gui, session, data_dir, order=len(shown) - 0.5)
+        self.onboard = OnboardFolder(self, gui, session, data_dir, order=len(shown) - 0.5)
         self._plot_folder = gui.add_folder("Plots", order=len(shown))
         with gui.add_folder("Help", order=len(shown) + 1, expand_by_default=False):
             gui.add_markdown(HELP)
