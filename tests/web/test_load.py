@@ -237,6 +237,10 @@ def invalid_value(rng: random.Random, name: str) -> Any:
         return rng.choice([[1.0] * 3, [1e6] * 9, [[0.0]] * 9, "working", 7.5, [1.0] * 12])
     if name in ("planner", "compare_planner"):
         return rng.choice(["bogus", "MTMP ", "pid; DROP TABLE runs", 12, ["mtmp"], "x" * 300])
+    if name == "motion_source":  # a kind, speed or log refused, or udp without an input
+        return rng.choice([{"kind": "wind"}, {"kind": "log", "log": "0" * 16, "speed": 9},
+                           {"kind": "log", "log": "0" * 16}, {"kind": "udp"}, {"kind": "sea",
+                           "log": "0" * 16}, "sea", 3])  # fmt: skip
     if "enum" in schema:
         return rng.choice(["bogus", "HYBRID", "state9", "../sov", 3, *wrong_types])
     if schema["type"] == "boolean":
@@ -265,6 +269,9 @@ def valid_patch(rng: random.Random) -> dict[str, Any]:
     for name in rng.sample(sorted(FIELDS), rng.randint(1, 3)):
         if name == "compare_planner":
             patch.setdefault(name, None)  # a second planner comes with a mechanism, below
+        elif name == "motion_source":  # the sea: the load's server has no stream nor logs
+            if rng.random() < 0.1:  # and it restarts the session: not too often
+                patch[name] = {"kind": "sea"}
         elif name in COUPLED:
             if rng.random() < 0.3:  # a mechanism switch restarts the session: not too often
                 mechanism = rng.choice(sorted(PLANNERS_OF))
