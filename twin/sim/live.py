@@ -141,8 +141,8 @@ class LiveControls(BaseModel):
 
 
 #: Scenario fields a live session takes: not `duration` (it means nothing live), nor
-#: `base_motion` (a session runs without end on the synthesised sea; a stored log, which ends,
-#: drives batch runs, and the live motion input is `twin.sim.motion_live`)
+#: `base_motion` (the live session's is chosen as a whole by `motion_source`, which also sets
+#: a log's length as the duration)
 LIVE_FIELDS = tuple(n for n in Scenario.model_fields if n not in ("duration", "base_motion"))
 #: the patch key of the comparison lane's planner (not a scenario field)
 COMPARE = "compare_planner"
