@@ -51,7 +51,8 @@ def test_a_replayed_log_gives_the_sea_operability_and_advice(
 ) -> None:
     """Ten minutes of a log of the mount's vessel in Hs 1.5 m, Tp 8 s at β 150°, replayed to
     its end: Hs within 15 %, direction within 20°, the planner's operability in [0, 1], the
-    grid's headings ranked; an alert under a threshold above it, none under 0."""
+    grid's headings ranked; an alert under a threshold above it, none under 0; a second
+evaluation within the report period reuses the report."""
     monkeypatch.setenv(LOG_DIR_ENV, str(tmp_path / "logs"))
     t = np.arange(0.0, 600.5, 0.5)
     sea = wave_components(1.5, 8.0, heading=np.radians(150.0), seed=3, n_components=300)
@@ -71,3 +72,6 @@ def test_a_replayed_log_gives_the_sea_operability_and_advice(
     assert 0.0 <= p <= 1.0
     assert sorted(a["heading"] for a in result["advice"]["pid"]) == GRID
     assert alerts(result, 1.01) == [f"pid {p:.2f} < 1.01"] and alerts(result, 0.0) == []
+    monkeypatch.setattr("twin.sim.onboard_live.onboard_report", None)  # a call would fail
+    again = onboard.evaluate()  # within REPORT_PERIOD: the same report, not computed again
+    assert again["estimate"] == result["estimate"] and again["report_age_s"] > 0.0

@@ -42,6 +42,9 @@ log = logging.getLogger(__name__)
 #: [s] between two evaluations (well inside the minute `LiveMotion` keeps, so no sample of a
 #: stream is missed between two collections)
 PERIOD = 5.0
+#: [s] between two full reports of one source (the estimate and its cells take about a second
+#: once cached: docs/onboard_live.md); the evaluations between reuse the last one
+REPORT_PERIOD = 60.0
 #: [Hz] the window is resampled to this rate before the estimate (issue 40's 10 Hz budget)
 RATE = 10.0
 #: samples of a stream's history kept: the default window at the fastest rate an MRU sends
@@ -56,13 +59,17 @@ class LiveOnboard:
         data_dir: folder of the workability cell cache (None: a temporary one per report).
         spec: the report's window and γ (its workability planners are the session's).
         period: [s] between two evaluations.
+        report_period: [s] between two full reports of one source, planners and start.
     """
 
     def __init__(self, session: LiveSession, data_dir: str | Path | None = None,
-                 spec: OnboardSpec | None = None, period: float = PERIOD) -> None:  # fmt: skip
+                 spec: OnboardSpec | None = None, period: float = PERIOD,
+                 report_period: float = REPORT_PERIOD) -> None:  # fmt: skip
         self.session, self.data_dir = session, data_dir
         self.spec = spec or OnboardSpec()
-        self.period = period
+        self.period, self.report_period = period, report_period
+        # (what it was of, monotonic time, the report's figures) of the last full report
+        self._last: tuple[tuple, float, dict[str, Any]] | None = None
         self._history: deque[tuple[float, tuple[float, float, float]]] = deque(maxlen=HISTORY)
         self._lock = threading.Lock()
         self._latest: dict[str, Any] | None = None
@@ -120,7 +127,7 @@ class LiveOnboard:
         else:
             t, motion = self._window(source, float(state["t"]))
             out["window_s"] = float(t[-1] - t[0]) if t.size > 1 else 0.0
-            out |= self._report(t, motion, state)
+            out |= self._fresh(t, motion, state)
         out["elapsed_s"] = time.perf_counter() - started
         return out
 
@@ -144,6 +151,21 @@ class LiveOnboard:
         if times.size:
             rows[:, 2:5] = [s[1] for s in self._history]
         return times, centre_motion(rows, live.sensor_position)
+
+    def _fresh(self, t: np.ndarray, motion: np.ndarray, state: dict[str, Any]) -> dict[str, Any]:
+        """The last full report of the same source, planners and start if under
+        `report_period` old (with its `report_age_s`), else `_report` now."""
+        compare = state["compare"]["planner"] if state["compare"] else None
+        of = (state[MOTION_SOURCE]["kind"], state[MOTION_SOURCE]["log"], state["mechanism"],
+              state["planner"], compare, state["restarts"])  # fmt: skip
+        now = time.monotonic()
+        last = self._last
+        if last is not None and last[0] == of and now - last[1] < self.report_period:
+            return {**last[2], "report_age_s": now - last[1]}
+        report = self._report(t, motion, state)
+        if report.get("estimate") is not None:
+            self._last = (of, now, report)
+        return {**report, "report_age_s": 0.0}
 
     def _report(self, t: np.ndarray, motion: np.ndarray, state: dict[str, Any]) -> dict[str, Any]:
         """The estimate, operability and advice of a window, or the estimator's refusal."""

@@ -113,7 +113,8 @@ def onboard_text(result: dict[str, Any] | None, source: dict[str, Any], threshol
         side = " (port/starboard ambiguous)" if sea["ambiguous"] else ""
         lines.append(f"**Sea estimate** Hs {sea['hs']:.2f} ± {sea['hs_sd']:.2f} m · Tp "
                      f"{sea['tp']:.1f} ± {sea['tp_sd']:.1f} s · direction "
-                     f"{sea['direction']:.0f} ± {sea['direction_sd']:.0f}°{side}")  # fmt: skip
+                     f"{sea['direction']:.0f} ± {sea['direction_sd']:.0f}°{side} (report "
+                     f"{result.get('report_age_s', 0.0):.0f} s old)")  # fmt: skip
     if result["operability"]:
         lines.append("**Operability now** " + " · ".join(
             f"{p} {v:.2f}" for p, v in result["operability"].items()))  # fmt: skip
