@@ -3,7 +3,7 @@ CPU the session's thread spends following a 50 Hz MRU stream beside the same ses
 synthesised sea, how far the simulation trails the newest sample, every sentence received,
 and the Onboard panel's evaluation time (`twin.sim.onboard_live.LiveOnboard.evaluate`).
 
-    python benchmarks/live_follow.py [--seconds 20] [--full]
+    python benchmarks/live_follow.py [--seconds 20] [--full] [--history]
 
 The real sender (`twin.motion.replay.send`, `$PSXN,23` at 50 Hz) feeds the real listener
 (`twin.web.motion_udp.MotionListener`) on a free loopback port; the live session (the
@@ -13,6 +13,8 @@ lag is sampled every 0.1 s: the newest sample's time minus the stream time the s
 reached (`t + offset`), the latency a sample waits before it moves the hull. `--full` also
 times a full evaluation: the shipped example log replayed (`motion_source` log) to 1200 s, then
 `LiveOnboard.evaluate` twice on a fresh cell cache (the first runs its missing cells).
+`--history` times the evaluations of a followed stream as its history grows to 20 min: the
+SOV's motion in Hs 2 m, Tp 8 s at 50 Hz, pushed a minute at a time, one evaluation each.
 """
 
 from __future__ import annotations
@@ -106,10 +108,39 @@ def full_evaluation() -> None:
               f"{result['estimate']}, operability {result['operability']}")  # fmt: skip
 
 
+def history_evaluations() -> None:
+    """Print each evaluation's time as a followed 50 Hz stream's history grows to 20 min."""
+    from twin.sea.synthesis import wave_components
+    from twin.sim.base_motion import mount_for
+    from twin.vessel import load_raos, vessel_motion
+
+    t = np.arange(0.0, 1200.0, 1.0 / RATE)
+    sea = wave_components(2.0, 8.0, heading=np.radians(150.0), seed=3, n_components=300)
+    hull = vessel_motion(sea, load_raos(mount_for("hybrid").vessel), t)
+    live = LiveMotion("bench", stale_after=3600.0)
+    session = LiveSession(live_demo(), motion=live)
+    session.patch({"motion_source": {"kind": "udp"}})
+    onboard = LiveOnboard(session, tempfile.mkdtemp())
+    for minute in range(20):
+        part = slice(int(minute * 60 * RATE), int((minute + 1) * 60 * RATE))
+        live.push([(float(ti), (float(h), float(r), float(q)))
+                   for ti, (h, r, q) in zip(t[part], hull[part, 2:5], strict=True)],
+                  time.monotonic())  # fmt: skip
+        session.advance(0.0)
+        started = time.perf_counter()
+        result = onboard.evaluate()
+        what = "refused" if result["estimate"] is None else (
+            "reused" if result["report_age_s"] > 0 else "full report")  # fmt: skip
+        print(f"history {minute + 1:2d} min: evaluation {time.perf_counter() - started:6.3f} s "
+              f"({what})")  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0, help="stream length [s]")
     parser.add_argument("--full", action="store_true", help="time a full evaluation too")
+    parser.add_argument("--history", action="store_true",
+                        help="time the evaluations of a growing 20-min stream history")
     args = parser.parse_args()
     seconds = args.seconds
     sea, follow = run(seconds, False), run(seconds, True)
@@ -125,6 +156,8 @@ def main() -> None:
           f"{1000 * follow['evaluate']:.0f} ms")  # fmt: skip
     if args.full:
         full_evaluation()
+    if args.history:
+        history_evaluations()
 
 
 if __name__ == "__main__":
