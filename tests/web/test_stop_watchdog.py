@@ -14,12 +14,12 @@ import pytest
 
 pytestmark = pytest.mark.serial
 
-#: a server stand-in: a watchdog with a 1 s deadline, a Python SIGTERM handler that stops
+#: a server stand-in: a watchdog with the deadline argv[2], a Python SIGTERM handler that stops
 #: gracefully (exit 3), then either a C call that never checks for signals or an idle wait
 CHILD = """
 import signal, sys, time
 from twin.web.stop_watchdog import StopWatchdog
-watchdog = StopWatchdog(1.0)
+watchdog = StopWatchdog(float(sys.argv[2]))
 def stop(sig, frame):
     sys.exit(3)
 signal.signal(signal.SIGTERM, stop)
@@ -35,10 +35,10 @@ else:
 """
 
 
-def start(mode: str) -> tuple[subprocess.Popen[str], int]:
-    """The stand-in in `mode`, and its watchdog's pid once both are up."""
-    child = subprocess.Popen([sys.executable, "-c", CHILD, mode], stdout=subprocess.PIPE,
-                             text=True)  # fmt: skip
+def start(mode: str, deadline: float) -> tuple[subprocess.Popen[str], int]:
+    """The stand-in in `mode` with a `deadline` [s], and its watchdog's pid once both are up."""
+    child = subprocess.Popen([sys.executable, "-c", CHILD, mode, str(deadline)],
+                             stdout=subprocess.PIPE, text=True)  # fmt: skip
     assert child.stdout is not None
     return child, int(child.stdout.readline())
 
@@ -63,7 +63,7 @@ def wait_gone(pid: int, limit: float = 60.0) -> bool:
 def test_a_process_stuck_in_c_is_killed_after_sigterm_though_its_handler_never_runs() -> None:
     """SIGTERM to a main thread stuck in one C call (its Python handler cannot run): the
     watchdog SIGKILLs it (without the watchdog it would run for hours)."""
-    child, watchdog = start("stuck")
+    child, watchdog = start("stuck", 1.0)
     time.sleep(0.5)  # into the C call
     child.send_signal(signal.SIGTERM)
     try:
@@ -76,8 +76,8 @@ def test_a_process_stuck_in_c_is_killed_after_sigterm_though_its_handler_never_r
 
 def test_a_prompt_graceful_stop_is_left_alone_and_the_watchdog_follows_it() -> None:
     """SIGTERM to an idle stand-in: its own handler's exit code (3), not a kill; the watchdog
-    ends with it."""
-    child, watchdog = start("idle")
+    ends with it (a deadline longer than any loaded machine's exit)."""
+    child, watchdog = start("idle", 50.0)
     child.send_signal(signal.SIGTERM)
     assert child.wait(timeout=60) == 3
     assert wait_gone(watchdog)
@@ -85,7 +85,7 @@ def test_a_prompt_graceful_stop_is_left_alone_and_the_watchdog_follows_it() -> N
 
 def test_closing_an_unarmed_watchdog_ends_it_while_its_server_lives_on() -> None:
     """`close()` without SIGTERM ends the watchdog at once, while its server lives on."""
-    child, watchdog = start("close")
+    child, watchdog = start("close", 1.0)
     try:
         assert wait_gone(watchdog)
         assert child.poll() is None
