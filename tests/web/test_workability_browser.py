@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Page, expect, sync_playwright
 
+from tests.timing import scaled
 from tests.web.support import free_port, wait_for
 from tests.web.viewer.test_browser import ARGS, CHROMIUM
 from twin.runs.executor import IN_PROCESS, Executor
@@ -87,7 +88,7 @@ def shown(page: Page, plot: str) -> None:
 def test_the_workability_page_runs_the_shipped_record_and_shows_its_plots(served: int) -> None:
     def act(page: Page) -> None:
         page.click("#run")
-        page.locator("#results").wait_for(state="visible", timeout=240_000)
+        page.locator("#results").wait_for(state="visible", timeout=scaled(240) * 1000)
         status = page.text_content("#status") or ""
         assert status.startswith("done"), status
         assert page.locator("#summary tr").count() == 1
@@ -113,7 +114,7 @@ def test_an_uploaded_forecast_shows_bars_per_step_and_a_table_of_limits(
         page.set_input_files("#upload", str(path))
         page.select_option("#kind", "forecast")
         page.click("#run")
-        page.locator("#results").wait_for(state="visible", timeout=240_000)
+        page.locator("#results").wait_for(state="visible", timeout=scaled(240) * 1000)
         expect(page.locator("#forecast-part")).to_be_visible(timeout=30_000)
         shown(page, "forecast")
         rows = page.locator("#steps tr")
