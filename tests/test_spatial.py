@@ -78,6 +78,13 @@ def test_the_rate_matrix_maps_angle_rates_to_the_angular_velocity(rpy: np.ndarra
     np.testing.assert_allclose(spatial.rpy_rate_matrix(rpy) @ rate, omega, rtol=0, atol=1e-7)
 
 
+@given(rpys, arrays(np.float64, (3,), elements=finite))
+def test_the_rates_lane_inverts_the_rate_matrix(rpy: np.ndarray, omega: np.ndarray) -> None:
+    """rpy_rates_lane gives the angle rates whose E(rpy) image is ω (E⁻¹ ω)."""
+    rates = np.array(spatial.rpy_rates_lane(rpy[1], rpy[2], *omega))
+    np.testing.assert_allclose(spatial.rpy_rate_matrix(rpy) @ rates, omega, rtol=0, atol=1e-9)
+
+
 @settings(max_examples=50)
 @given(rpys, arrays(np.float64, (3,), elements=finite))
 def test_transforms_compose_invert_and_round_trip(rpy: np.ndarray, p: np.ndarray) -> None:

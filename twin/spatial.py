@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline
 
 
@@ -46,21 +47,9 @@ def matrix_to_rpy(R: np.ndarray) -> np.ndarray:
 
 
 def rpy_rate_matrix(rpy: np.ndarray) -> np.ndarray:
-    """E(rpy) with ω = E · d(rpy)/dt, ω in the parent (base) frame; (..., 3) → (..., 3, 3).
-
-    For R = Rz(ψ)Ry(θ)Rx(φ): ω = ψ̇ e_z + θ̇ Rz e_y + φ̇ Rz Ry e_x.
-    """
-    ct, st = np.cos(rpy[..., 1]), np.sin(rpy[..., 1])
-    cp, sp = np.cos(rpy[..., 2]), np.sin(rpy[..., 2])
-    o, i = np.zeros_like(ct), np.ones_like(ct)
-    return np.stack(
-        [
-            np.stack([cp * ct, -sp, o], -1),
-            np.stack([sp * ct, cp, o], -1),
-            np.stack([-st, o, i], -1),
-        ],
-        -2,
-    )
+    """E(rpy) with ω = E · d(rpy)/dt, ω in the parent (base) frame; (..., 3) → (..., 3, 3), by
+    `rpy_rate_entries` lane by lane."""
+    return RPY_RATE([rpy], [], [(3, 3)])[0]
 
 
 def so3_exp(w: np.ndarray) -> np.ndarray:
@@ -203,6 +192,42 @@ def rpy_to_matrix_lane(roll: float, pitch: float, yaw: float, R_out: np.ndarray)
     R_out[2, 0] = -st
     R_out[2, 1] = ct * sf
     R_out[2, 2] = ct * cf
+
+
+@register_inline
+def rpy_rate_entries(pitch: float, yaw: float) -> tuple[float, float, float, float, float]:
+    """The entries of E(rpy) (ω = E d(rpy)/dt, ω in the parent frame) that are not 0 or 1: its
+    roll column (cψ cθ, sψ cθ, −sθ) and the top of its pitch column (−sψ, cψ); the yaw column
+    is e_z. For R = Rz(ψ)Ry(θ)Rx(φ): ω = ψ̇ e_z + θ̇ Rz e_y + φ̇ Rz Ry e_x; pitch θ, yaw ψ [rad].
+    """
+    ct, st = math.cos(pitch), math.sin(pitch)
+    cp, sp = math.cos(yaw), math.sin(yaw)
+    return cp * ct, sp * ct, -st, -sp, cp
+
+
+@register_inline
+def rpy_rates_lane(
+    pitch: float, yaw: float, w0: float, w1: float, w2: float
+) -> tuple[float, float, float]:
+    """d(rpy)/dt = E(rpy)⁻¹ ω [rad/s] of an angular velocity ω (w0, w1, w2) [rad/s] in the
+    parent frame (`rpy_rate_entries`' inverse): (cψ ω_x + sψ ω_y) / cθ, −sψ ω_x + cψ ω_y,
+    ω_z + tθ (cψ ω_x + sψ ω_y); pitch θ, yaw ψ [rad], |θ| < π/2."""
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    across = cy * w0 + sy * w1
+    return across / math.cos(pitch), -sy * w0 + cy * w1, w2 + math.tan(pitch) * across
+
+
+def _rpy_rate_batch(rpy: np.ndarray, E: np.ndarray) -> None:
+    """E(rpy) (`rpy_rate_entries`) of rpy (N, 3) [rad] into E (N, 3, 3)."""
+    for k in range(rpy.shape[0]):
+        e00, e10, e20, e01, e11 = rpy_rate_entries(rpy[k, 1], rpy[k, 2])
+        E[k, 0, 0], E[k, 0, 1], E[k, 0, 2] = e00, e01, 0.0
+        E[k, 1, 0], E[k, 1, 1], E[k, 1, 2] = e10, e11, 0.0
+        E[k, 2, 0], E[k, 2, 1], E[k, 2, 2] = e20, 0.0, 1.0
+
+
+#: `rpy_rate_matrix` over a batch
+RPY_RATE = LaneBatch(_rpy_rate_batch, cores=(1,))
 
 
 @register_inline

@@ -22,7 +22,7 @@ from twin.batch import LaneBatch
 from twin.compiled import compile_runner, register_jitable
 from twin.mechanisms.legs import leg_arm_lane, leg_component, leg_twist_row_lane
 from twin.mechanisms.newton import CONVERGED, STEPPED, NewtonResult, newton_step_lane
-from twin.spatial import rpy_to_matrix_lane
+from twin.spatial import rpy_rate_entries, rpy_to_matrix_lane
 
 #: [mm | rad] a Newton-Raphson solution on a state limit may land this far outside it.
 STATE_SLACK = 1e-9
@@ -136,12 +136,13 @@ def platform_kinematics(
     (15)-(18)). The Jacobian is the leg twist rows [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ]
     (`leg_twist_row_lane`) composed with the state-rate map: the Upu3Up's coupled twist
     (seed 001 eq (24): the top turns about O with ω = α̇ e_x + β̇ Rx(α) e_y), the Upr4's
-    v = ż e_z, ω = E(roll, pitch, 0) (roll̇, pitcḣ, 0) (`Upr4.jacobian`).
+    v = ż e_z, ω = E(roll, pitch, 0) (roll̇, pitcḣ, 0) (`twin.spatial.rpy_rate_entries`,
+    `Upr4.jacobian`).
     """
     platform_frame(state, g, R, o)
     upu = g["mechanism"] == MECHANISM_UPU3UP
     ca, sa = np.cos(state[1]), np.sin(state[1])  # Upu3Up: Rx(α) e_y = (0, cos α, sin α)
-    ct, st = np.cos(state[2]), np.sin(state[2])  # Upr4: E's roll column (cos θ, 0, −sin θ)
+    e00, e10, e20, e01, e11 = rpy_rate_entries(state[2], 0.0)  # Upr4: E(roll, pitch, 0)
     base, top = g["base_hinges"], g["platform_hinges"]
     for i in range(g["n_legs"]):
         v0 = leg_component(R, o, base, top, i, 0)
@@ -158,10 +159,10 @@ def platform_kinematics(
             J[i, 0] = n0 * R[0, 2] + n1 * R[1, 2] + n2 * R[2, 2]
             J[i, 1] = n1 * -c2 + n2 * c1 + m0  # e_x × O1 = (0, −c2, c1)
             J[i, 2] = n0 * (ca * c2 - sa * c1) + n1 * (sa * c0) - n2 * (ca * c0) + m1 * ca + m2 * sa
-        else:
+        else:  # (arm × n_i)ᵀ E's roll and pitch columns
             J[i, 0] = n2
-            J[i, 1] = m0 * ct - m2 * st
-            J[i, 2] = m1
+            J[i, 1] = m0 * e00 + m1 * e10 + m2 * e20
+            J[i, 2] = m0 * e01 + m1 * e11
 
 
 @register_jitable

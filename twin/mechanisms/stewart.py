@@ -32,7 +32,7 @@ from twin.mechanisms.newton import (
     newton_step_lane,
     start,
 )
-from twin.spatial import pose_to_transform, rpy_to_matrix_lane
+from twin.spatial import pose_to_transform, rpy_rate_entries, rpy_to_matrix_lane
 from twin.validation import as_array
 
 
@@ -64,23 +64,22 @@ def stewart_kinematics_lane(
 
     l_i = |ᴮR_P ᴾP_i + ᴮp − ᴮB_i| (seed 000 eqs (3)-(5), `leg_vectors_lane`); the rows
     [n_iᵀ, (ᴮR_P ᴾP_i × n_i)ᵀ] of seed 000 eq (8) (`leg_twist_row_lane`) with the angular part
-    turned to Euler rates, ω = E(rpy) d(rpy)/dt (`twin.spatial.rpy_rate_matrix`).
+    turned to Euler rates, ω = E(rpy) d(rpy)/dt (`twin.spatial.rpy_rate_entries`).
 
     Args:
         base, platform: (18,) ᴮB_i and ᴾP_i row-major [m].
     """
     rpy_to_matrix_lane(pose[3], pose[4], pose[5], R)  # seed 000 eq (3)
     leg_vectors_lane(R, pose, base, platform, vectors, lengths)
-    ct, st = np.cos(pose[4]), np.sin(pose[4])
-    cp, sp = np.cos(pose[5]), np.sin(pose[5])
+    e00, e10, e20, e01, e11 = rpy_rate_entries(pose[4], pose[5])
     for i in range(6):
         a0, a1, a2 = leg_arm_lane(R, platform, i)
         v0, v1, v2 = vectors[i, 0], vectors[i, 1], vectors[i, 2]
         n0, n1, n2, m0, m1, m2 = leg_twist_row_lane(a0, a1, a2, v0, v1, v2, lengths[i])
         J[i, 0], J[i, 1], J[i, 2] = n0, n1, n2
-        # (arm × n_i)ᵀ E: E's columns (cψ cθ, sψ cθ, −sθ), (−sψ, cψ, 0), (0, 0, 1)
-        J[i, 3] = m0 * cp * ct + m1 * sp * ct - m2 * st
-        J[i, 4] = -m0 * sp + m1 * cp
+        # (arm × n_i)ᵀ E, E's yaw column e_z
+        J[i, 3] = m0 * e00 + m1 * e10 + m2 * e20
+        J[i, 4] = m0 * e01 + m1 * e11
         J[i, 5] = m2
 
 

@@ -43,7 +43,7 @@ from twin.planners.lane_rows import D_QP_ACTIVE, D_QP_LEVEL, FAULT_INFEASIBLE
 from twin.planners.parameters import KIND_QP, parameter_record, refuse
 from twin.planners.qp_levels import N_POSITION, levels_work, solve_levels_lane
 from twin.planners.tasks import tip_task_lane
-from twin.spatial import rpy_to_matrix_lane
+from twin.spatial import rpy_rates_lane, rpy_to_matrix_lane
 
 if TYPE_CHECKING:  # the object imports this module: its step sits below it
     from twin.planners.qp import QPPlanner
@@ -175,21 +175,18 @@ def joint_rows_lane(
     A: np.ndarray, lower: np.ndarray, upper: np.ndarray,
 ) -> None:  # fmt: skip
     """The Table 6 rows 9 … 17 of A and their damper bounds (`JointLimit`): ẋ_B = ᴮR_P ᴾṖ,
-    d(rpy)/dt = E(rpy)⁻¹ ᴮR_P ω_P (twin.spatial.rpy_rate_matrix), q̇1, q̇2, ḋ3, kept from the
+    d(rpy)/dt = E(rpy)⁻¹ ᴮR_P ω_P (`twin.spatial.rpy_rates_lane`), q̇1, q̇2, ḋ3, kept from the
     limits by e_trans s (position) and θ² (roll, pitch, yaw) too (bounds from
     `step_bounds_lane`); p, c as in `leg_rows_lane`."""
     theta, s_max, e_trans = bounds[0], bounds[1], bounds[3]
     for i in range(9, N_QP_ROWS):
         for j in range(9):
             A[i, j] = 0.0
-    ct, tt = math.cos(x[4]), math.tan(x[4])
-    cy, sy = math.cos(x[5]), math.sin(x[5])
     for j in range(3):
         A[9 + j, 0], A[9 + j, 1], A[9 + j, 2] = R[j, 0], R[j, 1], R[j, 2]
-        across = cy * R[0, j] + sy * R[1, j]  # (cψ ω_x + sψ ω_y) per ω_P,j
-        A[12, 3 + j] = across / ct
-        A[13, 3 + j] = -sy * R[0, j] + cy * R[1, j]
-        A[14, 3 + j] = R[2, j] + tt * across
+        # column j: the Euler rates of ω_P = e_j, ᴮR_P e_j in B
+        A[12, 3 + j], A[13, 3 + j], A[14, 3 + j] = rpy_rates_lane(x[4], x[5], R[0, j], R[1, j],
+                                                                  R[2, j])  # fmt: skip
     A[15, 6], A[16, 7], A[17, 8] = 1.0, 1.0, 1.0
     gain = p.joint_gain
     for j in range(9):
