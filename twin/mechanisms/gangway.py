@@ -90,24 +90,10 @@ class Gangway:
         return GANGWAY_TIP([q], [float(self.d1), float(self.a1)], [(4, 4)])[0]
 
     def jacobian(self, q: ArrayLike) -> np.ndarray:
-        """J_s (..., 6, 3): [ᴾṖ_E; ᴾω_E] = J_s [q̇1, q̇2, ḋ3], in frame 0 = P; eq (11)."""
+        """J_s (..., 6, 3): [ᴾṖ_E; ᴾω_E] = J_s [q̇1, q̇2, ḋ3], in frame 0 = P; eq (11), by
+        `gangway_jacobian_lane` lane by lane."""
         q = as_array(q, "q", (3,))
-        s1, c1 = np.sin(q[..., 0]), np.cos(q[..., 0])
-        theta2 = q[..., 1] + np.pi / 2
-        s2, c2 = np.sin(theta2), np.cos(theta2)
-        d3, a1 = q[..., 2], self.a1
-        o, i = np.zeros_like(s1), np.ones_like(s1)
-        return np.stack(
-            [
-                np.stack([-a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2], -1),
-                np.stack([a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2], -1),
-                np.stack([o, d3 * s2, -c2], -1),
-                np.stack([o, s1, o], -1),
-                np.stack([o, -c1, o], -1),
-                np.stack([i, o, o], -1),
-            ],
-            -2,
-        )
+        return GANGWAY_JACOBIAN([q], [float(self.d1), float(self.a1)], [(6, 3)])[0]
 
     def inverse(self, position: ArrayLike, *, check: bool = True) -> np.ndarray:
         """Joints q (..., 3) that put the tip at `position` (..., 3) [m] in frame P.
@@ -183,6 +169,26 @@ def gangway_tip_lane(
     G_out[3, 0], G_out[3, 1], G_out[3, 2], G_out[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
+@register_inline
+def gangway_jacobian_lane(G: np.ndarray, d3: float, a1: float, J: np.ndarray, column: int) -> None:
+    """J_s (seed 000 eq (11), `Gangway.jacobian`): [ᴾṖ_E; ᴾω_E] = J_s [q̇1, q̇2, ḋ3] in P, into
+    the columns column … column + 2 of J (≥ 6, ≥ column + 3).
+
+    Args:
+        G: (4, 4) ᴾT_E of the joints (`gangway_tip_lane`: its rotation holds the sines and
+            cosines of q1 and θ2 = q2 + 90°).
+        d3, a1: [m] the gangway length and `Gangway.a1`.
+    """
+    s1, c1, s2, c2 = G[0, 1], -G[1, 1], G[2, 0], -G[2, 2]
+    c = column
+    J[0, c], J[0, c + 1], J[0, c + 2] = -a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2
+    J[1, c], J[1, c + 1], J[1, c + 2] = a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2
+    J[2, c], J[2, c + 1], J[2, c + 2] = 0.0, d3 * s2, -c2
+    J[3, c], J[3, c + 1], J[3, c + 2] = 0.0, s1, 0.0
+    J[4, c], J[4, c + 1], J[4, c + 2] = 0.0, -c1, 0.0
+    J[5, c], J[5, c + 1], J[5, c + 2] = 1.0, 0.0, 0.0
+
+
 @register_borrowing
 def gangway_inverse_lane(
     px: float, py: float, pz: float, d1: float, a1: float, q_out: np.ndarray
@@ -204,12 +210,21 @@ def _tip_batch(q: np.ndarray, d1: float, a1: float, out: np.ndarray) -> None:
         gangway_tip_lane(q[k, 0], q[k, 1], q[k, 2], d1, a1, out[k])
 
 
+def _jacobian_batch(q: np.ndarray, d1: float, a1: float, out: np.ndarray) -> None:
+    """`gangway_jacobian_lane` over joints q (N, 3) into out (N, 6, 3)."""
+    G = np.empty((4, 4))
+    for k in range(q.shape[0]):
+        gangway_tip_lane(q[k, 0], q[k, 1], q[k, 2], d1, a1, G)
+        gangway_jacobian_lane(G, q[k, 2], a1, out[k], 0)
+
+
 def _inverse_batch(p: np.ndarray, d1: float, a1: float, out: np.ndarray) -> None:
     """`gangway_inverse_lane` over tip positions p (N, 3) into out (N, 3)."""
     for k in range(p.shape[0]):
         gangway_inverse_lane(p[k, 0], p[k, 1], p[k, 2], d1, a1, out[k])
 
 
-#: the lanes over a batch: what `Gangway.forward` and `Gangway.inverse` call
+#: the lanes over a batch: what `Gangway.forward`, `Gangway.jacobian` and `Gangway.inverse` call
 GANGWAY_TIP = LaneBatch(_tip_batch, cores=(1,))
+GANGWAY_JACOBIAN = LaneBatch(_jacobian_batch, cores=(1,))
 GANGWAY_INVERSE = LaneBatch(_inverse_batch, cores=(1,))

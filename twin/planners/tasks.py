@@ -12,6 +12,7 @@ import numpy as np
 
 from twin.batch import LaneBatch
 from twin.compiled import register_inline
+from twin.mechanisms.gangway import gangway_jacobian_lane
 from twin.mechanisms.hybrid import HybridBoardingSystem, tip_transform
 from twin.planners.gains import proportional_gain
 from twin.planners.parameters import refuse
@@ -246,8 +247,8 @@ def tip_task_lane(
 ) -> None:
     """The tip task of one lane (`TipPoseTask`): the task Jacobian in P,
     K = [[I, −[ᴾp_E]×, J_s,p], [0, I, J_s,ω]] (seed 000 eq (24) with D = diag(ᴮR_P, ᴮR_P)
-    factored out; J_s eq (11)) into K (6, 9), and the demand ẋ_d + k_e e in B (eq (34);
-    e = [p_d − p; log(R_d Rᵀ)], SPEC erratum 6) into demand (6,).
+    factored out; J_s eq (11), `gangway_jacobian_lane`) into K (6, 9), and the demand
+    ẋ_d + k_e e in B (eq (34); e = [p_d − p; log(R_d Rᵀ)], SPEC erratum 6) into demand (6,).
 
     Args:
         x: (9,) xi [m, rad]; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
@@ -266,13 +267,7 @@ def tip_task_lane(
             K[a, j] = 1.0 if a == j else 0.0
     gx, gy, gz = G[0, 3], G[1, 3], G[2, 3]
     K[0, 4], K[0, 5], K[1, 3], K[1, 5], K[2, 3], K[2, 4] = gz, -gy, -gz, gx, gy, -gx
-    # sin, cos of q1 and θ2 = q2 + 90° as gangway_tip_lane put them in ᴾT_E's rotation
-    s1, c1, s2, c2 = G[0, 1], -G[1, 1], G[2, 0], -G[2, 2]
-    d3 = x[8]
-    K[0, 6], K[0, 7], K[0, 8] = -a1 * s1 - d3 * s1 * s2, d3 * c1 * c2, c1 * s2
-    K[1, 6], K[1, 7], K[1, 8] = a1 * c1 + d3 * c1 * s2, d3 * s1 * c2, s1 * s2
-    K[2, 7], K[2, 8] = d3 * s2, -c2
-    K[3, 7], K[4, 7], K[5, 6] = s1, -c1, 1.0
+    gangway_jacobian_lane(G, x[8], a1, K, 6)
 
 
 def target_rows(target: TipTarget) -> np.ndarray:
