@@ -40,6 +40,7 @@ import math
 import numpy as np
 
 from twin.compiled import register_borrowing, register_inline, register_jitable
+from twin.planners.linalg import cholesky_lane
 
 #: what `solve_dense_qp` returns
 OPTIMAL, INFEASIBLE, NOT_CONVEX, ITERATION_LIMIT = 0, 1, 2, 3
@@ -173,21 +174,13 @@ def drop_constraint(
 
 @register_inline
 def cholesky(H: np.ndarray, n: int, R: np.ndarray, inverse: np.ndarray) -> bool:
-    """H = L Lᵀ (Cholesky; L in R's lower triangle: R is free until a constraint is active),
-    inverse (n,) = 1 / L's diagonal; False where H is not positive definite."""
+    """H = L Lᵀ (`twin.planners.linalg.cholesky_lane`; L in R's lower triangle: R is free
+    until a constraint is active), inverse (n,) = 1 / L's diagonal; False where H is not
+    positive definite."""
+    if not cholesky_lane(H, n, 0.0, R):
+        return False
     for j in range(n):
-        s = H[j, j]
-        for k in range(j):
-            s -= R[j, k] * R[j, k]
-        if not s > 0.0:
-            return False
-        R[j, j] = math.sqrt(s)
-        inverse[j] = 1.0 / R[j, j]
-        for i in range(j + 1, n):
-            s = H[i, j]
-            for k in range(j):
-                s -= R[i, k] * R[j, k]
-            R[i, j] = s * inverse[j]
+        inverse[j] = R[j, j]  # cholesky_lane keeps the diagonal inverted
     return True
 
 

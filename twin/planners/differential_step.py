@@ -203,11 +203,11 @@ def differential_velocity(
         for a in range(6):
             column[a] = K[a, posture] * wanted
     shift = p.epsilon ** 2 * (1.0 + 1e-6)
-    if not cholesky_lane(A, 0.0, L):
+    if not cholesky_lane(A, 6, 0.0, L):
         return NEEDS_SVD
     # the shifted factor only where the bound does not decide; A's own lower triangle takes
     # it (each entry is read once, before its place is written), L stays A's factor
-    if not (smallest_eigenvalue_bound(L) > 2.0 * shift or cholesky_lane(A, shift, A)):
+    if not (smallest_eigenvalue_bound(L) > 2.0 * shift or cholesky_lane(A, 6, shift, A)):
         return NEEDS_SVD
     # σ_min(J W^½) > ε: λ = 0, J_W⁺ = W Kᵀ (K W Kᵀ)⁻¹ Dᵀ (eq (31))
     cholesky_pinv_apply(K, w, L, b, y, v_out)  # J_W⁺ ẋ; the null-space term in the finish

@@ -91,16 +91,17 @@ def weighted_gram_lane(K: np.ndarray, w: np.ndarray, row: np.ndarray, A_out: np.
 
 
 @register_inline
-def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
-    """Lower Cholesky factor of A − shift·I (A (6, 6) symmetric; its lower triangle is read)
-    into L's lower triangle (L (6, 6), the strict upper one left as it was; L may be A itself),
-    its diagonal stored inverted: L[j, j] = 1 / l_jj, so the factorisation and the solves
-    (`cholesky_pinv_apply`) multiply where they would divide (a division costs several
-    multiplications' latency, and these chains are latency-bound).
+def cholesky_lane(A: np.ndarray, n: int, shift: float, L: np.ndarray) -> bool:
+    """Lower Cholesky factor of A − shift·I (A (≥ n, ≥ n) symmetric; the lower triangle of its
+    first n rows and columns is read) into L's lower triangle (L (≥ n, ≥ n), the strict upper
+    one left as it was; L may be A itself), its diagonal stored inverted: L[j, j] = 1 / l_jj,
+    so the factorisation and the solves (`cholesky_pinv_apply`, `twin.planners.active_set`)
+    multiply where they would divide (a division costs several multiplications' latency, and
+    these chains are latency-bound).
 
     Returns whether A − shift·I is positive definite (every pivot > 0; False on a NaN).
     """
-    for j in range(6):
+    for j in range(n):
         d = A[j, j] - shift
         for k in range(j):
             d -= L[j, k] * L[j, k]
@@ -108,7 +109,7 @@ def cholesky_lane(A: np.ndarray, shift: float, L: np.ndarray) -> bool:
             return False
         inverse = 1.0 / math.sqrt(d)
         L[j, j] = inverse
-        for i in range(j + 1, 6):
+        for i in range(j + 1, n):
             s = A[i, j]
             for k in range(j):
                 s -= L[i, k] * L[j, k]

@@ -565,8 +565,8 @@ def _factor_and_bound(A: np.ndarray, shift: float) -> tuple[bool, float, bool]:
     """`cholesky_lane` of A into a new L (whether it succeeded), the bound of L, and whether
     factoring a copy of A in place gave the same."""
     L, inplace = np.zeros((6, 6)), A.copy()
-    ok = cholesky_lane(A, shift, L)
-    same = cholesky_lane(inplace, shift, inplace) == ok
+    ok = cholesky_lane(A, 6, shift, L)
+    same = cholesky_lane(inplace, 6, shift, inplace) == ok
     for i in range(6):
         for j in range(i + 1):
             same = same and (not ok or inplace[i, j] == L[i, j])
