@@ -42,16 +42,14 @@ from twin.planners.lane_rows import (
     TARGET_P,
     TARGET_R,
     TARGET_V,
-    TARGET_W,
 )
 from twin.planners.parameters import MEMORY_SIZE, refuse
 from twin.planners.target import TipTarget
-from twin.planners.tasks import target_rows, tip_error_lane
+from twin.planners.tasks import advance_target_lane, target_rows, tip_error_lane
 from twin.spatial import (
     matrix_to_rpy_lane,
     rpy_to_matrix_lane,
     se3_log_lane,
-    so3_exp_lane,
 )
 from twin.validation import as_array
 
@@ -111,24 +109,6 @@ def compose_lane(
                 R_out[i, j] = s
             else:
                 p_out[i] = s + p[i]
-
-
-@register_inline
-def predicted_target_lane(
-    target: np.ndarray, dt: float, E: np.ndarray, R_out: np.ndarray, p_out: np.ndarray
-) -> None:
-    """The target one dt ahead, T_a = [exp(ω dt) R_d, p_d + v dt] (seed 004 §1): R_out (3, 3),
-    p_out (3,) [m] in B, from the target row (18,) (R_d row-major); E (3, 3) scratch."""
-    w = TARGET_W
-    so3_exp_lane(target[w] * dt, target[w + 1] * dt, target[w + 2] * dt, E)
-    for i in range(3):
-        for j in range(3):
-            R_out[i, j] = (
-                E[i, 0] * target[TARGET_R + j]
-                + E[i, 1] * target[TARGET_R + 3 + j]
-                + E[i, 2] * target[TARGET_R + 6 + j]
-            )
-        p_out[i] = target[TARGET_P + i] + target[TARGET_V + i] * dt
 
 
 @register_inline
@@ -238,7 +218,9 @@ def allocation_velocity(
     E, Ra, Rc, RP, Rrel = rotations[0], rotations[1], rotations[2], rotations[3], rotations[4]
     pa, pc, pP, rpy = points[0], points[1], points[2], points[3]
     q, following, prel = points[4], points[5], points[6]
-    predicted_target_lane(target, dt, E, Ra, pa)
+    # the target one dt ahead, T_a = [exp(ω dt) R_d, p_d + v dt] (seed 004 §1)
+    advance_target_lane(target[TARGET_R : TARGET_R + 9], target[TARGET_P : TARGET_P + 3],
+                        target[TARGET_V : TARGET_V + 6], dt, E, Ra, pa)  # fmt: skip
     platform_pose_lane(method, prm, memory, Ra, pa, Rc, pc, rpy, RP, pP)
     # gangway joints: conv1 keeps them, else seed 004 eqs (7)-(8) for the tip in P
     if method == METHOD_CONV1:

@@ -28,7 +28,7 @@ from twin.planners.gains import proportional_gain
 from twin.planners.parameters import (
     family_dtype,
 )
-from twin.spatial import so3_exp_lane
+from twin.planners.tasks import advance_target_lane
 
 LAWS = ("ik", "pid")
 #: `PLATFORM_PARAMETERS["law"]` of each law
@@ -144,27 +144,6 @@ def desired_lane(
         clipped = clipped or value != lengths[i]
         lengths[i] = value
     return clipped
-
-
-@register_jitable
-def advance_target_lane(
-    R_d: np.ndarray,
-    p_d: np.ndarray,
-    twist: np.ndarray,
-    dt: float,
-    R_out: np.ndarray,
-    p_out: np.ndarray,
-    E: np.ndarray,
-) -> None:
-    """`advance_target` of one target (R_d (9,) row-major, p_d (3,) [m], twist (6,) [m/s,
-    rad/s]) over dt [s]: R_d ← exp(ω dt) R_d (`so3_exp_lane`) into R_out (9,), p_d ← p_d + ṗ_d dt
-    into p_out (3,); E (≥ 3, ≥ 3) scratch."""
-    so3_exp_lane(twist[3] * dt, twist[4] * dt, twist[5] * dt, E)
-    for j in range(3):
-        d0, d1, d2 = R_d[j], R_d[3 + j], R_d[6 + j]
-        for i in range(3):
-            R_out[3 * i + j] = E[i, 0] * d0 + E[i, 1] * d1 + E[i, 2] * d2
-        p_out[j] = p_d[j] + twist[j] * dt
 
 
 @register_jitable
@@ -326,7 +305,7 @@ def plan_lane(
             previous = m["previous"][i] if has_previous else error
             command[i] = kp * error + ki * m["integral"][i] + kd * (error - previous) / dt
     else:
-        advance_target_lane(R_d, p_d, twist, dt, ahead[0:9], ahead[9:12], M)
+        advance_target_lane(R_d, p_d, twist, dt, M, ahead[0:9].reshape((3, 3)), ahead[9:12])
         ahead_clipped = desired_lane(ahead[0:9], ahead[9:12], p["z_hold"], g, scratch, l_next,
                                      R, o, J)  # fmt: skip
         clipped = clipped or ahead_clipped
@@ -431,13 +410,10 @@ def actuate_lanes(
 def _advance_batch(rows: np.ndarray, dt: float, T: np.ndarray) -> None:
     """`advance_target_lane` of target rows (N, 18) (`target_rows`) over dt [s] into T (N, 4, 4)."""
     E = np.zeros((3, 3))
-    R, p = np.zeros(9), np.zeros(3)
     for k in range(rows.shape[0]):
-        advance_target_lane(rows[k, 0:9], rows[k, 9:12], rows[k, 12:18], dt, R, p, E)
+        advance_target_lane(rows[k, 0:9], rows[k, 9:12], rows[k, 12:18], dt, E, T[k, :3, :3],
+                            T[k, :3, 3])  # fmt: skip
         for i in range(3):
-            for j in range(3):
-                T[k, i, j] = R[3 * i + j]
-            T[k, i, 3] = p[i]
             T[k, 3, i] = 0.0
         T[k, 3, 3] = 1.0
 

@@ -17,7 +17,7 @@ from twin.mechanisms.hybrid import HybridBoardingSystem, tip_transform
 from twin.planners.gains import proportional_gain
 from twin.planners.parameters import refuse
 from twin.planners.target import TipTarget
-from twin.spatial import rpy_to_matrix_lane, so3_log_lane
+from twin.spatial import rpy_to_matrix_lane, so3_exp_lane, so3_log_lane
 from twin.validation import as_array
 
 
@@ -268,6 +268,24 @@ def tip_task_lane(
     gx, gy, gz = G[0, 3], G[1, 3], G[2, 3]
     K[0, 4], K[0, 5], K[1, 3], K[1, 5], K[2, 3], K[2, 4] = gz, -gy, -gz, gx, gy, -gx
     gangway_jacobian_lane(G, x[8], a1, K, 6)
+
+
+@register_inline
+def advance_target_lane(
+    R_d: np.ndarray, p_d: np.ndarray, twist: np.ndarray, dt: float, E: np.ndarray,
+    R_out: np.ndarray, p_out: np.ndarray,
+) -> None:  # fmt: skip
+    """A target (R_d (9,) row-major, p_d (3,) [m], twist (6,) [m/s, rad/s]: a `TARGET_ROW`'s
+    parts) moved by its twist, held constant over dt [s]: exp(ω dt) R_d into R_out (3, 3)
+    (`so3_exp_lane`; Ṙ_d = [ω]× R_d, ω in B), p_d + ṗ_d dt into p_out (3,) [m]. The one-step
+    prediction of seed 004 §1 and the `ik` law's next sample (`twin.planners.platform.
+    advance_target`); E (≥ 3, ≥ 3) scratch."""
+    so3_exp_lane(twist[3] * dt, twist[4] * dt, twist[5] * dt, E)
+    for j in range(3):
+        d0, d1, d2 = R_d[j], R_d[3 + j], R_d[6 + j]
+        for i in range(3):
+            R_out[i, j] = E[i, 0] * d0 + E[i, 1] * d1 + E[i, 2] * d2
+        p_out[j] = p_d[j] + twist[j] * dt
 
 
 def target_rows(target: TipTarget) -> np.ndarray:
