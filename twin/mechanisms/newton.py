@@ -2,10 +2,10 @@
 
 Seed 000 (Stewart), seed 001 eqs (20)-(24) (3UPU_UP) and the 4-UPR all solve the leg equations
 l(x) = L for the state x; with more legs than unknowns (4-UPR) the step is Gauss-Newton's
-least-squares one. The step, its linear algebra and its stopping test are written once here
-(`newton_step_lane`), as lane functions (floats and small arrays; compiled by numba into the
-kernels and batch loops that call them, `twin.compiled`; plain Python without numba). Each
-mechanism's lane loops them over its own leg equations (`twin.mechanisms.platforms.
+least-squares one. The loop, its step, their linear algebra and stopping test are written once
+here (`newton_loop`, `newton_step_lane`), as lane functions (floats and small arrays; compiled
+by numba into the kernels and batch loops that call them, `twin.compiled`; plain Python without
+numba). Each mechanism hands the loop its own leg equations (`twin.mechanisms.platforms.
 platform_newton`, `twin.mechanisms.stewart.stewart_newton`), which the engine and the objects'
 `forward` both run; the objects wrap the loop's outcome (`NewtonResult`) with their own checks
 and error messages.
@@ -13,6 +13,7 @@ and error messages.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -171,3 +172,34 @@ def newton_step_lane(
         small = small and abs(step[j]) <= step_tol
         x[j] = x[j] - step[j]
     return CONVERGED if small else STEPPED
+
+
+@register_jitable
+def newton_loop(
+    evaluate: Callable[..., None],
+    data: tuple,
+    lengths: np.ndarray,
+    m: int,
+    tol: float,
+    step_tol: float,
+    max_iter: int,
+    x: np.ndarray,
+    residual: np.ndarray,
+    J: np.ndarray,
+    M: np.ndarray,
+    step: np.ndarray,
+) -> tuple[int, int]:
+    """Newton-Raphson on l(x) − L from the start x (n,), in place: at most max_iter + 1
+    evaluations of a mechanism's leg equations, `evaluate(x, data, residual, J)` (a lane
+    function writing l(x) into residual (≥ m,) and ∂l/∂x into J (≥ m, n); data its own
+    arguments), each followed by `newton_step_lane` (tol, step_tol, M and step as there) on
+    l(x) − L for the lengths L (m,). Returns (the last step's outcome, `STEPPED` if max_iter
+    ran out; the steps taken before it); residual and step are the last evaluation's."""
+    for iteration in range(max_iter + 1):
+        evaluate(x, data, residual, J)
+        for i in range(m):
+            residual[i] = residual[i] - lengths[i]
+        outcome = newton_step_lane(residual, J, m, tol, step_tol, M, step, x)
+        if outcome != STEPPED:
+            return outcome, iteration
+    return STEPPED, max_iter

@@ -21,7 +21,7 @@ import numpy as np
 from twin.batch import LaneBatch
 from twin.compiled import compile_runner, register_jitable
 from twin.mechanisms.legs import leg_arm_lane, leg_component, leg_twist_row_lane
-from twin.mechanisms.newton import CONVERGED, STEPPED, NewtonResult, newton_step_lane
+from twin.mechanisms.newton import CONVERGED, NewtonResult, newton_loop
 from twin.spatial import rpy_rate_entries, rpy_to_matrix_lane
 
 #: [mm | rad] a Newton-Raphson solution on a state limit may land this far outside it.
@@ -176,24 +176,24 @@ def platform_newton(
     w: NewtonWork,
 ) -> tuple[int, int]:
     """Newton-Raphson on l(x) − L from the start x (3,), in place (seed 001 eqs (20)-(24); the
-    Upr4's four limbs a Gauss-Newton least-squares step): at most max_iter + 1 evaluations of
-    `platform_kinematics`, each followed by `newton_step_lane` with tol [native] on the
+    Upr4's four limbs a Gauss-Newton least-squares step): `newton_loop`, at most max_iter + 1
+    evaluations of `platform_kinematics`, each followed by its step with tol [native] on the
     residual and step_tol [native | rad] on the step. Returns (the last step's outcome,
     `twin.mechanisms.newton.STEPPED` if max_iter ran out; the steps taken before it).
 
     lengths (n,) [native]; g: a `PLATFORM_GEOMETRY` record; w: scratch, its residual and step
     the last evaluation's; x: after the last step taken (the root where converged).
     """
-    n = g["n_legs"]
-    residual = w.residual
-    for iteration in range(max_iter + 1):
-        platform_kinematics(x, g, w.R, w.o, residual, w.J, True)
-        for i in range(n):
-            residual[i] = residual[i] - lengths[i]  # seed 001 eq (20), in lengths
-        outcome = newton_step_lane(residual, w.J, n, tol, step_tol, w.M, w.step, x)
-        if outcome != STEPPED:
-            return outcome, iteration
-    return STEPPED, max_iter
+    return newton_loop(platform_legs_lane, (g, w.R, w.o), lengths, g["n_legs"], tol, step_tol,
+                       max_iter, x, w.residual, w.J, w.M, w.step)  # fmt: skip
+
+
+@register_jitable
+def platform_legs_lane(x: np.ndarray, data: tuple, lengths: np.ndarray, J: np.ndarray) -> None:
+    """`platform_kinematics` with its Jacobian as `newton_loop` calls it: data = (g, R, o);
+    the residual of seed 001 eq (20) is then taken in lengths."""
+    g, R, o = data
+    platform_kinematics(x, g, R, o, lengths, J, True)
 
 
 @register_jitable

@@ -26,10 +26,9 @@ from twin.mechanisms.legs import (
 )
 from twin.mechanisms.limits import LEG_PAST
 from twin.mechanisms.newton import (
-    STEPPED,
     NewtonResult,
     check_tolerances,
-    newton_step_lane,
+    newton_loop,
     start,
 )
 from twin.spatial import pose_to_transform, rpy_rate_entries, rpy_to_matrix_lane
@@ -98,19 +97,21 @@ def stewart_newton(
     M: np.ndarray,
     step: np.ndarray,
 ) -> tuple[int, int]:
-    """`StewartPlatform.forward` from the start pose x (6,), in place: Newton-Raphson on
-    l(x) − L (lengths (6,) [m]) with `stewart_kinematics_lane` and `newton_step_lane`, at most
-    max_iter + 1 evaluations, tol [m] on the residual. Returns (the last step's outcome,
-    STEPPED if max_iter ran out; the steps taken before it). R, vectors, J (6, 6), M (6, 7):
-    scratch; residual (6,), step (6,): the last evaluation's, written."""
-    for iteration in range(max_iter + 1):
-        stewart_kinematics_lane(x, base, platform, R, vectors, residual, J)
-        for i in range(6):
-            residual[i] = residual[i] - lengths[i]
-        outcome = newton_step_lane(residual, J, 6, tol, np.inf, M, step, x)
-        if outcome != STEPPED:
-            return outcome, iteration
-    return STEPPED, max_iter
+    """`StewartPlatform.forward` from the start pose x (6,), in place: `newton_loop` on
+    l(x) − L (lengths (6,) [m]) with `stewart_kinematics_lane`, at most max_iter + 1
+    evaluations, tol [m] on the residual. Returns (the last step's outcome, STEPPED if
+    max_iter ran out; the steps taken before it). R, vectors, J (6, 6), M (6, 7): scratch;
+    residual (6,), step (6,): the last evaluation's, written."""
+    return newton_loop(stewart_legs_lane, (base, platform, R, vectors), lengths, 6, tol, np.inf,
+                       max_iter, x, residual, J, M, step)  # fmt: skip
+
+
+@register_jitable
+def stewart_legs_lane(x: np.ndarray, data: tuple, lengths: np.ndarray, J: np.ndarray) -> None:
+    """`stewart_kinematics_lane` as `newton_loop` calls it: data = (base, platform, R,
+    vectors)."""
+    base, platform, R, vectors = data
+    stewart_kinematics_lane(x, base, platform, R, vectors, lengths, J)
 
 
 def _kinematics_batch(
