@@ -37,6 +37,7 @@ import numpy as np
 from twin.batch import LaneBatch
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS
+from twin.mechanisms.legs import leg_arm_lane, leg_component, leg_twist_row_lane
 from twin.planners.families import MIN_SPLIT, QP_PARAMETERS
 from twin.planners.gains import proportional_gain
 from twin.planners.lane_rows import D_QP_ACTIVE, D_QP_LEVEL, FAULT_INFEASIBLE
@@ -137,9 +138,10 @@ def leg_rows_lane(
     A: np.ndarray, lower: np.ndarray, upper: np.ndarray,
 ) -> None:  # fmt: skip
     """The leg rows 3 … 8 of A and their damper bounds (`LegStrokeLimit`): l̇_i =
-    (ᴮR_Pᵀ u_i)·ᴾṖ + (ᴾP_i × ᴮR_Pᵀ u_i)·ω_P (seed 000 eqs (4)-(8)), kept from the stroke's ends
-    by the step's second-order part too (`LegStrokeLimit`'s bound, from `step_bounds_lane`);
-    p, c the lane's `QP_PARAMETERS` and `HYBRID_CONSTANTS` records."""
+    (ᴮR_Pᵀ u_i)·ᴾṖ + ᴮR_Pᵀ(ᴮR_P ᴾP_i × u_i)·ω_P (seed 000 eqs (4)-(8): the legs by
+    `leg_component`, their twist rows by `leg_twist_row_lane`, turned into P), kept from the
+    stroke's ends by the step's second-order part too (`LegStrokeLimit`'s bound, from
+    `step_bounds_lane`); p, c the lane's `QP_PARAMETERS` and `HYBRID_CONSTANTS` records."""
     theta, s_max, e_rot, e_trans = bounds[0], bounds[1], bounds[2], bounds[3]
     hinges, base = c.platform_hinges, c.base_hinges
     arm = 0.0
@@ -152,19 +154,18 @@ def leg_rows_lane(
     margin_low = p.leg_margin + shift
     margin_high = p.leg_margin + shift + stretch
     for i in range(6):
-        P0, P1, P2 = hinges[3 * i], hinges[3 * i + 1], hinges[3 * i + 2]
-        l0 = R[0, 0] * P0 + R[0, 1] * P1 + R[0, 2] * P2 + x[0] - base[3 * i]
-        l1 = R[1, 0] * P0 + R[1, 1] * P1 + R[1, 2] * P2 + x[1] - base[3 * i + 1]
-        l2 = R[2, 0] * P0 + R[2, 1] * P1 + R[2, 2] * P2 + x[2] - base[3 * i + 2]
+        l0 = leg_component(R, x, base, hinges, i, 0)
+        l1 = leg_component(R, x, base, hinges, i, 1)
+        l2 = leg_component(R, x, base, hinges, i, 2)
         length = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
-        u0, u1, u2 = l0 / length, l1 / length, l2 / length
-        r0 = R[0, 0] * u0 + R[1, 0] * u1 + R[2, 0] * u2
-        r1 = R[0, 1] * u0 + R[1, 1] * u1 + R[2, 1] * u2
-        r2 = R[0, 2] * u0 + R[1, 2] * u1 + R[2, 2] * u2
+        a0, a1, a2 = leg_arm_lane(R, hinges, i)
+        n0, n1, n2, m0, m1, m2 = leg_twist_row_lane(a0, a1, a2, l0, l1, l2, length)
+        # the row against the body twist [ᴾṖ; ω_P]: diag(ᴮR_Pᵀ, ᴮR_Pᵀ) of the twist row's halves
         row = 3 + i
-        A[row, 0], A[row, 1], A[row, 2] = r0, r1, r2
-        A[row, 3], A[row, 4], A[row, 5] = P1 * r2 - P2 * r1, P2 * r0 - P0 * r2, P0 * r1 - P1 * r0
-        A[row, 6], A[row, 7], A[row, 8] = 0.0, 0.0, 0.0
+        for j in range(3):
+            A[row, j] = R[0, j] * n0 + R[1, j] * n1 + R[2, j] * n2
+            A[row, 3 + j] = R[0, j] * m0 + R[1, j] * m1 + R[2, j] * m2
+            A[row, 6 + j] = 0.0
         damper_lane(length, c.leg_min, c.leg_max, gain, margin_low, margin_high,
                     dt, lower, upper, 9 + row)  # fmt: skip
 
