@@ -123,3 +123,13 @@ def test_log_near_a_half_turn_keeps_the_angle(angle: float) -> None:
     w = spatial.so3_log(R)
     assert np.linalg.norm(w) == pytest.approx(angle, abs=1e-8)
     np.testing.assert_allclose(spatial.so3_exp(w), R, rtol=0, atol=1e-8)
+
+
+@given(rpys)
+def test_the_tilt_is_the_angle_of_the_body_z_axis_from_z_up(rpy: np.ndarray) -> None:
+    """tilt_lane (and TILT over arrays) of R e_z is scipy's rotation angle between R e_z and
+    e_z: the smallest rotation that takes one to the other."""
+    axis = Rotation.from_euler("xyz", rpy).as_matrix()[:, 2]
+    want = Rotation.align_vectors([axis], [[0.0, 0.0, 1.0]])[0].magnitude()
+    assert abs(spatial.tilt_lane(*axis) - want) <= 1e-9
+    assert abs(float(spatial.TILT(*axis)) - want) <= 1e-9

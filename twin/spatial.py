@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from twin.batch import LaneBatch
-from twin.compiled import register_borrowing, register_inline
+from twin.compiled import LaneUfunc, register_borrowing, register_inline
 
 
 def skew(v: np.ndarray) -> np.ndarray:
@@ -192,6 +192,18 @@ def rpy_to_matrix_lane(roll: float, pitch: float, yaw: float, R_out: np.ndarray)
     R_out[2, 0] = -st
     R_out[2, 1] = ct * sf
     R_out[2, 2] = ct * cf
+
+
+@register_inline
+def tilt_lane(x: float, y: float, z: float) -> float:
+    """Angle [rad] between a direction (x, y, z) and the z axis of its frame (a body axis and
+    inertial z up: a tilt), by atan2 of its horizontal and vertical parts, which resolves small
+    angles that acos cannot."""
+    return math.atan2(math.hypot(x, y), z)
+
+
+#: `tilt_lane` over broadcast arrays
+TILT = LaneUfunc(tilt_lane, 3)
 
 
 @register_inline

@@ -15,12 +15,13 @@ from __future__ import annotations
 import numpy as np
 
 from twin.sim.kernels.layout import N_TARGET
+from twin.spatial import TILT
 
 
 def tilt(R: np.ndarray, axis: int = 2) -> np.ndarray:
-    """Angle [rad] between a body axis (column `axis` of R (..., 3, 3)) and inertial z up."""
-    # atan2 of the horizontal and vertical parts resolves small angles that arccos cannot
-    return np.arctan2(np.hypot(R[..., 0, axis], R[..., 1, axis]), R[..., 2, axis])
+    """Angle [rad] between a body axis (column `axis` of R (..., 3, 3)) and inertial z up
+    (`twin.spatial.tilt_lane`)."""
+    return np.asarray(TILT(R[..., 0, axis], R[..., 1, axis], R[..., 2, axis]))
 
 
 def held_targets(

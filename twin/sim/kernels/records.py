@@ -41,7 +41,7 @@ from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
 from twin.planners.tasks import tip_error_lane
 from twin.sim.kernels.metrics import HybridLimits, hybrid_add_sample
-from twin.spatial import rpy_to_matrix_lane
+from twin.spatial import rpy_to_matrix_lane, tilt_lane
 
 #: Scalar record rows (`run_hybrid_records`' `scalars`).
 S_MANIPULABILITY, S_PHI_E, S_THETA_E, S_ALPHA_TOP, S_ALPHA_BOTTOM = 0, 1, 2, 3, 4
@@ -150,7 +150,7 @@ def record_from_tip(
     c2 = up[0] * u1 - up[1] * u0
     dot = up[0] * u0 + up[1] * u1 + up[2] * u2
     scalars_out[S_ALPHA_TOP] = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot)
-    scalars_out[S_ALPHA_BOTTOM] = math.atan2(math.hypot(R_IB[0, 2], R_IB[1, 2]), R_IB[2, 2])
+    scalars_out[S_ALPHA_BOTTOM] = tilt_lane(R_IB[0, 2], R_IB[1, 2], R_IB[2, 2])
 
 
 @register_borrowing
