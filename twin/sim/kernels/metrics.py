@@ -167,6 +167,26 @@ def drift_lane(t: np.ndarray, x: np.ndarray, state: np.ndarray, out: np.ndarray)
     trend_finish(state, out)
 
 
+@register_inline
+def tip_error_add(errors: np.ndarray, e: np.ndarray) -> None:
+    """Add one settled sample's tip error e (6,) [m, rad] to the running tip-error block errors
+    (4,): Σ|e_p|² [m²], max |e_p| [m], Σ|e_r|² [rad²], max |e_r| [rad] (the hybrid's
+    `A_POSITION` … and the small platforms' `PA_POSITION` … blocks)."""
+    p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+    r = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
+    errors[0] += p * p
+    errors[1] = max(errors[1], p)
+    errors[2] += r * r
+    errors[3] = max(errors[3], r)
+
+
+@register_inline
+def tip_error_rms(errors: np.ndarray, judged: float) -> tuple[float, float]:
+    """(position [m], orientation [rad]) RMS of the tip errors of a block errors (4,)
+    (`tip_error_add`) over `judged` samples."""
+    return math.sqrt(errors[0] / judged), math.sqrt(errors[2] / judged)
+
+
 @register_borrowing
 def efficacy_add(e: np.ndarray, alpha_top: float, alpha_bottom: float) -> None:
     """Add one sample's tilts [rad] to the running efficacy sums e (N_EFFICACY,) (`E_*`)."""
@@ -233,8 +253,6 @@ def hybrid_settled_add(
     """A settled sample's (k ≥ the first judged) min and max, tip errors and manipulability
     into acc (N_ACC,) (module docstring); opening: it is the first judged sample, which
     starts the min and max. x (9,) [m, rad], legs (6,) [m], e (6,) [m, rad] in B."""
-    p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-    r = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
     if opening:
         for j in range(N_JOINTS):
             acc[A_JOINT_MIN + j], acc[A_JOINT_MAX + j] = x[j], x[j]
@@ -247,10 +265,7 @@ def hybrid_settled_add(
     for j in range(N_LEGS):
         acc[A_LEGS_MIN] = min(acc[A_LEGS_MIN], legs[j])
         acc[A_LEGS_MAX] = max(acc[A_LEGS_MAX], legs[j])
-    acc[A_POSITION] += p * p
-    acc[A_ORIENTATION] += r * r
-    acc[A_POSITION_MAX] = max(acc[A_POSITION_MAX], p)
-    acc[A_ORIENTATION_MAX] = max(acc[A_ORIENTATION_MAX], r)
+    tip_error_add(acc[A_POSITION : A_ORIENTATION_MAX + 1], e)
     acc[A_MANIPULABILITY_MIN] = min(acc[A_MANIPULABILITY_MIN], manipulability)
     # the signed value of largest magnitude, the first on a tie (seed 004 reports φe, θe
     # maxima with sign)
@@ -358,8 +373,9 @@ def hybrid_finish_lane(acc: np.ndarray, out: np.ndarray) -> None:
     for j in range(N_JOINTS):
         out[R_JOINT_MIN + j], out[R_JOINT_MAX + j] = acc[A_JOINT_MIN + j], acc[A_JOINT_MAX + j]
     out[R_LEGS_MIN], out[R_LEGS_MAX] = acc[A_LEGS_MIN], acc[A_LEGS_MAX]
-    out[R_POSITION_RMS] = math.sqrt(acc[A_POSITION] / judged)
-    out[R_ORIENTATION_RMS] = math.sqrt(acc[A_ORIENTATION] / judged)
+    out[R_POSITION_RMS], out[R_ORIENTATION_RMS] = tip_error_rms(
+        acc[A_POSITION : A_ORIENTATION_MAX + 1], judged
+    )
     out[R_POSITION_MAX], out[R_ORIENTATION_MAX] = acc[A_POSITION_MAX], acc[A_ORIENTATION_MAX]
     out[R_MANIPULABILITY_MIN] = acc[A_MANIPULABILITY_MIN]
     out[R_PHI_E], out[R_THETA_E] = acc[A_PHI_E], acc[A_THETA_E]
@@ -596,7 +612,6 @@ def platform_add_lane(
     efficacy = acc[PA_EFFICACY : PA_EFFICACY + N_EFFICACY]
     state_trend = acc[PA_STATE_TREND:PA_LEG_TREND]
     leg_trend = acc[PA_LEG_TREND : PA_LEG_TREND + 4 + 2 * n_legs]
-    e = tip_error
     for i in range(t.shape[0]):
         k = seen + i
         bad = False
@@ -611,8 +626,6 @@ def platform_add_lane(
         acc[PA_CLIPPED] += clipped[i] > 0
         acc[PA_SATURATED] += saturated[i] > 0
         if k >= first:  # min and max, errors and tilts over the settled samples
-            p = math.sqrt(e[i, 0] * e[i, 0] + e[i, 1] * e[i, 1] + e[i, 2] * e[i, 2])
-            r = math.sqrt(e[i, 3] * e[i, 3] + e[i, 4] * e[i, 4] + e[i, 5] * e[i, 5])
             if k == first:
                 for j in range(3):
                     acc[PA_STATE_MIN + j], acc[PA_STATE_MAX + j] = state[i, j], state[i, j]
@@ -627,10 +640,7 @@ def platform_add_lane(
             for j in range(n_legs):
                 acc[PA_LEGS_MIN] = min(acc[PA_LEGS_MIN], legs[i, j])
                 acc[PA_LEGS_MAX] = max(acc[PA_LEGS_MAX], legs[i, j])
-            acc[PA_POSITION] += p * p
-            acc[PA_ORIENTATION] += r * r
-            acc[PA_POSITION_MAX] = max(acc[PA_POSITION_MAX], p)
-            acc[PA_ORIENTATION_MAX] = max(acc[PA_ORIENTATION_MAX], r)
+            tip_error_add(acc[PA_POSITION : PA_ORIENTATION_MAX + 1], tip_error[i])
             acc[PA_ALPHA_TOP_MAX] = max(acc[PA_ALPHA_TOP_MAX], alpha_top[i])
             acc[PA_ALPHA_BOTTOM_MAX] = max(acc[PA_ALPHA_BOTTOM_MAX], alpha_bottom[i])
             for j in range(axes):
@@ -650,8 +660,9 @@ def platform_finish_lane(acc: np.ndarray, n_legs: int, out: np.ndarray) -> None:
     trend_finish(acc[PA_STATE_TREND:PA_LEG_TREND], out[PR_STATE_DRIFT : PR_STATE_DRIFT + 3])
     trend_finish(acc[PA_LEG_TREND : PA_LEG_TREND + 4 + 2 * n_legs],
                  out[PR_LEG_DRIFT : PR_LEG_DRIFT + n_legs])  # fmt: skip
-    out[PR_POSITION_RMS] = math.sqrt(acc[PA_POSITION] / judged)
-    out[PR_ORIENTATION_RMS] = math.sqrt(acc[PA_ORIENTATION] / judged)
+    out[PR_POSITION_RMS], out[PR_ORIENTATION_RMS] = tip_error_rms(
+        acc[PA_POSITION : PA_ORIENTATION_MAX + 1], judged
+    )
     out[PR_ETA_PRINTED], out[PR_ETA] = efficacy_finish(acc[PA_EFFICACY : PA_EFFICACY + N_EFFICACY])
 
 
