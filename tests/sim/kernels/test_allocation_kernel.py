@@ -30,7 +30,15 @@ from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.kernels import layout as lay
 from twin.sim.kernels.hybrid import hybrid_constants
 from twin.sim.scenario import Scenario
-from twin.spatial import invert_transform, pose_to_transform, rpy_to_matrix_lane, se3_log, so3_exp
+from twin.spatial import (
+    invert_transform,
+    pose_to_transform,
+    rpy_to_matrix_lane,
+    se3_log,
+    se3_log_lane,
+    so3_exp,
+    so3_exp_lane,
+)
 
 DT = 0.05  # [s]
 N_STEPS = 100
@@ -160,11 +168,11 @@ def test_primitives_match_twin(rng: np.random.Generator) -> None:
         tip = MECHANISM.gangway.forward(xi[6:])[:3, 3]
         gangway_inverse_lane(*tip, GANGWAY.d1, GANGWAY.a1, q)
         np.testing.assert_allclose(q, xi[6:], atol=1e-12)
-        ak.so3_exp_lane(*xi[3:6], R)
+        so3_exp_lane(*xi[3:6], R)
         np.testing.assert_allclose(R, so3_exp(xi[3:6]), atol=1e-14)
         relative = invert_transform(pose_to_transform(states[0, :6])) @ T
         twist = np.empty(6)
-        ak.se3_log_lane(relative[:3, :3], relative[:3, 3], twist)
+        se3_log_lane(relative[:3, :3], relative[:3, 3], twist)
         np.testing.assert_allclose(twist, se3_log(relative), atol=1e-12)
-    ak.so3_exp_lane(1e-10, -2e-10, 3e-10, R)  # the small-angle branch
+    so3_exp_lane(1e-10, -2e-10, 3e-10, R)  # the small-angle branch
     np.testing.assert_allclose(R, so3_exp(np.array([1e-10, -2e-10, 3e-10])), atol=1e-15)
