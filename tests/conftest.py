@@ -7,12 +7,18 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import settings
 
 from tests.figures import record
 from twin.mechanisms import HybridBoardingSystem
 from twin.sim.base_motion import BaseMotion
 from twin.sim.engine import Simulation
 from twin.sim.kernels.layout import TARGET_V
+
+# No property test may depend on the machine's speed: hypothesis' 200 ms deadline failed a
+# first example that compiled a kernel (0.5 s) on a loaded machine.
+settings.register_profile("twin", deadline=None)
+settings.load_profile("twin")
 
 
 @pytest.fixture

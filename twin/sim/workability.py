@@ -74,8 +74,9 @@ from twin.site.windows import record_step, window_stats
 
 #: what a cached cell depends on besides its scenario: the package version and this module's
 #: reduction of a run (bump CELL_FORMAT when `run_summary` or the engine's results change;
-#: 3: the hybrid planners' exact-sampled tip gain, issue 39, made earlier cells stale)
-CELL_FORMAT = 3
+#: 3: the hybrid planners' exact-sampled tip gain, issue 39, made earlier cells stale; 4: the
+#: SE(3) exp/log coefficients free of cancellation, run results moved by up to 3e-9)
+CELL_FORMAT = 4
 ENGINE_VERSION = f"twin {twin.__version__} / cells {CELL_FORMAT}"
 #: the cache file in a data dir
 CELL_DATABASE = "cells.sqlite"
