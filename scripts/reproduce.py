@@ -32,11 +32,11 @@ from tqdm import tqdm
 
 from twin.mechanisms import HybridBoardingSystem, Upr4, Upu3Up
 from twin.planners import PLANNERS, PlannerParameters
+from twin.runs.claims import joint_velocities
 from twin.runs.executor import map_unordered
 from twin.sim import PAPER_PRESETS, simulate
 from twin.sim.metrics import SETTLE
 from twin.sim.presets import MATCHED_HEADING, REPORT_SEEDS, SEED004_INITIAL_STATE
-from twin.spatial import invert_transform, pose_to_transform, se3_log
 
 # ---------------------------------------------------------------------------------------------
 # Scenarios
@@ -148,18 +148,6 @@ SEED002_WAVES = {
 # ---------------------------------------------------------------------------------------------
 
 Job = tuple[str, str, int]  # (variant, planner, seed or wave state index)
-
-
-def joint_velocities(xi: np.ndarray, dt: float) -> np.ndarray:
-    """Virtual-joint velocities (N − 1, 9) that carried xi[k] to xi[k + 1].
-
-    The platform pose moves on SE(3) by exp of its body twist (`HybridBoardingSystem.integrate`),
-    so log(T_k⁻¹ T_k+1)/dt recovers the applied [ᴾṖ; ω_P] exactly; the gangway joints are
-    plain differences.
-    """
-    T = pose_to_transform(xi[:, :6])
-    twist = se3_log(invert_transform(T[:-1]) @ T[1:]) / dt
-    return np.concatenate([twist, np.diff(xi[:, 6:], axis=0) / dt], axis=1)
 
 
 def velocity_claims(v: np.ndarray, beta: float) -> dict[str, float]:
