@@ -24,15 +24,8 @@ EXEMPT_FILES: set[str] = {
     "tests/test_readme.py",
     "tests/web/test_api.py",
     "tests/web/test_cli.py",
-    "tests/web/test_dockerfile.py",
-    "tests/web/test_first_hour.py",
     "tests/web/test_limits.py",
     "tests/web/test_workability_api.py",
-    "tests/web/test_workability_browser.py",
-    "tests/web/viewer/test_cameras.py",
-    "tests/web/viewer/test_frame_state.py",
-    "tests/web/viewer/test_graphics.py",
-    "tests/web/viewer/test_shared_windows.py",
 }
 
 

@@ -27,6 +27,8 @@ def instructions(name: str) -> list[str]:
 
 
 def test_install_steps_replay_in_a_fresh_environment(tmp_path: Path) -> None:
+    """The image installs exactly the locked set with hashes, then the package without its
+    dependencies (nothing unpinned), from the files its COPY lines bring."""
     src = tmp_path / "src"
     src.mkdir()
     for copy in instructions("COPY"):

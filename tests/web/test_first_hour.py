@@ -86,6 +86,8 @@ def test_a_sweeps_planner_follows_its_mechanism() -> None:
 def test_a_mistyped_mechanism_is_one_error_without_pydantic_links(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """A sweep spec with a mistyped mechanism exits 2 with one line naming the allowed ones (no
+    pydantic links or type tags); a spec that is not JSON says so."""
     spec = tmp_path / "spec.json"
     spec.write_text(json.dumps({"mechanism": "3upu_up", "planner": ["pid"], "hs": [1.0]}))
     with pytest.raises(SystemExit) as exited:

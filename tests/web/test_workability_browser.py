@@ -86,6 +86,8 @@ def shown(page: Page, plot: str) -> None:
 
 
 def test_the_workability_page_runs_the_shipped_record_and_shows_its_plots(served: int) -> None:
+    """In a real browser the shipped record runs to "done" with its one planner's summary row,
+    the monthly, window and strip PNGs decoded, a window table and no forecast part."""
     def act(page: Page) -> None:
         page.click("#run")
         page.locator("#results").wait_for(state="visible", timeout=scaled(240) * 1000)
@@ -104,6 +106,8 @@ def test_the_workability_page_runs_the_shipped_record_and_shows_its_plots(served
 def test_an_uploaded_forecast_shows_bars_per_step_and_a_table_of_limits(
     served: int, tmp_path: Path
 ) -> None:
+    """An uploaded forecast shows its bar plot and one table row per 3 h step, with the
+    uploaded Hs and each planner's limiting constraint."""
     hs = [0.5, 1.0, 2.5, 3.5, 3.5, 1.0]
     path = tmp_path / "forecast.csv"
     path.write_text("time,hs,tp,direction\n" + "".join(

@@ -45,6 +45,7 @@ def scene() -> Cameras:
 
 
 def test_a_stale_view_is_put_back_within_the_hold(scene: Cameras) -> None:
+    """A browser whose camera drifts from the framing within the hold is framed again."""
     browser = Browser()
     scene.frame([browser])
     assert browser.framed()
@@ -56,6 +57,8 @@ def test_a_stale_view_is_put_back_within_the_hold(scene: Cameras) -> None:
 def test_no_hold_after_it_ends_or_once_another_view_is_asked(
     scene: Cameras, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """The framing is not forced back once the user asked for another view, nor after the hold
+    has ended."""
     browser = Browser()
     scene.frame([browser])
     scene.set_camera("overview", [browser])  # the user asks for another view: it is kept

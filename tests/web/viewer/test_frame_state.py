@@ -30,6 +30,7 @@ def test_a_frame_is_the_sessions_newest_record(session: LiveSession) -> None:
 
 
 def test_the_leg_margin_is_one_at_mid_stroke_and_zero_at_an_end(session: LiveSession) -> None:
+    """The readout's leg margin is 1 at mid-stroke, 0 at either end and negative beyond it."""
     fs = read_frame(session)
     assert fs is not None
     mid = 0.5 * (fs.leg_min + fs.leg_max)

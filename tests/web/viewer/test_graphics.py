@@ -62,6 +62,8 @@ def test_graphics_reach_a_browser(session: LiveSession, graphics: str) -> None:
 
 
 def test_unknown_graphics_are_refused_before_anything_starts(session: LiveSession) -> None:
+    """An unknown graphics mode is a TwinError naming the allowed ones, and the viewer's port
+    is never bound."""
     port = free_port()
     with pytest.raises(TwinError, match="graphics 'fancy' unknown; one of: full, light"):
         start_viewer(session, access=Access(), port=port, graphics="fancy")

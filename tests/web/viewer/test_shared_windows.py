@@ -91,6 +91,7 @@ def test_the_same_window_is_encoded_once() -> None:
 
 
 def test_only_the_newest_windows_are_kept() -> None:
+    """The shared encodings keep only the `kept` newest windows: an older one is encoded again."""
     shared = SharedWindows(kept=2)
     windows = [_window() for _ in range(3)]
     for window in windows:
