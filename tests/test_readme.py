@@ -14,6 +14,7 @@ README = (ROOT / "README.md").read_text()
 
 
 def test_every_sweep_spec_field_has_a_row() -> None:
+    """The README's sweep table has a row for every field of `SweepSpec`."""
     rows = set(re.findall(r"^\| `([a-z_]+)`", README, re.MULTILINE))
     rows |= {name for line in re.findall(r"^\| (`[a-z_]+`(?:, `[a-z_]+`)+) \|", README,
              re.MULTILINE) for name in re.findall(r"`([a-z_]+)`", line)}  # fmt: skip
@@ -21,6 +22,7 @@ def test_every_sweep_spec_field_has_a_row() -> None:
 
 
 def test_every_serve_option_is_in_the_readme() -> None:
+    """Every `twin serve` option is named in the README."""
     serve = command_parser(build_parser(), "serve")
     options = {o for action in serve._actions for o in action.option_strings if o.startswith("--")}
     missing = sorted(o for o in options - {"--help"} if f"`{o}" not in README)
@@ -28,6 +30,7 @@ def test_every_serve_option_is_in_the_readme() -> None:
 
 
 def test_the_example_sweep_spec_is_valid_and_its_size_as_said() -> None:
+    """examples/sweep.json validates, and runs the 72 one-minute scenarios the README says."""
     spec = SweepSpec.model_validate_json((ROOT / "examples" / "sweep.json").read_text())
     assert "examples/sweep.json runs 72 one-minute" in README
     assert (len(spec.scenarios()), spec.duration) == (72, 60.0)

@@ -35,6 +35,8 @@ def position_error_after(result: object, t: float = 1.0) -> float:
 
 
 def test_sea_state_4_targets() -> None:
+    """At WMO 4 the QP keeps every limit on 10 seeds, the tip within 1 mm, and at most half
+    DWA's tip orientation error."""
     qp, dwa = runs("qp", sea_state=4.0), runs("dwa", sea_state=4.0)
     violations = [r.metrics["violations"] for r in qp]
     errors = [position_error_after(r) for r in qp]
@@ -48,6 +50,7 @@ def test_sea_state_4_targets() -> None:
 
 
 def test_hs_3_tp_8_targets() -> None:
+    """At Hs 3 m, Tp 8 s the QP keeps every limit on 10 seeds and the tip within 10 mm."""
     qp = runs("qp", hs=3.0, tp=8.0)
     violations = [r.metrics["violations"] for r in qp]
     errors = [position_error_after(r) for r in qp]
@@ -79,6 +82,8 @@ def test_lanes_of_every_family_run_side_by_side() -> None:
 
 
 def test_the_interpreted_engine_gives_the_same_numbers() -> None:
+    """The QP run in plain Python gives the compiled run's states to 1e-9 and the same active
+    levels."""
     scenario = {"planner": "qp", "sea_state": 6.0, "duration": 5.0, "joint_limits": "hold"}
     compiled = simulate(scenario)
     plain = simulate(scenario, engine="python")
@@ -104,6 +109,7 @@ def test_a_start_past_the_stroke_takes_the_closest_feasible_rates() -> None:
 
 
 def test_a_sweep_runs_qp() -> None:
+    """A sweep chunk runs the QP planner and reports its row (operable at Hs 1 m)."""
     rows = run_chunk([{"planner": "qp", "hs": 1.0, "tp": 7.0, "seed": 0, "duration": 20.0,
                        "heading": 180.0, "beta": 0.7, "k_e": 25.0, "k_c": 9.0,
                        "mechanism": "hybrid", "dt": 0.05}], 0.05)  # fmt: skip

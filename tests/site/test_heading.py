@@ -51,6 +51,8 @@ CASES = [  # (waves from, vessel heading, Scenario.heading): compass degrees, tr
 
 
 def test_hand_made_cases_both_ways() -> None:
+    """Relative heading, wave direction and vessel heading each follow from the other two on
+    hand-worked cases (the compass convention of docs/workability.md)."""
     for theta, psi, beta in CASES:
         assert relative_heading(theta, psi) == pytest.approx(beta), (theta, psi)
         assert wave_from(beta, psi) == pytest.approx(theta % 360.0), (beta, psi)
@@ -58,6 +60,7 @@ def test_hand_made_cases_both_ways() -> None:
 
 
 def test_round_trips_on_arrays(rng: np.random.Generator) -> None:
+    """On random arrays β lies in [0, 360) and each conversion inverts the others to 1e-9°."""
     theta = rng.uniform(0.0, 360.0, 200)
     psi = rng.uniform(0.0, 360.0, 200)
     beta = relative_heading(theta, psi)
@@ -67,5 +70,6 @@ def test_round_trips_on_arrays(rng: np.random.Generator) -> None:
 
 
 def test_angular_distance_wraps() -> None:
+    """Angular distance is taken the short way round the circle (350° to 10° is 20°)."""
     assert angular_distance(350.0, 10.0) == pytest.approx(20.0)
     assert angular_distance(0.0, 180.0) == pytest.approx(180.0)

@@ -15,6 +15,8 @@ from twin.site.scatter import scatter_table
 
 
 def test_classes_are_counted_by_their_centres() -> None:
+    """A series is binned into 0.5 m × 1 s classes, each including its lower edge, and listed by
+    class centre with its count."""
     hs = [0.1, 0.4, 0.5, 1.74, 0.2]
     tp = [5.2, 5.9, 5.0, 7.99, 6.0]
     table = scatter_table(hs, tp)
@@ -30,11 +32,14 @@ def test_classes_are_counted_by_their_centres() -> None:
     [([1.0, np.nan], [5.0, 6.0], "no NaN"), ([1.0], [5.0, 6.0], "shapes"), ([1.0], [0.0], "tp")],
 )
 def test_bad_series_are_refused(hs: list[float], tp: list[float], message: str) -> None:
+    """A series with NaN, mismatched shapes or a non-positive Tp is a TwinError saying which."""
     with pytest.raises(TwinError, match=message):
         scatter_table(hs, tp)
 
 
 def test_the_shipped_north_sea_scatter_is_rebuilt_from_the_shipped_hindcast() -> None:
+    """The shipped North Sea scatter is exactly what its script builds from the shipped
+    coastDat2 hindcast: 8,760 hours, its top class the hindcast's largest Hs."""
     module = script_module("build_site_scatter")
     shipped = pd.read_csv(asset_path("site", "north_sea_coastdat2_2014_scatter.csv"))
     pd.testing.assert_frame_equal(module.build(), shipped)

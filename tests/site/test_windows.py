@@ -14,6 +14,8 @@ SERIES = np.array([1, 1, 1, 0, 1, 0, 0, 1, 1, 1, 1, 1, 0, 1, 1], dtype=bool)
 
 
 def test_counts_and_lengths_of_windows_of_at_least_w_hours() -> None:
+    """Windows are runs of operable rows at least W hours long, measured in the record's step;
+    none qualify when W is too long, and an empty record has no wait."""
     stats = window_stats(SERIES, 1.0, 2.0)
     assert stats.lengths.tolist() == [3.0, 5.0, 2.0] and stats.count == 3
     assert window_stats(SERIES, 1.0, 4.0).lengths.tolist() == [5.0]
@@ -23,6 +25,8 @@ def test_counts_and_lengths_of_windows_of_at_least_w_hours() -> None:
 
 
 def test_waiting_time_for_a_window_by_hand() -> None:
+    """The wait from each row for a W-hour window matches a hand count; rows with none before
+    the record ends are censored, and the summary's mean and median are of the waits."""
     stats = window_stats(SERIES, 1.0, 3.0)
     # from each hour, hours until 3 operable hours in a row can start:
     # 0→0; 1→6 (next at 7); 2..6→5,4,3,2,1; 7,8,9→0; 10..14: none left (censored)
@@ -34,6 +38,8 @@ def test_waiting_time_for_a_window_by_hand() -> None:
 
 
 def test_work_shift_cuts_windows_at_night() -> None:
+    """A daily shift cuts windows at its ends and moves waits to the next morning; a shift
+    needs times and start < end."""
     times = np.datetime64("2024-01-01T00:00") + np.arange(48) * np.timedelta64(1, "h")
     operable = np.ones(48, dtype=bool)
     stats = window_stats(operable, 1.0, 4.0, times=times, shift=(7, 19))
