@@ -18,8 +18,6 @@ EXEMPT_FILES: set[str] = {
     "tests/sim/test_workability.py",
     "tests/site/test_records.py",
     "tests/web/test_api.py",
-    "tests/web/test_cli.py",
-    "tests/web/test_limits.py",
     "tests/web/test_workability_api.py",
 }
 

@@ -53,6 +53,8 @@ def free_port() -> int:
 
 
 def test_help_lists_the_commands_and_serve_defaults() -> None:
+    """`twin --help` lists the commands and `twin serve --help` its defaults, as the parser has
+    them."""
     result = twin("--help")
     assert result.returncode == 0 and "serve" in result.stdout and "run" in result.stdout
     result = twin("serve", "--help")
@@ -66,6 +68,8 @@ def test_help_lists_the_commands_and_serve_defaults() -> None:
 
 
 def test_run_writes_csv_and_prints_simulates_metrics(tmp_path: Path) -> None:
+    """`twin run` prints simulate()'s metrics, shows a progress bar to its end and writes a CSV
+    row per sample."""
     scenario = {"mechanism": "upr4", "sea_state": 3, "duration": 2.0}
     (tmp_path / "scenario.json").write_text(json.dumps(scenario))
     result = twin("run", "scenario.json", "--out", "run.csv", cwd=tmp_path)
@@ -79,6 +83,8 @@ def test_run_writes_csv_and_prints_simulates_metrics(tmp_path: Path) -> None:
 def test_run_accepts_a_preset_and_writes_parquet(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """`twin run PRESET` writes Parquet with a row per step and the printed metrics in its
+    metadata."""
     assert main(["run", "seed002_state1", "--out", str(tmp_path / "run.parquet")]) == 0
     table = pq.read_table(tmp_path / "run.parquet")
     preset = PAPER_PRESETS["seed002_state1"]
@@ -158,6 +164,8 @@ def start_server(cwd: Path, *args: str, env: dict[str, str] | None = None) -> tu
 
 
 def test_serve_answers_prints_its_urls_and_stops_cleanly(tmp_path: Path) -> None:
+    """`twin serve` answers REST, prints its address before compiling, reports each kernel set
+    and "ready", creates its store and exits 0 on Ctrl-C."""
     process, port = start_server(tmp_path)
     try:
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/live") as r:
@@ -197,6 +205,8 @@ def test_serve_on_all_interfaces_enforces_its_token(tmp_path: Path) -> None:
 def test_a_short_token_is_refused(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """A token under 16 characters exits 2 saying so, before anything (not even the data
+    directory) is created."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("TWIN_TOKEN", "tok-123")
     with pytest.raises(SystemExit) as exit_:
@@ -206,6 +216,8 @@ def test_a_short_token_is_refused(
 
 
 def test_a_second_server_on_the_same_data_dir_exits_2_naming_the_first(tmp_path: Path) -> None:
+    """A second server on a held data directory exits 2 naming the first's pid, which keeps
+    serving."""
     first, port = start_server(tmp_path)
     try:
         start = time.monotonic()
@@ -242,6 +254,8 @@ def test_a_port_in_use_exits_2_naming_it_before_starting(tmp_path: Path) -> None
 
 
 def test_unknown_graphics_exit_2_naming_the_choices_before_starting(tmp_path: Path) -> None:
+    """An unknown --graphics exits 2 naming the choices before compiling or taking the data
+    directory."""
     result = twin("serve", "--graphics", "fancy", "--data-dir", "data", cwd=tmp_path)
     assert result.returncode == 2, result.stderr
     assert "graphics 'fancy' unknown; one of: full, light" in result.stderr
@@ -336,6 +350,8 @@ TINY_SWEEP = {"hs": [0.5, 2.0], "tp": [8.0], "planner": ["mtmp"], "seeds": 2, "d
 def test_sweep_writes_table_json_and_heatmap(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """`twin sweep` prints the table and threshold, and writes the operability CSV, JSON and a
+    PNG heatmap with a cell per Hs."""
     spec = tmp_path / "spec.json"
     spec.write_text(json.dumps(TINY_SWEEP))
     out = tmp_path / "out"
@@ -358,6 +374,7 @@ def test_sweep_writes_table_json_and_heatmap(
 def test_a_bad_sweep_spec_exits_2_naming_the_field(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], change: dict[str, Any], field: str
 ) -> None:
+    """A bad sweep spec exits 2 naming the field, writing nothing."""
     spec = tmp_path / "spec.json"
     spec.write_text(json.dumps({**TINY_SWEEP, **change}))
     with pytest.raises(SystemExit) as exit_:
@@ -407,6 +424,7 @@ def test_ctrl_c_on_a_busy_server_stops_it_quietly(tmp_path: Path) -> None:
 
 
 def test_the_resource_tracker_warning_is_silenced_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The resource tracker's warning filter is added to PYTHONWARNINGS once, however often."""
     from twin.web.server import TRACKER_WARNING, quiet_resource_tracker
 
     monkeypatch.setenv("PYTHONWARNINGS", "default")

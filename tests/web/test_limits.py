@@ -53,6 +53,7 @@ def app_client(tmp_path: Path, **limits: float) -> tuple[TestClient, RunStore, L
 
 
 def test_a_body_over_the_cap_is_413_before_it_is_parsed(tmp_path: Path) -> None:
+    """A POST or PATCH body over the cap is 413 naming the cap, and stores or changes nothing."""
     client, store, live = app_client(tmp_path, max_body=2048)
     big = {**SHORT, "planner": "x" * 4000}
     response = client.post("/api/runs", json=big)
@@ -63,6 +64,7 @@ def test_a_body_over_the_cap_is_413_before_it_is_parsed(tmp_path: Path) -> None:
 
 
 def test_a_chunked_body_without_length_is_cut_off_at_the_cap(tmp_path: Path) -> None:
+    """A chunked body with no Content-Length is cut off at the cap with 413, nothing stored."""
     client, store, _ = app_client(tmp_path, max_body=2048)
 
     def chunks():
@@ -79,6 +81,7 @@ def test_a_chunked_body_without_length_is_cut_off_at_the_cap(tmp_path: Path) -> 
 
 
 def test_a_bad_content_length_is_400(tmp_path: Path) -> None:
+    """A Content-Length that is not a number is a 400 naming the header."""
     client, _, _ = app_client(tmp_path)
     response = client.post(
         "/api/runs", content=b"{}", headers={"content-length": "lots", "content-type": "a/b"}
@@ -87,6 +90,8 @@ def test_a_bad_content_length_is_400(tmp_path: Path) -> None:
 
 
 def test_submissions_past_the_burst_are_429_with_retry_after(tmp_path: Path) -> None:
+    """Submissions past the burst are 429 with a Retry-After and the rule in words; runs and
+    sweeps share the bucket; refused ones store nothing."""
     client, store, _ = app_client(tmp_path, run_rate=0.5, run_burst=3)
     codes = [client.post("/api/runs", json=SHORT).status_code for _ in range(5)]
     assert codes == [202, 202, 202, 429, 429]
@@ -98,6 +103,8 @@ def test_submissions_past_the_burst_are_429_with_retry_after(tmp_path: Path) -> 
 
 
 def test_a_full_queue_is_429_until_runs_finish(tmp_path: Path) -> None:
+    """With the pending cap reached a run is 429 naming the count, and accepted again once one
+    finishes."""
     client, store, _ = app_client(tmp_path, max_pending_runs=2)
     assert [client.post("/api/runs", json=SHORT).status_code for _ in range(3)] == [202, 202, 429]
     assert "2 runs queued or running (at most 2)" in client.post("/api/runs", json=SHORT).text
@@ -107,6 +114,8 @@ def test_a_full_queue_is_429_until_runs_finish(tmp_path: Path) -> None:
 
 
 def test_the_rate_limit_refills_and_forgets_idle_clients() -> None:
+    """The token bucket refills at its rate, is per client, forgets idle clients (bounded
+    memory) and refuses a NaN rate."""
     limit = RateLimit(rate=2.0, burst=2)
     assert [limit.acquire("a", now=0.0) for _ in range(2)] == [0.0, 0.0]
     assert limit.acquire("a", now=0.0) == pytest.approx(0.5)
@@ -138,6 +147,8 @@ def test_no_endpoint_takes_a_vessel_path(tmp_path: Path, vessel: str) -> None:
 
 
 def test_an_initial_state_outside_the_limits_is_422_naming_the_index(tmp_path: Path) -> None:
+    """An initial state outside the joint ranges is 422 naming the index, value and range; an
+    over-long one is refused too; nothing stored."""
     client, store, _ = app_client(tmp_path)
     state = [0.0, 0.0, 2.475, 0.0, 0.0, 0.0, 0.0, 0.0, 1e300]
     response = client.post("/api/runs", json={**SHORT, "initial_state": state})
