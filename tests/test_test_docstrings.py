@@ -16,9 +16,7 @@ ROOT = TESTS.parent
 #: files (relative to the repo root) whose tests are still being documented, left out for now
 EXEMPT_FILES: set[str] = {
     "tests/sim/test_workability.py",
-    "tests/site/test_records.py",
     "tests/web/test_api.py",
-    "tests/web/test_workability_api.py",
 }
 
 

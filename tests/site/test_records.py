@@ -54,6 +54,7 @@ def test_ndbc_keeps_every_row_with_hs_and_tp_and_counts_each_missing_marker(
 
 
 def test_ndbc_old_header_with_two_digit_years_and_no_minutes(tmp_path: Path) -> None:
+    """An old NDBC file (YY header, no minute column) reads 19YY at minute 0."""
     text = "YY MM DD hh WD   WSPD GST  WVHT  DPD   APD  MWD\n" \
            "96 01 01 00 270  5.0 6.0  2.10  12.0  8.0  280\n"  # fmt: skip
     record = read_record(write(tmp_path, "old.txt", text))
@@ -71,6 +72,7 @@ def test_ndbc_old_header_with_two_digit_years_and_no_minutes(tmp_path: Path) -> 
     ],
 )
 def test_ndbc_malformed_lines_are_named(tmp_path: Path, line: str, message: str) -> None:
+    """A malformed NDBC line is a TwinError naming the file, what is wrong and what is allowed."""
     path = write(tmp_path, "bad.txt", NDBC + line + "\n")
     with pytest.raises(TwinError, match=message.replace("(", r"\(")) as error:
         read_ndbc(path)
@@ -78,6 +80,7 @@ def test_ndbc_malformed_lines_are_named(tmp_path: Path, line: str, message: str)
 
 
 def test_ndbc_header_must_name_the_wave_columns(tmp_path: Path) -> None:
+    """A header without WVHT names the missing columns; a file that is not NDBC says so."""
     with pytest.raises(TwinError, match=r"columns \['WVHT'"):
         read_ndbc(write(tmp_path, "w.txt", "#YY MM DD hh mm DPD MWD\n2019 1 1 0 0 8 200\n"))
     with pytest.raises(TwinError, match="not an NDBC"):
@@ -85,6 +88,8 @@ def test_ndbc_header_must_name_the_wave_columns(tmp_path: Path) -> None:
 
 
 def test_shipped_ndbc_record_reads_a_month_hourly() -> None:
+    """The shipped 46097 August reads every one of its 744 hours, one sea state an hour, with
+    directions and nothing skipped."""
     record = read_record(asset_path("site", "46097h2019_08.txt"))
     assert record.n == 744  # every hour of August 2019
     steps = np.diff(record.time).astype("timedelta64[m]").astype(int)
@@ -110,6 +115,8 @@ def test_ndbc_without_a_direction_sensor_keeps_its_rows_without_direction(tmp_pa
 
 
 def test_shipped_year_of_buoy_44005_reads_hourly_without_direction() -> None:
+    """The shipped 44005 year reads 8,318 hours across all months without direction, the 29
+    rows missing WVHT counted by reason."""
     record = read_record(asset_path("site", "44005h2012.txt"))
     assert record.direction is None
     assert record.n == 8347 - 29 and record.skipped == {"WVHT missing": 29}
@@ -142,6 +149,7 @@ def test_timeseries_csv_times_in_utc_and_missing_cells_skipped(tmp_path: Path) -
 
 
 def test_timeseries_zone_is_converted_to_utc(tmp_path: Path) -> None:
+    """A time with a zone offset is converted to UTC."""
     text = "time,hs,tp,direction\n2024-01-01T02:00+01:00,1.0,8.0,10\n"
     record = read_timeseries(write(tmp_path, "z.csv", text))
     assert record.time[0] == np.datetime64("2024-01-01T01:00")
@@ -161,11 +169,14 @@ def test_timeseries_zone_is_converted_to_utc(tmp_path: Path) -> None:
     ],
 )
 def test_timeseries_malformed_input_is_named(tmp_path: Path, text: str, message: str) -> None:
+    """Malformed time-series input is a TwinError saying what is wrong."""
     with pytest.raises(TwinError, match=message):
         read_timeseries(write(tmp_path, "m.csv", text))
 
 
 def test_parquet_time_series(tmp_path: Path) -> None:
+    """A Parquet series reads like a CSV: bracketed units ignored, a missing Hs skipped and
+    counted, spreading kept."""
     frame = pd.DataFrame({
         "time": pd.date_range("2024-01-01", periods=3, freq="h", tz="UTC"),
         "Hs [m]": [1.0, np.nan, 2.0], "tp": [8.0, 8.0, 9.0], "direction": [0.0, 10.0, 20.0],
@@ -185,6 +196,8 @@ WIDE = """hs,4.5,6.5,8.5
 
 
 def test_scatter_wide_and_long_give_the_same_cells(tmp_path: Path) -> None:
+    """A wide scatter table and its long form give the same cells and weights; empty cells are
+    dropped."""
     wide = read_record(write(tmp_path, "wide.csv", WIDE))
     assert wide.kind == "scatter" and wide.time is None and wide.n == 7  # 2 empty cells
     assert wide.weight.sum() == 90 and np.isclose(wide.weights.sum(), 1.0)
@@ -197,6 +210,8 @@ def test_scatter_wide_and_long_give_the_same_cells(tmp_path: Path) -> None:
 
 
 def test_scatter_with_direction_and_bad_cells(tmp_path: Path) -> None:
+    """A scatter with a direction column keeps each cell's direction; a negative occurrence, a
+    Tp header that is not a number and an all-zero table are refused by line or reason."""
     text = "direction,hs,6,8\n0,1.0,5,5\n90,1.0,1,0\n"
     record = read_scatter(write(tmp_path, "d.csv", text))
     np.testing.assert_allclose(record.direction, [0.0, 90.0, 0.0])
@@ -209,6 +224,7 @@ def test_scatter_with_direction_and_bad_cells(tmp_path: Path) -> None:
 
 
 def test_read_record_rejects_unknown_kinds_and_missing_files(tmp_path: Path) -> None:
+    """An unknown record kind names the allowed ones; a missing file says so."""
     with pytest.raises(TwinError, match="allowed ndbc, timeseries, scatter, forecast"):
         read_record(write(tmp_path, "a.csv", CSV), kind="grib")
     with pytest.raises(TwinError, match="no such file"):

@@ -89,6 +89,8 @@ def test_records_lists_the_shipped_ones(client: TestClient) -> None:
 def test_a_job_has_progress_the_librarys_result_and_png_plots(
     client: TestClient, tmp_path: Path
 ) -> None:
+    """A workability job is priced at submission, runs to done with full progress, and gives the
+    library's own result and its PNG plots."""
     response = client.post("/api/workability", json=TINY)
     assert response.status_code == 202, response.text
     queued = response.json()
@@ -117,6 +119,8 @@ def test_a_job_has_progress_the_librarys_result_and_png_plots(
 def test_an_uploaded_forecast_lists_each_step_with_its_limiting_constraint(
     client: TestClient,
 ) -> None:
+    """An uploaded forecast runs step by step, each with its Hs and limiting constraint, and
+    the result names the uploaded file."""
     body = {**TINY, "record": None, "record_csv": FORECAST, "record_kind": "forecast",
             "record_name": "gulf forecast.csv"}  # fmt: skip
     response = client.post("/api/workability", json=body)
@@ -153,12 +157,15 @@ def test_an_uploaded_forecast_lists_each_step_with_its_limiting_constraint(
 def test_bad_requests_are_422_naming_the_field(
     client: TestClient, change: dict[str, Any], field: str
 ) -> None:
+    """A bad workability request is 422 naming the field."""
     response = client.post("/api/workability", json={**TINY, **change})
     assert response.status_code == 422, response.text
     assert field in response.json()["message"]
 
 
 def test_a_malformed_record_is_422_naming_its_line(client: TestClient) -> None:
+    """A malformed uploaded record is 422 at submission naming record_csv, the line and the
+    column."""
     bad = FORECAST.replace("2026-01-01T06:00,1.0", "2026-01-01T06:00,abc")
     response = client.post("/api/workability", json={**TINY, "record": None, "record_csv": bad})
     assert response.status_code == 422, response.text
@@ -177,6 +184,8 @@ def hourly_record(rows: int) -> str:
 
 
 def test_a_megabyte_record_uploads_beyond_the_global_body_cap(client: TestClient) -> None:
+    """A megabyte record uploads to this route alone (its larger cap) and runs all its rows; a
+    run body that size is still 413."""
     text = hourly_record(40_000)  # 4.6 years hourly
     assert len(text.encode()) > 1_000_000 > 15 * MAX_BODY
     response = client.post("/api/workability", json={**TINY, "record": None, "record_csv": text})
@@ -190,6 +199,7 @@ def test_a_megabyte_record_uploads_beyond_the_global_body_cap(client: TestClient
 
 
 def test_an_upload_over_the_caps_is_refused_naming_each(client: TestClient) -> None:
+    """A record over its cap is 422 and a body over the route's cap 413, each naming the cap."""
     over_record = "x" * (MAX_RECORD_BYTES + 1)  # within the body cap, over the record's
     response = client.post(
         "/api/workability", json={**TINY, "record": None, "record_csv": over_record}
@@ -206,6 +216,7 @@ def test_an_upload_over_the_caps_is_refused_naming_each(client: TestClient) -> N
 
 
 def test_a_job_over_the_run_cap_is_refused_naming_the_limit(client: TestClient) -> None:
+    """A job priced over MAX_RUNS is refused with 422 naming it."""
     body = {**TINY, "method": "direct", "seeds": 30}  # 744 rows × 30 seeds > MAX_RUNS
     assert 744 * 30 > MAX_RUNS
     response = client.post("/api/workability", json=body)
@@ -214,6 +225,7 @@ def test_a_job_over_the_run_cap_is_refused_naming_the_limit(client: TestClient) 
 
 
 def test_cancel_stops_a_job_and_delete_forgets_it(client: TestClient) -> None:
+    """Cancel leaves a job failed "cancelled" with no late result or plot; delete forgets it."""
     body = {**TINY, "method": "direct", "seeds": 3, "duration": 10.0, "chunk_size": 8}
     location = client.post("/api/workability", json=body).headers["location"]
     cancelled = client.post(location + "/cancel")
@@ -229,6 +241,7 @@ def test_cancel_stops_a_job_and_delete_forgets_it(client: TestClient) -> None:
 
 
 def test_with_a_token_a_post_needs_it(tmp_path: Path, executor: Executor) -> None:
+    """With a token, submitting and deleting need it while reading stays open."""
     store = RunStore(tmp_path / "runs.sqlite")
     app = create_app(LiveSession(), store, access=access(TOKEN), executor=executor)
     with TestClient(app) as client:
@@ -247,6 +260,7 @@ def test_with_a_token_a_post_needs_it(tmp_path: Path, executor: Executor) -> Non
 def test_an_interrupted_job_is_queued_again_at_the_next_start(
     tmp_path: Path, executor: Executor
 ) -> None:
+    """A job left running by a dead server is run again to done at the next start."""
     path = tmp_path / "runs.sqlite"
     jobs = WorkabilityStore(path)
     spec = WorkabilitySpec(**{k: v for k, v in TINY.items() if k != "record"})
@@ -264,6 +278,7 @@ def test_an_interrupted_job_is_queued_again_at_the_next_start(
 def test_a_private_server_wants_the_token_to_read_jobs_and_plots(
     tmp_path: Path, executor: Executor
 ) -> None:
+    """A private server wants the token to read jobs, records and plots too."""
     store = RunStore(tmp_path / "runs.sqlite")
     app = create_app(LiveSession(), store, access=access(TOKEN, private=True), executor=executor)
     auth = {"Authorization": f"Bearer {TOKEN}"}
