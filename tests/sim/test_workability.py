@@ -55,6 +55,7 @@ def executor() -> Iterator[Executor]:
 
 
 def test_threshold_baseline_is_a_hand_count(executor: Executor) -> None:
+    """The Hs-threshold baseline's workability, monthly shares and windows equal a hand count."""
     result = run_workability(SMALL, RECORD, executor=executor)
     threshold = result.summary["threshold"]
     hs = RECORD.hs
@@ -70,6 +71,8 @@ def test_threshold_baseline_is_a_hand_count(executor: Executor) -> None:
 def test_rows_take_the_next_hs_nearest_tp_and_above_the_grid_is_not_operable(
     executor: Executor,
 ) -> None:
+    """Conservative lookup reads the cell at the next Hs and nearest Tp; a row above the Hs
+    grid is not operable, with a note; a row's probability is its cell's seed share."""
     result = run_workability(SMALL, RECORD, executor=executor)
     rows = result.rows[result.rows["planner"] == "qp"]
     assert rows["cell_hs"].tolist()[:4] == [1.0, 2.0, 2.0, 3.0]  # 1.9 → 2, 2.6 → 3
@@ -82,6 +85,8 @@ def test_rows_take_the_next_hs_nearest_tp_and_above_the_grid_is_not_operable(
 
 
 def test_rows_on_grid_points_run_exactly_their_cells(executor: Executor) -> None:
+    """Rows on grid points get their cells' probabilities exactly, equal to direct runs, under
+    either lookup."""
     on_grid = hourly([1.0, 2.0, 3.0, 2.0], [6.0, 8.0, 10.0, 10.0])
     cells = run_workability(SMALL, on_grid, executor=executor)
     direct = run_workability({**SMALL, "method": "direct"}, on_grid, executor=executor)
@@ -112,6 +117,8 @@ def test_cells_and_direct_agree_within_the_documented_tolerance(executor: Execut
 def test_cache_reuse_runs_nothing_and_starts_no_executor(
     tmp_path: Path, executor: Executor, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """Progress runs from 0 to all; a second evaluation, or another site in the same cells,
+    runs nothing from the cache and starts no executor."""
     seen: list[tuple[int, int]] = []
     first = run_workability(SMALL, RECORD, executor=executor, data_dir=tmp_path,
                             on_progress=lambda done, total: seen.append((done, total)))  # fmt: skip
@@ -135,6 +142,8 @@ def test_cache_reuse_runs_nothing_and_starts_no_executor(
 
 
 def test_best_heading_is_the_best_of_the_fixed_ones(executor: Executor) -> None:
+    """`best` gives each row the better of the fixed headings' probabilities, names the heading
+    chosen, and counts choices over operable rows."""
     spec = {**SMALL, "planners": ["mtmp"]}
     fixed = {h: run_workability({**spec, "heading": {"kind": "fixed", "headings": [h]}}, RECORD,
                                 executor=executor).rows["probability"].to_numpy()
@@ -151,6 +160,8 @@ def test_best_heading_is_the_best_of_the_fixed_ones(executor: Executor) -> None:
 
 
 def test_record_heading_strategy(executor: Executor) -> None:
+    """`record` needs directions and headings; each row runs at its own relative heading, read
+    from the nearest grid heading."""
     with pytest.raises(TwinError, match="needs the record's direction and heading"):
         run_workability({**SMALL, "heading": {"kind": "record"}}, RECORD, executor=executor)
     record = hourly([1.0, 2.0], [8.0, 8.0], heading=np.array([0.0, 100.0]))
@@ -162,6 +173,7 @@ def test_record_heading_strategy(executor: Executor) -> None:
 
 
 def test_scatter_is_weighted_by_occurrence(executor: Executor) -> None:
+    """A scatter's workability weights each cell by its occurrence; it has a monthly plot only."""
     scatter = SiteRecord(hs=[1.0, 3.0], tp=[6.0, 10.0], weight=[3.0, 1.0], kind="scatter")
     result = run_workability(SMALL, scatter, executor=executor)
     p = result.rows[result.rows["planner"] == "mtmp"]["probability"].to_numpy()
@@ -171,6 +183,8 @@ def test_scatter_is_weighted_by_occurrence(executor: Executor) -> None:
 
 
 def test_outputs_are_json_csv_and_pngs(tmp_path: Path, executor: Executor) -> None:
+    """A result serialises to JSON, writes its CSVs and valid PNGs (the forecast's too), and
+    names what bound each non-operable row."""
     forecast = hourly([1.0, 2.0, 3.0, 2.0], [6.0, 8.0, 10.0, 8.0], kind="forecast")
     result = run_workability(SMALL, forecast, executor=executor)
     data = json.loads(json.dumps(result.to_dict()))
@@ -224,11 +238,14 @@ def test_a_run_names_the_limit_it_reached_first() -> None:
     ],
 )
 def test_bad_specs_are_named(fields: dict, message: str) -> None:
+    """A bad workability spec is a ValueError naming the field."""
     with pytest.raises(ValueError, match=message):
         WorkabilitySpec(**fields)
 
 
 def test_heading_strategy_parse() -> None:
+    """Heading strategies parse from text (negative headings wrap); an unknown one names the
+    allowed forms."""
     assert HeadingStrategy.parse("fixed:180").headings == [180.0]
     assert HeadingStrategy.parse("best:150,180,-150").headings == [150.0, 180.0, 210.0]
     assert HeadingStrategy.parse("record").kind == "record"
@@ -237,6 +254,7 @@ def test_heading_strategy_parse() -> None:
 
 
 def test_cli_writes_csv_json_and_pngs(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """`twin workability` prints per-planner and threshold figures and writes its files."""
     from twin.cli import main
 
     record = tmp_path / "site.csv"
@@ -265,6 +283,7 @@ def test_cli_writes_csv_json_and_pngs(tmp_path: Path, capsys: pytest.CaptureFixt
 
 
 def test_stop_cancels_the_remaining_chunks(executor: Executor, tmp_path: Path) -> None:
+    """A stop ends an evaluation at its first chunk, caching nothing half-done."""
     with pytest.raises(workability.WorkabilityStopped, match="stopped before its end"):
         run_workability({**SMALL, "chunk_size": 2}, RECORD, executor=executor,
                         data_dir=tmp_path, stop=lambda: True)  # fmt: skip
