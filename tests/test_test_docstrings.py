@@ -1,9 +1,7 @@
 """Every test in tests/ says in a docstring which property it checks (issue 41 item 7).
 
 An ast walk over every Python file under tests/ finds each `def test_*` (nested and async ones
-too) and fails on any without a docstring, naming it as `path:line name`. `EXEMPT_FILES` lists
-the files whose tests are still being documented; it is to be emptied, and a file in it whose
-tests all have docstrings fails too, so the list only shrinks.
+too) and fails on any without a docstring, naming it as `path:line name`.
 """
 
 from __future__ import annotations
@@ -13,10 +11,6 @@ from pathlib import Path
 
 TESTS = Path(__file__).resolve().parent
 ROOT = TESTS.parent
-#: files (relative to the repo root) whose tests are still being documented, left out for now
-EXEMPT_FILES: set[str] = {
-    "tests/web/test_api.py",
-}
 
 
 def undocumented(source: str) -> list[tuple[int, str]]:
@@ -67,17 +61,8 @@ class TestGroup:
 
 
 def test_every_test_has_a_docstring() -> None:
-    """No test function in tests/, outside EXEMPT_FILES, lacks a docstring."""
-    missing = {f: m for f, m in missing_by_file().items() if f not in EXEMPT_FILES}
-    lines = [f"{f}:{line} {name}" for f, found in missing.items() for line, name in found]
+    """No test function in tests/ lacks a docstring."""
+    lines = [f"{f}:{line} {name}" for f, found in missing_by_file().items() for line, name in found]
     assert not lines, "tests without a docstring saying the property they check:\n" + "\n".join(
         lines
     )
-
-
-def test_exempt_files_still_need_their_exemption() -> None:
-    """Every file in EXEMPT_FILES exists and still has an undocumented test (the list only
-    shrinks)."""
-    missing = missing_by_file()
-    stale = sorted(f for f in EXEMPT_FILES if f not in missing)
-    assert not stale, f"documented now: remove from EXEMPT_FILES: {stale}"

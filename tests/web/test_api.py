@@ -99,6 +99,7 @@ def wait_finished(client: TestClient, path: str, timeout: float = 60.0) -> dict[
 
 
 def test_openapi_lists_exactly_the_api_paths(client: TestClient) -> None:
+    """The OpenAPI document lists exactly the API's paths: none missing, none extra."""
     paths = client.get("/openapi.json").json()["paths"]
     assert set(paths) == {
         "/api/health", "/api/mechanisms", "/api/planners", "/api/sea-states", "/api/runs",
@@ -117,6 +118,7 @@ def test_openapi_lists_exactly_the_api_paths(client: TestClient) -> None:
 
 
 def test_health(client: TestClient, executor: Executor) -> None:
+    """Health reports "ok", the version, the viewer's port and the executor as started."""
     health = client.get("/api/health").json()
     assert {k: health[k] for k in ("status", "version", "viewer_port")} == {
         "status": "ok",
@@ -129,6 +131,7 @@ def test_health(client: TestClient, executor: Executor) -> None:
 
 
 def test_landing_page_links_viewer_docs_and_live(client: TestClient) -> None:
+    """The landing page is HTML linking the docs, the live session, runs, replay and the 3D view."""
     response = client.get("/")
     assert response.status_code == 200 and response.headers["content-type"].startswith("text/html")
     for needle in ('href="/docs"', 'href="/redoc"', "/api/live", "/api/runs", "viewer_port",
@@ -137,6 +140,7 @@ def test_landing_page_links_viewer_docs_and_live(client: TestClient) -> None:
 
 
 def test_mechanisms_name_their_planners(client: TestClient) -> None:
+    """Each mechanism lists the registry's planners for it and a default among them."""
     mechanisms = {m["name"]: m for m in client.get("/api/mechanisms").json()}
     assert list(mechanisms) == list(MECHANISMS)
     assert mechanisms["hybrid"]["state_size"] == 9
@@ -146,6 +150,8 @@ def test_mechanisms_name_their_planners(client: TestClient) -> None:
 
 
 def test_planners_carry_ranges_and_defaults_of_planner_parameters(client: TestClient) -> None:
+    """Each planner's parameters carry the ranges and defaults of `PlannerParameters`, with a
+    source and title."""
     planners = {p["name"]: p for p in client.get("/api/planners").json()}
     assert list(planners) == list(PLANNERS)
     mtmp = planners["mtmp"]
@@ -162,6 +168,7 @@ def test_planners_carry_ranges_and_defaults_of_planner_parameters(client: TestCl
 
 
 def test_sea_states_are_the_wmo_table(client: TestClient) -> None:
+    """The sea states are the WMO table, codes 0-9, the open top class without an upper Hs."""
     states = client.get("/api/sea-states").json()
     assert [s["code"] for s in states] == list(range(10))
     for got, want in zip(states, WMO_SEA_STATES, strict=True):
@@ -175,6 +182,8 @@ def test_sea_states_are_the_wmo_table(client: TestClient) -> None:
 def test_a_short_run_answers_when_done_with_simulates_metrics(
     client: TestClient, done_run: dict[str, Any]
 ) -> None:
+    """A short run answers done with simulate()'s metrics and its full scenario, and reads back
+    the same."""
     assert done_run["status"] == "done" and done_run["progress"] == 1.0
     assert done_run["metrics"] == simulate(SHORT).metrics
     assert done_run["scenario"] == Scenario(**SHORT).model_dump()
@@ -182,6 +191,7 @@ def test_a_short_run_answers_when_done_with_simulates_metrics(
 
 
 def test_runs_list_newest_first(client: TestClient, done_run: dict[str, Any]) -> None:
+    """Runs list newest first within the limit asked; a limit of 0 is 422."""
     second = client.post("/api/runs", json={**SHORT, "duration": 1.0}).json()
     ids = [r["id"] for r in client.get("/api/runs", params={"limit": 500}).json()]
     assert ids.index(second["id"]) < ids.index(done_run["id"])
@@ -192,6 +202,7 @@ def test_runs_list_newest_first(client: TestClient, done_run: dict[str, Any]) ->
 def test_series_in_json_csv_and_parquet_match_simulate(
     client: TestClient, done_run: dict[str, Any]
 ) -> None:
+    """A run's series in JSON, CSV and Parquet equal simulate()'s."""
     expected = flat_columns(simulate(SHORT).series)
     url = f"/api/runs/{done_run['id']}/series"
 
@@ -223,6 +234,7 @@ def test_series_in_json_csv_and_parquet_match_simulate(
 def test_unknown_run_is_404_and_unfinished_run_has_no_series(
     client: TestClient, store: RunStore
 ) -> None:
+    """An unknown run is 404 naming it; an unfinished run's series is 409."""
     for path in ("/api/runs/nope", "/api/runs/nope/series"):
         response = client.get(path)
         assert response.status_code == 404 and "nope" in response.json()["detail"]
@@ -231,6 +243,8 @@ def test_unknown_run_is_404_and_unfinished_run_has_no_series(
 
 
 def test_a_long_run_becomes_a_job_that_completes_and_is_stored(client: TestClient) -> None:
+    """A long run answers 202 with its location and completes, stored with simulate()'s metrics
+    and every sample."""
     scenario = {**SHORT, "duration": 10.0}  # 200 steps > SYNC_STEPS
     response = client.post("/api/runs", json=scenario)
     assert response.status_code == 202
@@ -257,6 +271,7 @@ def test_a_long_run_becomes_a_job_that_completes_and_is_stored(client: TestClien
 def test_bad_run_bodies_are_422_naming_field_and_range(
     client: TestClient, body: dict[str, Any], field: str, allowed: str | None
 ) -> None:
+    """A bad run body is 422 naming the field and what is allowed, and stores nothing."""
     before = len(client.get("/api/runs", params={"limit": 500}).json())
     response = client.post("/api/runs", json=body)
     assert response.status_code == 422
@@ -267,6 +282,8 @@ def test_bad_run_bodies_are_422_naming_field_and_range(
 
 
 def test_cross_field_and_non_finite_bodies_are_422(client: TestClient) -> None:
+    """A planner not of the mechanism names the allowed ones; a NaN in the body is 422 as not
+    finite."""
     response = client.post("/api/runs", json={"planner": "pid"})
     assert response.status_code == 422 and "allowed: ['conv1'" in response.json()["message"]
     response = client.post(
@@ -315,6 +332,7 @@ TINY_SWEEP = {"hs": [0.5, 2.0], "tp": [8.0], "planner": ["mtmp"], "seeds": 2, "d
 
 
 def test_a_sweep_is_a_job_with_progress_a_table_and_a_heatmap(client: TestClient) -> None:
+    """A sweep is priced, runs to done with progress, and gives its criterion, table and heatmap."""
     response = client.post("/api/sweeps", json=TINY_SWEEP)
     assert response.status_code == 202, response.text
     queued = response.json()
@@ -347,12 +365,14 @@ def test_a_sweep_is_a_job_with_progress_a_table_and_a_heatmap(client: TestClient
 def test_bad_sweeps_are_422_naming_the_field(
     client: TestClient, change: dict[str, Any], field: str
 ) -> None:
+    """A bad sweep spec is 422 naming the field."""
     response = client.post("/api/sweeps", json={**TINY_SWEEP, **change})
     assert response.status_code == 422, response.text
     assert field in response.json()["message"]
 
 
 def test_an_unknown_sweep_is_404(client: TestClient) -> None:
+    """An unknown sweep and its heatmap are 404."""
     assert client.get("/api/sweeps/nope").status_code == 404
     assert client.get("/api/sweeps/nope/heatmap.png").status_code == 404
 
@@ -360,6 +380,7 @@ def test_an_unknown_sweep_is_404(client: TestClient) -> None:
 def test_sweeps_survive_a_restart_and_interrupted_sweeps_rerun(
     tmp_path: Path, executor: Executor
 ) -> None:
+    """Stored sweeps survive a restart, and one left running by a dead server runs again."""
     path = tmp_path / "runs.sqlite"
     with RunStore(path) as store:
         interrupted = store.create_sweep(TINY_SWEEP, 4).id
@@ -380,6 +401,7 @@ def test_sweeps_survive_a_restart_and_interrupted_sweeps_rerun(
 def test_live_is_flat_scenario_fields_with_time_controls_and_metrics(
     live: LiveSession, tmp_path: Path
 ) -> None:
+    """GET /api/live gives the session's scenario fields flat, its time controls and metrics."""
     state = live_client(live, tmp_path).get("/api/live").json()
     for key in ("mechanism", "planner", "sea_state", "beta", "k_e", "k_c", "heading", "dt"):
         assert state[key] == live.snapshot()[key]
@@ -388,6 +410,7 @@ def test_live_is_flat_scenario_fields_with_time_controls_and_metrics(
 
 
 def test_patch_changes_the_session_on_the_next_step(live: LiveSession, tmp_path: Path) -> None:
+    """A PATCH changes the live session's fields and answers the new state."""
     client = live_client(live, tmp_path)
     client.post("/api/live/step", params={"n": 10})
     response = client.patch(
@@ -420,6 +443,7 @@ def test_patch_changes_the_session_on_the_next_step(live: LiveSession, tmp_path:
 def test_a_bad_patch_is_422_and_changes_nothing(
     live: LiveSession, tmp_path: Path, body: dict[str, Any], field: str
 ) -> None:
+    """A bad PATCH is 422 naming the field and leaves the session unchanged."""
     client = live_client(live, tmp_path)
     before = live.snapshot()
     response = client.patch("/api/live", json=body)
@@ -429,11 +453,13 @@ def test_a_bad_patch_is_422_and_changes_nothing(
 
 
 def test_patch_reports_the_live_speed_range(live: LiveSession, tmp_path: Path) -> None:
+    """A speed out of range is refused naming the allowed range."""
     error = live_client(live, tmp_path).patch("/api/live", json={"speed": 0.1}).json()
     assert error["detail"][0]["allowed"] == "0.25 ≤ speed ≤ 8"
 
 
 def test_pause_step_play_reset(live: LiveSession, tmp_path: Path) -> None:
+    """Pause, step n, play and reset move the live session's clock as asked; a step of 0 is 422."""
     client = live_client(live, tmp_path)
     assert client.post("/api/live/pause").json()["playing"] is False
     assert live.controls.playing is False
@@ -447,6 +473,7 @@ def test_pause_step_play_reset(live: LiveSession, tmp_path: Path) -> None:
 def test_a_mechanism_change_with_its_planner_restarts_the_session(
     live: LiveSession, tmp_path: Path
 ) -> None:
+    """Changing the mechanism with one of its planners restarts the live session at t = 0."""
     client = live_client(live, tmp_path)
     client.post("/api/live/step", params={"n": 5})
     state = client.patch("/api/live", json={"mechanism": "upr4", "planner": "pid"}).json()
@@ -492,6 +519,7 @@ def test_compare_planner_runs_beside_on_the_same_motion(live: LiveSession, tmp_p
 
 
 def test_compare_and_replay_need_the_token(live: LiveSession, tmp_path: Path) -> None:
+    """Compare and replay need the token and the server's origin; refused, they change nothing."""
     client = live_client(live, tmp_path, token=TOKEN)
     replay = client.post("/api/live/replay", json={"run_id": "0" * 32})
     compare = client.patch("/api/live", json={"compare_planner": "pi"})
@@ -549,6 +577,8 @@ def test_replay_plays_seeks_and_returns_to_live(live: LiveSession, tmp_path: Pat
 
 
 def test_with_a_token_mutations_need_the_bearer_token(live: LiveSession, tmp_path: Path) -> None:
+    """With a token every mutation needs the bearer token (missing, wrong or Basic: 401) while
+    reading stays open."""
     client = live_client(live, tmp_path, token=TOKEN)
     assert client.get("/api/live").status_code == 200  # reading stays open
     for headers in ({}, {"Authorization": "Bearer wrong"}, {"Authorization": f"Basic {TOKEN}"}):
@@ -568,6 +598,7 @@ def test_with_a_token_mutations_need_the_bearer_token(live: LiveSession, tmp_pat
 def test_cross_origin_mutations_are_refused_and_cors_is_closed(
     live: LiveSession, tmp_path: Path
 ) -> None:
+    """Mutations from another origin are 403 and change nothing; no CORS header is given to it."""
     client = live_client(live, tmp_path)
     evil = {"Origin": "http://evil.example"}
     assert client.post("/api/live/pause", headers=evil).status_code == 403
@@ -655,6 +686,7 @@ def test_a_host_spoofed_patch_changes_nothing(live: LiveSession, tmp_path: Path)
 def test_a_refused_patch_changes_nothing_empty_names_included(
     live: LiveSession, tmp_path: Path, body: dict[str, Any], field: str
 ) -> None:
+    """A refused PATCH (empty names included) changes nothing, and the session goes on."""
     client = live_client(live, tmp_path)
     before = live.snapshot()
     response = client.patch("/api/live", json=body)
@@ -681,6 +713,7 @@ def test_a_refused_patch_changes_nothing_empty_names_included(
 def test_a_refused_run_stores_nothing(
     client: TestClient, store: RunStore, body: dict[str, Any], field: str
 ) -> None:
+    """A refused run body is 422 naming the field and stores nothing."""
     before = len(store.list_runs(500))
     response = client.post("/api/runs", json=body)
     assert response.status_code == 422, response.text
@@ -810,6 +843,7 @@ def test_a_long_step_lets_readers_in_and_stops_at_its_wall_cap(
 def test_short_tokens_are_refused_and_wrong_ones_rate_limited(
     live: LiveSession, tmp_path: Path
 ) -> None:
+    """A short token is refused at start; wrong tokens past the burst are rate limited."""
     with pytest.raises(ValueError, match=f"at least {MIN_TOKEN}"):
         Access(token="x" * (MIN_TOKEN - 1))
     app = create_app(
@@ -830,6 +864,8 @@ def test_short_tokens_are_refused_and_wrong_ones_rate_limited(
 
 
 def test_the_access_policy_names_hosts_and_origins_as_the_server_was_started() -> None:
+    """The access policy allows the server's own hosts and origins and the ones added, and no
+    look-alikes."""
     policy = Access.for_server(
         "::1", (8000, 8080), allow_hosts=("Twin.Example.com",),
         allow_origins=("https://twin.example.com",),
