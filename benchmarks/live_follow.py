@@ -1,7 +1,7 @@
 """Benchmark of the live session following a live motion stream (issue 40, the live path): the
 CPU the session's thread spends following a 50 Hz MRU stream beside the same session on the
 synthesised sea, how far the simulation trails the newest sample, every sentence received,
-and the Onboard panel's evaluation time (`twin.sim.onboard_live.LiveOnboard.evaluate`).
+and the Onboard panel's evaluation time (`twin.runs.onboard_live.LiveOnboard.evaluate`).
 
     python benchmarks/live_follow.py [--seconds 20] [--full] [--history]
 
@@ -30,9 +30,9 @@ import numpy as np
 
 from twin.motion.replay import send
 from twin.motion.series import MotionSeries
+from twin.runs.onboard_live import LiveOnboard
 from twin.sim.live import LiveSession, live_demo
 from twin.sim.motion_live import LiveMotion
-from twin.sim.onboard_live import LiveOnboard
 from twin.web.motion_udp import MotionListener
 
 RATE = 50.0  # [Hz] the fastest MRU rate the twin reads

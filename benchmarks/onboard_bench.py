@@ -5,7 +5,7 @@
 - **estimate a 20-min window at 10 Hz** (`twin.motion.estimate.estimate_sea`, six motions and
   heave-roll-pitch alone): best of 3. Target ≤ 1 s. Baseline measured in the same run: the
   Welch cross-spectra of that window alone (`cross_spectra`), the part any estimator pays.
-- **a 24-hour log's onboard report** (`twin.sim.onboard.onboard_report`, 10 Hz, 72 windows of
+- **a 24-hour log's onboard report** (`twin.runs.onboard.onboard_report`, 10 Hz, 72 windows of
   20 min; twelve 2-hour sea states, Hs 1-2.5 m, Tp 7-10 s, β 150°; the default spec: the
   hybrid system's default planner, 3 seeds, 200 s runs, the 12-heading grid) from an empty cell
   cache on a two-worker LocalCluster (started before, its start not counted: a server's runs),
@@ -27,8 +27,8 @@ import numpy as np
 
 from twin.motion.estimate import cross_spectra, estimate_sea
 from twin.runs.executor import Executor
+from twin.runs.onboard import OnboardSpec, estimate_windows, onboard_report
 from twin.sea.synthesis import wave_components
-from twin.sim.onboard import OnboardSpec, estimate_windows, onboard_report
 from twin.vessel import DOFS, load_raos, vessel_motion
 
 RAOS = load_raos("sov")

@@ -36,8 +36,8 @@ import pandas as pd
 
 from twin.assets import asset_path
 from twin.runs.executor import Executor
+from twin.runs.workability import WorkabilitySpec, run_workability
 from twin.sim import PAPER_PRESETS, Scenario, simulate, simulate_many
-from twin.sim.workability import WorkabilitySpec, run_workability
 from twin.site import SiteRecord, read_record
 
 SHIPPED = "46097h2019_08.txt"

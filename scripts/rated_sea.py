@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from twin.runs.executor import Executor
-from twin.sim.workability import OPERABLE_LEVEL, WorkabilitySpec, run_workability
+from twin.runs.workability import OPERABLE_LEVEL, WorkabilitySpec, run_workability
 from twin.site import SiteRecord
 
 HS_LOW = 0.25  # [m] the cell grid's smallest Hs: a sea below it is not rated

@@ -29,7 +29,7 @@ import numpy as np
 
 from twin.assets import asset_path
 from twin.runs.executor import Executor
-from twin.sim.workability import WorkabilitySpec, run_workability
+from twin.runs.workability import WorkabilitySpec, run_workability
 from twin.site import SiteRecord, read_record
 
 ALL = ["pi", "wpi", "mtmp", "dwa", "conv1", "conv2", "qp"]

@@ -153,3 +153,10 @@ def test_the_viewer_is_handed_access_and_connections_by_the_server() -> None:
     """twin.web.viewer imports neither the access policy nor the connection guards when run."""
     assert layer_edges("twin.web.viewer", ("twin.web.access", "twin.web.connections")) == []
     assert layer_edges("twin.web.viewer", ("twin.web.viewer",))  # the viewer's modules were read
+
+
+def test_the_engine_layer_never_imports_the_runs_layer() -> None:
+    """No module of twin.sim imports twin.runs (executor, sweeps, workability, onboard, claims
+    sit above the engine), while twin.runs does import twin.sim (so the check can fail)."""
+    assert layer_edges("twin.sim", ("twin.runs",)) == []
+    assert layer_edges("twin.runs", ("twin.sim",))

@@ -318,7 +318,7 @@ def _add_workability(commands: argparse._SubParsersAction[argparse.ArgumentParse
         description="Evaluate a site's wave record (NDBC standard meteorological file, CSV or "
         "Parquet time series, Hs × Tp scatter table, or forecast) for each planner: the share "
         "of time it is operable, per month, beside the Hs-threshold estimate, with limiting "
-        "constraints and weather windows (twin.sim.workability). Runs go through the executor "
+        "constraints and weather windows (twin.runs.workability). Runs go through the executor "
         "`twin serve` uses, with a progress bar; operability cells are cached in --data-dir.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
@@ -408,7 +408,7 @@ def _onboard(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from twin.errors import TwinError
     from twin.motion.logs import read_motion
     from twin.motion.sensor import Sensor
-    from twin.sim.onboard import DEFAULT_HEADINGS, OnboardSpec, centre_motion, onboard_report
+    from twin.runs.onboard import DEFAULT_HEADINGS, OnboardSpec, centre_motion, onboard_report
     from twin.validation import explain
 
     try:
@@ -672,7 +672,7 @@ def _workability(args: argparse.Namespace, parser: argparse.ArgumentParser) -> i
     from pydantic import ValidationError
 
     from twin.errors import TwinError
-    from twin.sim.workability import (
+    from twin.runs.workability import (
         HeadingStrategy,
         WorkabilitySpec,
         read_site_record,

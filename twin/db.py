@@ -1,6 +1,6 @@
 """SQLite for the twin's three stores: the run store (`twin.web.store`), the workability jobs in
 the same file (`twin.web.workability_store`) and the cell cache
-(`twin.sim.workability.CellCache`).
+(`twin.runs.workability.CellCache`).
 
 Stated once here: how a file is opened (its folder made, WAL so readers never block the
 writer, a busy timeout, autocommit so that each write is exactly one explicit transaction),

@@ -13,9 +13,9 @@ from fastapi.testclient import TestClient
 
 from tests.web.support import access, wait_for
 from twin.runs.executor import IN_PROCESS, Executor
+from twin.runs.onboard import OnboardSpec, onboard_report
 from twin.sea.synthesis import wave_components
 from twin.sim.live import LiveSession
-from twin.sim.onboard import OnboardSpec, onboard_report
 from twin.vessel import DOFS, load_raos, vessel_motion
 from twin.web import RunStore, create_app
 

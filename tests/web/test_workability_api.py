@@ -17,8 +17,8 @@ from tests.web.support import TOKEN, access, wait_for
 from twin.assets import asset_path
 from twin.db import session
 from twin.runs.executor import IN_PROCESS, Executor
+from twin.runs.workability import WorkabilitySpec, run_workability
 from twin.sim.live import LiveSession
-from twin.sim.workability import WorkabilitySpec, run_workability
 from twin.site import read_record
 from twin.web import RunStore, create_app
 from twin.web.limits import MAX_BODY
@@ -400,7 +400,7 @@ def test_a_header_only_or_nul_record_is_422_at_submission(client: TestClient) ->
 def test_a_job_over_its_row_headings_is_refused_naming_the_limit() -> None:
     """Finding 3: 200,000 rows judged at 36 headings (7.2M row-headings, 16 s of GIL in the
     server for its unique alone) is over `MAX_ROW_WORK`; a year hourly at 36 is not."""
-    from twin.sim.workability import HeadingStrategy
+    from twin.runs.workability import HeadingStrategy
     from twin.web.routers.workability import MAX_ROW_WORK, over_limits
 
     headings = HeadingStrategy.parse("best:" + ",".join(str(10 * i) for i in range(36)))
@@ -418,7 +418,7 @@ def test_the_evaluation_runs_as_a_task_not_in_the_runners_thread(
     cluster, never on the thread of the server's runner."""
     import threading
 
-    from twin.sim import workability
+    from twin.runs import workability
 
     threads: list[str] = []
     original = workability.run_workability

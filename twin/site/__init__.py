@@ -2,7 +2,7 @@
 conventions of its directions, and weather windows.
 
 Layer: above `twin.sea` and `twin.vessel` (it speaks their conventions), below `twin.sim` (whose
-`twin.sim.workability` turns a record into workability on the one engine).
+`twin.runs.workability` turns a record into workability on the one engine).
 
     record = read_record(asset_path("site", "46097h2019_08.txt"))   # NDBC, sniffed
     beta = relative_heading(record.direction, vessel_heading=90.0)  # Scenario.heading [deg]

@@ -8,7 +8,7 @@ Three steps, each cheaper than the next and each able to refuse:
    anything else (a 50,000-column scatter table cost pandas 158 s of CPU in its column
    de-duplication, quadratic in the columns).
 2. `parse_record` (in a `twin.web.upload_worker.BoundedWorker` child, within its CPU, memory and
-   wall budget): the CLI's reading of a record for a spec (`twin.sim.workability.
+   wall budget): the CLI's reading of a record for a spec (`twin.runs.workability.
    read_site_record`: the columns its heading strategy needs, its duplicates rule, at least one
    usable row, else the reasons the rows were skipped), then a time grid of at most
    `MAX_GRID_STEPS` steps (`check_grid`: span / median step; 101 rows 1 ns apart and one a
@@ -34,17 +34,17 @@ import numpy as np
 
 from twin.assets import asset_path
 from twin.errors import TwinError
-from twin.sim.workability import read_site_record
+from twin.runs.workability import read_site_record
 from twin.site import SiteRecord
 
 #: most lines an uploaded record may have: 5 years of hourly rows, or a year of 10-minute ones,
-#: with room to spare (the readers keep at most `twin.sim.workability.MAX_ROWS` = 200,000 rows)
+#: with room to spare (the readers keep at most `twin.runs.workability.MAX_ROWS` = 200,000 rows)
 MAX_LINES = 300_000
 #: most columns on an uploaded record's first line: a scatter table's `hs`, `direction` and up to
 #: 200 Tp columns (pandas' cost grows with the square of the columns)
 MAX_COLUMNS = 202
 #: most steps of a time series' regular grid (span / median step + 1): twice the rows a record
-#: may keep (`twin.sim.workability.MAX_ROWS`), 45 years hourly; it bounds the memory of any
+#: may keep (`twin.runs.workability.MAX_ROWS`), 45 years hourly; it bounds the memory of any
 #: per-step series built from the rows
 MAX_GRID_STEPS = 400_000
 #: the name an upload's file gets when the request names none

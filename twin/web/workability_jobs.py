@@ -3,7 +3,7 @@
 `WorkabilityRunner` extends `twin.web.jobs.QueuedJobs`, as `SweepRunner` does: a daemon thread
 takes a stored job, counts its attempt (`store.running`, before anything of it is read), and
 hands the whole evaluation to a worker of the server's executor (`evaluate_job`): the record
-unpacked, `twin.sim.workability.run_workability` driving its runs from there (a client of the
+unpacked, `twin.runs.workability.run_workability` driving its runs from there (a client of the
 same cluster, `distributed.worker_client`: the chunks still spread over every worker, below
 single runs' priority), the per-row table, the summary and the plots. None of it runs in the
 process that answers requests (issue 43: on a 200,000-row record with 36 headings, the unique
@@ -14,7 +14,7 @@ event: it stops after the chunk in hand (`run_workability`'s `stop`). A stopped 
 its job queued; the next start queues it again, up to `twin.db.MAX_ATTEMPTS` starts.
 
 Operability cells are cached in the server's data dir (the run store's folder, `cells.sqlite`,
-`twin.sim.workability.CellCache`), written by the worker that runs the job.
+`twin.runs.workability.CellCache`), written by the worker that runs the job.
 
 Records: a shipped one by name (`shipped_records`, the files of `assets/site/`), or an uploaded
 one's text (`record_csv`, at most `MAX_RECORD_BYTES`), priced and read at submission by
@@ -103,8 +103,8 @@ def forecast_steps(result: Any) -> dict[str, Any]:
 
 
 def packed_rows(result: Any) -> bytes:
-    """A result's per-row table (`twin.sim.workability.rows_csv`), gzip-compressed."""
-    from twin.sim.workability import rows_csv
+    """A result's per-row table (`twin.runs.workability.rows_csv`), gzip-compressed."""
+    from twin.runs.workability import rows_csv
 
     return gzip.compress(str(rows_csv(result.rows)).encode(), compresslevel=6)
 
@@ -130,7 +130,7 @@ def evaluate_job(
     from distributed import Event, worker_client
 
     from twin.runs.executor import Executor, report
-    from twin.sim.workability import WorkabilitySpec, run_workability
+    from twin.runs.workability import WorkabilitySpec, run_workability
 
     site = unpack_record(record) if isinstance(record, bytes) else load_record(record)
     with worker_client() as client:  # this task leaves its slot to the chunks it waits for

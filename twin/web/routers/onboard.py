@@ -1,5 +1,5 @@
 """Onboard reports (issue 40): a vessel's motion log in, the sea it met, operability now and
-heading advice out (`twin.sim.onboard`).
+heading advice out (`twin.runs.onboard`).
 
     POST /api/onboard                    upload a log and the report's fields (202, Location)
     GET  /api/onboard/{id}               status, then the report (windows, advice, alerts)
@@ -15,7 +15,7 @@ within `MAX_RUNS` runs and `MAX_TOTAL_STEPS` steps (`twin.web.routers.workabilit
 a 422 naming the limit). A submission counts against the workability jobs' cap and rate
 (`Admission`, "workability").
 
-The report runs as one task on the server's executor (`twin.sim.onboard.onboard_task`), never
+The report runs as one task on the server's executor (`twin.runs.onboard.onboard_task`), never
 in the process that answers. Jobs are kept in memory, the newest `MAX_JOBS`: a restarted server
 forgets them (the cells they ran stay cached in the data dir).
 """
@@ -33,8 +33,8 @@ from fastapi import APIRouter, HTTPException, Request, Response
 from pydantic import model_validator
 
 from twin.errors import TwinError
-from twin.sim.onboard import OnboardSpec, onboard_task
-from twin.sim.workability import HeadingStrategy
+from twin.runs.onboard import OnboardSpec, onboard_task
+from twin.runs.workability import HeadingStrategy
 from twin.web.deps import GUARDED, AdmissionDep, ExecutorDep, ServicesDep
 from twin.web.models import RANGES, _ranges, unprocessable
 from twin.web.routers.motion import MotionLogBody
@@ -178,7 +178,7 @@ def create_onboard(
 def get_onboard(job_id: str, request: Request) -> dict[str, Any]:
     """A report's status (running, done, failed) and, once done, the report: per window the
     sea, each planner's probability at the current heading, the best heading and the turn to
-    it, alerts, the ranked advice and notes (`twin.sim.onboard.OnboardReport`)."""
+    it, alerts, the ranked advice and notes (`twin.runs.onboard.OnboardReport`)."""
     job = jobs_of(request).get(job_id)
     out: dict[str, Any] = {"id": job_id, "created": job["created"]}
     future = job["future"]

@@ -36,8 +36,8 @@ from pydantic import Field, ValidationError, ValidationInfo, field_validator, mo
 
 from twin.errors import TwinError
 from twin.runs import sweep as sweep_module
+from twin.runs.workability import WorkabilitySpec
 from twin.sim.registries import get_planner
-from twin.sim.workability import WorkabilitySpec
 from twin.site.records import READ_KINDS
 from twin.web.deps import GUARDED, AdmissionDep, ServicesDep
 from twin.web.models import RANGES, RunRequest, _ranges, body_errors, unprocessable

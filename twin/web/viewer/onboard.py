@@ -8,7 +8,7 @@ The folder's "Motion source" dropdown switches the live session between the synt
 and the live stream (with `twin serve --motion-udp`), as `PATCH /api/live {"motion_source":
 …}` does, under the viewer's lock (a locked browser's choice is refused and undone); a log
 chosen through REST shows as one more entry. The figures come from
-`twin.sim.onboard_live.LiveOnboard`, which evaluates on a thread of its own (the viewer's
+`twin.runs.onboard_live.LiveOnboard`, which evaluates on a thread of its own (the viewer's
 render loop only formats its newest result); the source's status from
 `LiveSession.motion_state`, read at the readout's rate. The threshold is a display setting of
 the folder, shared by every browser: it changes no simulation.
@@ -22,9 +22,9 @@ from typing import TYPE_CHECKING, Any
 
 import viser
 
+from twin.runs.onboard_live import LiveOnboard, alerts
+from twin.runs.workability import OPERABLE_LEVEL
 from twin.sim.live import LiveSession
-from twin.sim.onboard_live import LiveOnboard, alerts
-from twin.sim.workability import OPERABLE_LEVEL
 
 if TYPE_CHECKING:
     from twin.web.viewer.gui import TwinGui

@@ -1,4 +1,4 @@
-"""The onboard report (`twin.sim.onboard`) on a synthetic motion log: per window the estimated
+"""The onboard report (`twin.runs.onboard`) on a synthetic motion log: per window the estimated
 sea, each planner's probability at the current heading from the workability cells (the same
 cells the per-heading advice reads), the advice ranked with the turn to each heading, alerts
 under the threshold, a calm window refused with its reason, and its files."""
@@ -14,14 +14,14 @@ import pytest
 from pydantic import ValidationError
 
 from twin.errors import TwinError
-from twin.sea.synthesis import wave_components
-from twin.sim.onboard import (
+from twin.runs.onboard import (
     OnboardReport,
     OnboardSpec,
     centre_motion,
     onboard_report,
     turn_to,
 )
+from twin.sea.synthesis import wave_components
 from twin.spatial import rpy_to_matrix
 from twin.vessel import load_raos, vessel_motion
 

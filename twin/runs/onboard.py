@@ -6,7 +6,7 @@ For each window of the log (`twin.motion.estimate.window_starts`, 20 min by defa
    wave buoy analogy): Hs, Tp, the relative direction β the waves travel towards
    (`Scenario.heading`) and their uncertainty; a refused window keeps its reason;
 2. each planner's probability of being operable at the current relative heading β — from the
-   workability cells, the one code path (`twin.sim.workability.run_workability` with the record
+   workability cells, the one code path (`twin.runs.workability.run_workability` with the record
    strategy: a cell heading is the nearest of the strategy grid, a missing cell is run and
    cached);
 3. the heading advice: every relative heading of the strategy grid (`WorkabilitySpec.
@@ -50,13 +50,13 @@ from twin.motion.estimate import (
 )
 from twin.motion.mount import vessel_motion_from
 from twin.runs.executor import Executor
-from twin.sim.base_motion import mount_for, raos_named
-from twin.sim.workability import (
+from twin.runs.workability import (
     OPERABLE_LEVEL,
     HeadingStrategy,
     WorkabilitySpec,
     run_workability,
 )
+from twin.sim.base_motion import mount_for, raos_named
 from twin.site.heading import wave_from
 from twin.site.records import SiteRecord
 

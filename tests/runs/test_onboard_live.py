@@ -1,4 +1,4 @@
-"""The live onboard report (`twin.sim.onboard_live`): the sea estimated from the followed
+"""The live onboard report (`twin.runs.onboard_live`): the sea estimated from the followed
 source's newest window, operability now and the heading advice from the cells, the session's
 tip error and leg margin; the estimator's refusal while the window is short; alerts under a
 threshold."""
@@ -12,17 +12,17 @@ import numpy as np
 import pytest
 
 from twin.motion.series import MotionSeries
+from twin.runs.onboard import OnboardSpec
+from twin.runs.onboard_live import LiveOnboard, alerts
 from twin.sea.synthesis import wave_components
 from twin.sim.base_motion import mount_for
 from twin.sim.live import LiveSession
 from twin.sim.measured import LOG_DIR_ENV, store_log
 from twin.sim.motion_live import LiveMotion
-from twin.sim.onboard import OnboardSpec
-from twin.sim.onboard_live import LiveOnboard, alerts
 from twin.vessel import load_raos, vessel_motion
 
 GRID = [0.0, 90.0, 180.0, 270.0]
-#: the cheapest cells that still run the engine (tests/sim/test_onboard.py's)
+#: the cheapest cells that still run the engine (tests/runs/test_onboard.py's)
 CELLS = {"seeds": 1, "duration": 10.0, "hs_grid": [1.0, 2.0], "tp_grid": [8.0],
          "heading_grid": GRID}  # fmt: skip
 SCENARIO = {"mechanism": "upr4", "planner": "pid", "sea_state": 1.0}
@@ -72,6 +72,6 @@ evaluation within the report period reuses the report."""
     assert 0.0 <= p <= 1.0
     assert sorted(a["heading"] for a in result["advice"]["pid"]) == GRID
     assert alerts(result, 1.01) == [f"pid {p:.2f} < 1.01"] and alerts(result, 0.0) == []
-    monkeypatch.setattr("twin.sim.onboard_live.onboard_report", None)  # a call would fail
+    monkeypatch.setattr("twin.runs.onboard_live.onboard_report", None)  # a call would fail
     again = onboard.evaluate()  # within REPORT_PERIOD: the same report, not computed again
     assert again["estimate"] == result["estimate"] and again["report_age_s"] > 0.0

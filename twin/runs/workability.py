@@ -453,7 +453,7 @@ class WorkabilityResult:
         `windows.png`, `strip.png` (time series, forecasts) and `forecast.png` (forecasts).
         `title`: what the plots call the record (e.g. an uploaded file's name); default its
         source."""
-        from twin.sim import workability_plots as plots
+        from twin.runs import workability_plots as plots
 
         out: dict[str, bytes] = {}
         figures = plots.figures(self, title=title)

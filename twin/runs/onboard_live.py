@@ -13,7 +13,7 @@ The source is the live session's (`LiveSession.motion_state`):
 
 Until the window holds `twin.motion.estimate.MIN_WINDOW` (10 min) of motion, the estimator's
 own refusal is shown; then one window (`OnboardSpec.window`, 20 min, or what there is) goes
-through `twin.sim.onboard.onboard_report` — the one path of `twin onboard` and
+through `twin.runs.onboard.onboard_report` — the one path of `twin onboard` and
 `POST /api/onboard` — for the session's planner (and its comparison planner), the cells cached
 in `data_dir`, missing ones run in this process.
 """
@@ -31,11 +31,11 @@ import numpy as np
 
 from twin.motion.estimate import MIN_WINDOW, EstimateRefused, estimate_sea
 from twin.motion.series import CHANNELS, MotionSeries
+from twin.runs.onboard import OnboardSpec, centre_motion, onboard_report
+from twin.runs.workability import WorkabilitySpec
 from twin.sim.base_motion import raos_named
 from twin.sim.live import MOTION_SOURCE, LiveSession
 from twin.sim.measured import load_log
-from twin.sim.onboard import OnboardSpec, centre_motion, onboard_report
-from twin.sim.workability import WorkabilitySpec
 
 log = logging.getLogger(__name__)
 

@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from tests.figures import fuzz
 from twin.assets import asset_path
 from twin.errors import TwinError
+from twin.runs import workability
 from twin.runs.executor import Executor
-from twin.sim import workability
-from twin.sim.workability import (
+from twin.runs.workability import (
     HeadingStrategy,
     WorkabilitySpec,
     run_summary,
@@ -490,7 +490,7 @@ def test_cli_vessel_heading_duplicates_and_warnings(
 def test_plots_carry_the_given_title_a_colour_bar_and_utc(cells: Path) -> None:
     """Each figure is titled by the name given (an upload's file name); the strip has a colour
     bar and a UTC time axis; partial months are labelled so; Hs limits appear ascending."""
-    from twin.sim import workability_plots as plots
+    from twin.runs import workability_plots as plots
 
     record = hourly([1.0, 2.0, 1.0, 3.0], [8.0, 8.0, 6.0, 10.0])
     result = run_workability({**CHEAP, "hs_limits": [2.5, 1.5]}, record, scheduler=NOWHERE,

@@ -32,7 +32,7 @@ from twin.site.windows import record_step
 if TYPE_CHECKING:
     from matplotlib.typing import LineStyleType
 
-    from twin.sim.workability import WorkabilityResult
+    from twin.runs.workability import WorkabilityResult
 
 #: planner bar colours (colour-blind safe), threshold line styles
 COLOURS = ("#0072B2", "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00", "#F0E442")
