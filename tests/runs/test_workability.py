@@ -32,7 +32,7 @@ from twin.site import SiteRecord, read_record, relative_heading
 #: short runs on a small grid: mtmp fails at Hs ≥ 2 m and Tp ≥ 8 s within 30 s, qp rarely
 SMALL = {"planners": ["mtmp", "qp"], "seeds": 2, "duration": 30.0, "hs_grid": [1.0, 2.0, 3.0],
          "tp_grid": [6.0, 8.0, 10.0], "hs_limits": [1.5, 2.5], "window_hours": [2.0],
-         "cell_lookup": "conservative"}  # fmt: skip
+         "cell_lookup": "conservative", "refine_levels": 0}  # fmt: skip
 #: documented bounds on workability(cells) − workability(direct) for a sample of ≥ 30 rows on
 #: the default grid (docs/workability.md): conservative lookup, and |linear lookup − direct|
 CONSERVATIVE = (-0.20, 0.02)
@@ -68,20 +68,28 @@ def test_threshold_baseline_is_a_hand_count(executor: Executor) -> None:
     assert windows["lengths"] == [3.0, 3.0]  # 20-22 h, then 01-03 h of the next day
 
 
-def test_rows_take_the_next_hs_nearest_tp_and_above_the_grid_is_not_operable(
-    executor: Executor,
-) -> None:
-    """Conservative lookup reads the cell at the next Hs and nearest Tp; a row above the Hs
-    grid is not operable, with a note; a row's probability is its cell's seed share."""
+def test_conservative_rows_take_the_worse_tp_corner_at_the_next_hs(executor: Executor) -> None:
+    """Conservative lookup reads the cells at the next Hs on both sides of the row's Tp and
+    takes the worse (its Tp reported); a row above the Hs grid is not operable, with a note;
+    a row's probability is a cell's seed share, equal to direct runs at that corner."""
     result = run_workability(SMALL, RECORD, executor=executor)
-    rows = result.rows[result.rows["planner"] == "qp"]
-    assert rows["cell_hs"].tolist()[:4] == [1.0, 2.0, 2.0, 3.0]  # 1.9 → 2, 2.6 → 3
-    assert rows["cell_tp"].tolist()[:4] == [6.0, 8.0, 8.0, 10.0]  # 8.6 → 8, 9.1 → 10
-    above = rows.iloc[4]  # Hs 3.4 m over a grid ending at 3 m
-    assert above["probability"] == 0.0 and above["limiting"] == "Hs above the cell grid"
-    assert any("above the cell grid" in note for note in result.notes)
-    # every other row's probability is its cell's share of operable seeds
-    assert set(rows["probability"]) <= {0.0, 0.5, 1.0}
+    differ = 0  # rows whose two corners disagree (so "the worse" is tested)
+    corners = hourly([1.0, 1.0, 2.0, 2.0, 2.0, 3.0, 3.0], [6.0, 8.0, 6.0, 8.0, 10.0, 8.0, 10.0])
+    direct = run_workability({**SMALL, "method": "direct"}, corners, executor=executor).rows
+    for planner in SMALL["planners"]:
+        rows = result.rows[result.rows["planner"] == planner]
+        assert rows["cell_hs"].tolist()[:4] == [1.0, 2.0, 2.0, 3.0]  # 1.9 → 2, 2.6 → 3
+        truth = direct[direct["planner"] == planner]
+        at = {(h, t): p for h, t, p in zip(truth["hs"], truth["tp"], truth["probability"])}
+        # Tp 6.3 and 7.4 lie between the 6 and 8 s cells, 8.6 and 9.1 between 8 and 10 s
+        for i, (tp0, tp1) in enumerate([(6.0, 8.0), (6.0, 8.0), (8.0, 10.0), (8.0, 10.0)]):
+            h = rows["cell_hs"].iloc[i]
+            assert rows["probability"].iloc[i] == min(at[(h, tp0)], at[(h, tp1)]), (planner, i)
+            assert at[(h, rows["cell_tp"].iloc[i])] == rows["probability"].iloc[i]
+            differ += at[(h, tp0)] != at[(h, tp1)]
+        above = rows.iloc[4]  # Hs 3.4 m over a grid ending at 3 m
+        assert above["probability"] == 0.0 and above["limiting"] == "Hs above the cell grid"
+    assert any("above the cell grid" in note for note in result.notes) and differ > 0
 
 
 def test_rows_on_grid_points_run_exactly_their_cells(executor: Executor) -> None:
@@ -93,6 +101,49 @@ def test_rows_on_grid_points_run_exactly_their_cells(executor: Executor) -> None
     linear = run_workability({**SMALL, "cell_lookup": "linear"}, on_grid, executor=executor)
     np.testing.assert_array_equal(cells.rows["probability"], direct.rows["probability"])
     np.testing.assert_array_equal(linear.rows["probability"], direct.rows["probability"])
+
+
+def test_a_cell_whose_corners_disagree_is_split_around_the_row(executor: Executor) -> None:
+    """With `refine_levels`, a cell whose corner probabilities spread over `refine_spread` is
+    halved in Hs and Tp and the row takes the half around it (a row on both midpoints runs at
+    its own sea, so it equals direct runs); a planner whose corners agree runs nothing more,
+    and rows on grid points keep their cells."""
+    record = hourly([1.5, 1.7, 1.0, 2.0, 2.0], [7.0, 7.5, 6.0, 6.0, 8.0])
+    spec = {**SMALL, "cell_lookup": "linear"}
+    coarse = run_workability(spec, record, executor=executor).rows
+    fine = run_workability({**spec, "refine_levels": 1}, record, executor=executor).rows
+    direct = run_workability({**spec, "method": "direct"}, record, executor=executor).rows
+    mtmp, qp = (fine["planner"] == "mtmp").to_numpy(), (fine["planner"] == "qp").to_numpy()
+    # mtmp's cell (1-2 m, 6-8 s) spans operable and not: split; 1.5 m, 7 s is its centre
+    assert coarse["cell_hs"][mtmp].iloc[0] == 2.0 and fine["cell_hs"][mtmp].iloc[0] == 1.5
+    assert fine["cell_tp"][mtmp].iloc[0] == 7.0
+    assert fine["probability"][mtmp].iloc[0] == direct["probability"][mtmp].iloc[0]
+    assert coarse["probability"][mtmp].iloc[0] != direct["probability"][mtmp].iloc[0]
+    # 1.7 m, 7.5 s lies in the half 1.5-2 m × 7-8 s
+    assert fine["cell_hs"][mtmp].iloc[1] == 2.0 and fine["cell_tp"][mtmp].iloc[1] == 8.0
+    # qp is operable at every corner: nothing split
+    np.testing.assert_array_equal(fine["cell_hs"][qp], coarse["cell_hs"][qp])
+    np.testing.assert_array_equal(fine["probability"][qp], coarse["probability"][qp])
+    # rows on grid points are their cells, refined or not
+    np.testing.assert_array_equal(fine["probability"][mtmp].iloc[2:],
+                                  direct["probability"][mtmp].iloc[2:])  # fmt: skip
+
+
+def test_a_refinement_past_max_runs_is_not_made_and_a_grid_past_it_is_refused(
+    executor: Executor,
+) -> None:
+    """A refinement that would pass `max_runs` is left out, saying so, and the grid's cells
+    stand; a grid that needs more than `max_runs` runs is a TwinError naming it."""
+    record = hourly([1.5, 1.7, 1.0], [7.0, 7.5, 6.0])
+    spec = {**SMALL, "cell_lookup": "linear"}
+    coarse = run_workability(spec, record, executor=executor)
+    capped = run_workability({**spec, "refine_levels": 2, "max_runs": coarse.runs}, record,
+                             executor=executor)  # fmt: skip
+    assert capped.runs == coarse.runs
+    assert any("refined 0 of 2 times" in note and "max_runs" in note for note in capped.notes)
+    np.testing.assert_array_equal(capped.rows["probability"], coarse.rows["probability"])
+    with pytest.raises(TwinError, match="max_runs"):
+        run_workability({**spec, "max_runs": coarse.runs - 1}, record, executor=executor)
 
 
 def test_cells_and_direct_agree_within_the_documented_tolerance(executor: Executor) -> None:
@@ -431,7 +482,7 @@ def test_rows_off_the_tp_grid_are_noted(cells: Path) -> None:
     """Rows whose Tp lies outside the cell grid are counted in the notes on each side."""
     record = hourly([1.0, 1.0, 1.0, 1.0], [4.0, 8.0, 22.0, 26.0])
     notes = run_workability(CHEAP, record, scheduler=NOWHERE, data_dir=cells).notes
-    below = "1 rows have Tp below the cell grid's 6 s and take its 6 s cells (nearest in Tp)"
+    below = "1 rows have Tp below the cell grid's 6 s and take its 6 s cells (the grid's edge in Tp)"
     assert below in notes
     assert any(note.startswith("2 rows have Tp above the cell grid's 10 s") for note in notes)
 

@@ -96,7 +96,9 @@ def test_a_job_has_progress_the_librarys_result_and_png_plots(
     queued = response.json()
     assert response.headers["location"] == f"/api/workability/{queued['id']}"
     assert queued["record"] == {"name": SHIPPED} and queued["spec"]["seeds"] == 1
-    assert queued["total"] == 8  # priced: 4 × 2 cells × 1 seed × 1 planner
+    # priced: 4 × 2 cells refined up to twice, on the grid halved twice: (4·3 + 1) × (4·1 + 1)
+    # points × 1 seed × 1 planner (an upper bound)
+    assert queued["total"] == 65
     job = wait_finished(client, response.headers["location"])
     assert job["status"] == "done", job["error"]
     assert job["progress"] == 1.0 and job["done"] == job["total"]
@@ -213,6 +215,27 @@ def test_an_upload_over_the_caps_is_refused_naming_each(client: TestClient) -> N
     assert f"at most {UPLOAD_BODY} bytes allowed for POST /api/workability" in (
         response.json()["message"]
     )
+
+
+@pytest.mark.parametrize("lookup", ["linear", "conservative"])
+@pytest.mark.parametrize("levels", [0, 1, 2])
+def test_the_price_bounds_the_runs_a_job_makes(
+    executor: Executor, tmp_path: Path, lookup: str, levels: int
+) -> None:
+    """A cells job's price is at least the runs its evaluation makes, refinement included, and
+    at most the grid's runs or max_runs; a direct job's is exactly its rows' runs."""
+    from twin.web.routers.workability import price
+
+    record = read_record(asset_path("site", SHIPPED))
+    fields = {k: v for k, v in TINY.items() if k != "record"}
+    spec = WorkabilitySpec(**fields, cell_lookup=lookup, refine_levels=levels)
+    made = run_workability(spec, record, executor=executor, data_dir=tmp_path).runs
+    priced = price(spec, record.n)[0]
+    assert made <= priced <= max(8, spec.max_runs), (made, priced)
+    if levels == 0:
+        assert priced == 8  # 4 × 2 cells × 1 seed × 1 planner
+    direct = WorkabilitySpec(**fields, method="direct")
+    assert price(direct, 10)[0] == 10
 
 
 def test_a_job_over_the_run_cap_is_refused_naming_the_limit(client: TestClient) -> None:

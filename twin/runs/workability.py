@@ -17,16 +17,18 @@ executor (`twin.runs.executor`) in chunks, below the priority of single runs, li
 Two methods:
 
 - `cells` (default): each row is evaluated on a stated grid of operability cells (Hs × Tp ×
-  relative heading). In Hs, the row's probability is **interpolated linearly between the
-  cells below and above its Hs** (`cell_lookup="linear"`, the default: measured within one
-  percentage point of direct runs on the shipped record), or taken from **the cell at or above
-  its Hs** (`cell_lookup="conservative"`: operability falls with Hs, so the row is never
-  credited with a calmer cell; a lower bound, measured ~10 points under direct runs). In Tp it
-  takes the **nearest cell** (operability is not monotonic in Tp, so no side is safe), and in
-  heading the **nearest relative heading** on the circle (exact for the fixed and best-of
-  strategies, whose headings are the grid). A row above the highest Hs of the grid is not
-  operable. Cells are run once per (scenario, seed) and cached on disk, keyed by every scenario
-  field and `ENGINE_VERSION`, so another record, a longer one, or more seeds reuse them.
+  relative heading). The row's cell is the grid rectangle around its Hs and Tp; its
+  probability is **interpolated bilinearly in Hs and Tp between the cell's four corners**
+  (`cell_lookup="linear"`, the default), or taken as **the worse of the two corners at the
+  cell's upper Hs** (`cell_lookup="conservative"`: operability falls with Hs, and is not
+  monotonic in Tp, so neither Tp side is safe alone: a lower bound). A cell whose corners'
+  probabilities differ by more than `refine_spread` is **split** at its midpoints in Hs and
+  Tp (up to `refine_levels` times, per planner: the runs go where operability changes
+  fastest), and the row takes the sub-cell around it. In heading the row takes the **nearest
+  relative heading** on the circle (exact for the fixed and best-of strategies, whose headings
+  are the grid). A row above the highest Hs of the grid is not operable. Cells are run once
+  per (scenario, seed) and cached on disk, keyed by every scenario field and
+  `ENGINE_VERSION`, so another record, a longer one, or more seeds reuse them.
 - `direct`: each row is run at its own Hs, Tp and heading (also cached, by the same keys).
 
 Heading strategies (`HeadingStrategy`, `twin.site.heading` for the conventions): a fixed
@@ -46,6 +48,7 @@ limit but misses the tip-error threshold is limited by the tip error.
 from __future__ import annotations
 
 import calendar
+import contextlib
 import hashlib
 import io
 import itertools
@@ -53,7 +56,7 @@ import json
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -227,10 +230,23 @@ class WorkabilitySpec(BaseModel):
     method: Literal["cells", "direct"] = "cells"
     cell_lookup: Literal["linear", "conservative"] = Field(
         "linear",
-        description="cells: linear interpolates a row's probability in Hs between the cells "
-        "below and above it (measured within 1 point of direct runs, docs/workability.md); "
-        "conservative takes the cell at or above its Hs (a lower bound, ~10 points under)",
+        description="cells: linear interpolates a row's probability bilinearly in Hs and Tp "
+        "between its cell's corners (measured within 1 point of direct runs, "
+        "docs/workability.md); conservative takes the worse of the two corners at the cell's "
+        "upper Hs (a lower bound)",
     )
+    refine_levels: int = Field(
+        2, ge=0, le=4, description="cells: times a cell whose corners differ by more than "
+        "refine_spread is split at its Hs and Tp midpoints (0: the grid alone)",
+    )  # fmt: skip
+    refine_spread: float = Field(
+        0.25, ge=0.0, le=1.0, description="[0-1] cells: the corner probabilities' spread "
+        "(largest − smallest) over which a cell is split (0.25: any disagreement of 3 seeds)",
+    )  # fmt: skip
+    max_runs: int = Field(
+        MAX_RUNS, ge=1, le=MAX_RUNS, description="most runs in all: more for the grid (or the "
+        "rows, direct) is an error; a refinement that would pass it is not made (noted)",
+    )  # fmt: skip
     window_hours: list[float] = Field(
         [6.0, 12.0], max_length=8, description="[h] window lengths W of the weather windows"
     )
@@ -515,44 +531,86 @@ def run_workability(
     check_record(spec, record)
     notes = _notes(spec, record)
     betas = _row_headings(spec, record)  # (n, options)
-    cell_hs, cell_tp, cell_beta, above, low_hs, upper = _cells(spec, record, betas, notes)
-    planners = list(spec.planners or [])
-    # every distinct run: (planner, hs, tp, heading, seed); the lower cells only where weighed
-    k = betas.shape[1]
-    combos = np.unique(np.concatenate([
-        np.stack([h[:, None].repeat(k, 1).ravel(), cell_tp[:, None].repeat(k, 1).ravel(),
-                  cell_beta.ravel()], axis=1)[(~above & use).repeat(k)]
-        for h, use in ((cell_hs, np.ones(record.n, bool)), (low_hs, upper < 1.0))
-    ]), axis=0)  # fmt: skip
-    fields_of: dict[tuple, dict[str, Any]] = {}
-    for planner in planners:
-        for h, p, b in combos.tolist():
-            for seed in range(spec.seeds):
-                fields_of[(planner, h, p, b, seed)] = {
-                    **spec.scenario, "mechanism": spec.mechanism, "planner": planner,
-                    "hs": h, "tp": p, "heading": b, "seed": seed,
-                    "duration": spec.duration, "dt": spec.dt,
-                }  # fmt: skip
-    if len(fields_of) > MAX_RUNS:
-        raise TwinError(f"{len(fields_of)} runs needed; allowed at most {MAX_RUNS} (coarsen the "
-                        "grid, fewer seeds or the cells method)")  # fmt: skip
-    keys = {combo: cell_key(fields) for combo, fields in fields_of.items()}
+    base = _cells(spec, record, betas, notes)
+    lookups = {planner: base for planner in spec.planners or []}
+    levels = spec.refine_levels if spec.method == "cells" else 0
+    previous = lookups
+    found: dict[str, dict[str, Any]] = {}
+    keys: dict[tuple, str] = {}
     cache = CellCache(data_dir)
-    summaries_by_key = cache.get(list(keys.values()))
-    todo = [combo for combo, key in keys.items() if key not in summaries_by_key]
-    total = len(keys)
-    if on_progress is not None:
-        on_progress(total - len(todo), total)
-    where = ""
-    if todo:
-        where = _run(spec, todo, fields_of, keys, cache, summaries_by_key, executor, scheduler,
-                     n_workers, progress, on_progress, stop, total)  # fmt: skip
-    summaries = {combo: summaries_by_key[key] for combo, key in keys.items()}
-    rows = _evaluate(spec, record, betas, cell_hs, cell_tp, cell_beta, above, low_hs, upper,
-                     summaries)  # fmt: skip
+    new, where = 0, ""
+    with contextlib.ExitStack() as stack:
+        for level in range(levels + 1):
+            # a refining pass needs every corner; the last only those its lookup weighs
+            corners = (0, 1, 2, 3) if level < levels or spec.cell_lookup == "linear" else (2, 3)
+            places = {planner: _places(lookup, corners) for planner, lookup in lookups.items()}
+            step = _new_runs(spec, places, keys, cache, found, refining=level > 0)
+            if step is None:  # over max_runs: the cells of the level before stand
+                lookups = previous
+                notes.append(f"cells refined {level - 1} of {levels} times: a further "
+                             f"refinement would pass max_runs ({spec.max_runs} runs)")  # fmt: skip
+                break
+            todo, fields_of = step
+            if on_progress is not None:
+                on_progress(len(keys) - len(todo), len(keys))
+            if todo:
+                if executor is None:  # started once, for the first runs not cached
+                    executor = stack.enter_context(Executor.start(scheduler, n_workers=n_workers))
+                where = _run(spec, todo, fields_of, keys, cache, found, executor, progress,
+                             on_progress, stop, len(keys))  # fmt: skip
+                new += len(todo)
+            if level == levels:
+                break
+            refined = {}
+            for planner, lookup in lookups.items():
+                prob, _ = _corner_values(lookup, _judge(spec, planner, _summaries_of(keys, found)))
+                if (split := _refine(lookup, prob, spec.refine_spread)) is not None:
+                    refined[planner] = split
+            if not refined:
+                break
+            previous, lookups = lookups, lookups | refined
+    rows = _evaluate(spec, record, betas, lookups, _summaries_of(keys, found))
     summary = _summarise(spec, record, rows)
-    return WorkabilityResult(spec, record, rows, summary, total, len(todo),
+    return WorkabilityResult(spec, record, rows, summary, len(keys), new,
                              time.perf_counter() - start, where, notes)  # fmt: skip
+
+
+def _summaries_of(keys: dict[tuple, str], found: dict[str, dict[str, Any]]) -> dict[tuple, dict]:
+    """Run summaries by (planner, Hs, Tp, heading, seed), from those found by cache key."""
+    return {combo: found[key] for combo, key in keys.items() if key in found}
+
+
+def _new_runs(
+    spec: WorkabilitySpec, places: dict[str, np.ndarray], keys: dict[tuple, str],
+    cache: CellCache, found: dict[str, dict[str, Any]], refining: bool = False,
+) -> tuple[list[tuple], dict[tuple, dict[str, Any]]] | None:  # fmt: skip
+    """Add the runs of each planner's `places` (Hs, Tp, heading) × seeds to `keys`, read the
+    cached ones into `found`, and return those still to run with their scenario fields; None
+    (nothing added) for a `refining` pass that would pass `spec.max_runs` in all.
+
+    Raises:
+        TwinError: more than `spec.max_runs` runs in all, not refining.
+    """
+    fields_of: dict[tuple, dict[str, Any]] = {}
+    for planner, where in places.items():
+        for h, p, b in where.tolist():
+            for seed in range(spec.seeds):
+                if (planner, h, p, b, seed) not in keys:
+                    fields_of[(planner, h, p, b, seed)] = {
+                        **spec.scenario, "mechanism": spec.mechanism, "planner": planner,
+                        "hs": h, "tp": p, "heading": b, "seed": seed,
+                        "duration": spec.duration, "dt": spec.dt,
+                    }  # fmt: skip
+    if len(keys) + len(fields_of) > spec.max_runs:
+        if refining:
+            return None
+        raise TwinError(f"{len(keys) + len(fields_of)} runs needed; allowed at most "
+                        f"{spec.max_runs} (max_runs: coarsen the grid, fewer seeds or the cells "
+                        "method)")  # fmt: skip
+    added = {combo: cell_key(fields) for combo, fields in fields_of.items()}
+    keys |= added
+    found |= cache.get(list(added.values()))
+    return [c for c, key in added.items() if key not in found], fields_of
 
 
 def read_site_record(
@@ -623,16 +681,67 @@ def _notes(spec: WorkabilitySpec, record: SiteRecord) -> list[str]:
         for count, side, edge in ((below, "below", low), (over, "above", high)):
             if count:
                 notes.append(f"{count} rows have Tp {side} the cell grid's {edge:g} s and take "
-                             f"its {edge:g} s cells (nearest in Tp)")  # fmt: skip
+                             f"its {edge:g} s cells (the grid's edge in Tp)")  # fmt: skip
     return notes
+
+
+@dataclass
+class _Lookup:
+    """Each row's cell per heading option (n rows, k options): the Hs bracket [h0, h1] [m] and
+    Tp bracket [t0, t1] [s] around the row (equal ends: the row on a grid value or past the
+    grid's end; direct: the row's own sea), the cell's relative heading [deg], and the rows above
+    the Hs grid (not operable, nothing run)."""
+
+    hs: np.ndarray  # (n,) the rows' Hs and Tp (clipped to TP_RANGE)
+    tp: np.ndarray
+    h0: np.ndarray  # (n, k) each
+    h1: np.ndarray
+    t0: np.ndarray
+    t1: np.ndarray
+    beta: np.ndarray
+    above: np.ndarray  # (n,)
+
+    def weights(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bilinear weights of the upper Hs and the upper Tp end, (n, k) each (1: that end
+        alone)."""
+        out = []
+        for x, lo, hi in ((self.hs, self.h0, self.h1), (self.tp, self.t0, self.t1)):
+            span = np.where(hi > lo, hi - lo, 1.0)
+            out.append(np.where(hi > lo, np.clip((x[:, None] - lo) / span, 0.0, 1.0), 1.0))
+        return out[0], out[1]
+
+    def corners(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(Hs, Tp) of the four corners: (h0, t0), (h0, t1), (h1, t0), (h1, t1)."""
+        return [(h, t) for h in (self.h0, self.h1) for t in (self.t0, self.t1)]
+
+    def split(self, mask: np.ndarray) -> _Lookup:
+        """The cells of `mask` (n, k) halved in Hs and Tp, each row keeping the half it lies in
+        (a row on a midpoint: that value alone, so it runs at its own sea)."""
+        ends = {}
+        for x, lo, hi, name in ((self.hs, self.h0, self.h1, "h"), (self.tp, self.t0, self.t1, "t")):
+            x = np.broadcast_to(x[:, None], lo.shape)
+            mid = np.round(0.5 * (lo + hi), 4)
+            cut = mask & (hi > lo)
+            on = np.abs(x - mid) < 1e-9
+            ends[name + "0"] = np.where(cut, np.where(on | (x > mid), mid, lo), lo)
+            ends[name + "1"] = np.where(cut, np.where(on | (x < mid), mid, hi), hi)
+        return replace(self, **ends)
+
+
+def _bracket(grid: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The grid values at or below and at or above each x (to float noise: one value on a grid
+    point; the edge value past either end), and the index of the upper one in the grid."""
+    index = np.searchsorted(grid, x - 1e-9, side="left")
+    hi = grid[np.minimum(index, grid.size - 1)]
+    on = np.abs(hi - x) < 1e-9
+    lo = np.where(on | (index == 0) | (index >= grid.size), hi, grid[np.maximum(index - 1, 0)])
+    return lo, hi, index
 
 
 def _cells(
     spec: WorkabilitySpec, record: SiteRecord, betas: np.ndarray, notes: list[str]
-) -> tuple[np.ndarray, ...]:
-    """Each row's cell (or, direct, its own Hs and Tp clipped to TP_RANGE) values, whether
-    it is above the grid, and for `cell_lookup` "linear" the lower Hs cell and the upper cell's
-    weight (1: the upper cell alone)."""
+) -> _Lookup:
+    """Each row's cell (`_Lookup`; direct: its own Hs, Tp clipped to TP_RANGE, and heading)."""
     hs = record.hs.copy()
     tp = np.clip(record.tp, *TP_RANGE)
     clipped = int(np.sum(tp != record.tp))
@@ -642,47 +751,78 @@ def _cells(
     if record.spreading is not None:
         notes.append("the record's spreading column is not used: every run takes the spec's "
                      "scenario spreading (long-crested unless set)")  # fmt: skip
+    k = betas.shape[1]
+
+    def wide(values: np.ndarray) -> np.ndarray:
+        return np.repeat(values[:, None], k, axis=1)
+
     if spec.method == "direct":
-        above = hs > 20.0
-        cell_hs = np.round(hs, 4)
-        return (cell_hs, np.round(tp, 4), np.round(np.mod(betas, 360.0), 3), above, cell_hs,
-                np.ones(hs.size))  # fmt: skip
+        own_hs, own_tp = wide(np.round(hs, 4)), wide(np.round(tp, 4))
+        return _Lookup(hs, tp, own_hs, own_hs, own_tp, own_tp,
+                       np.round(np.mod(betas, 360.0), 3), hs > 20.0)  # fmt: skip
     grid_hs = np.asarray(spec.hs_grid)
-    grid_tp = np.asarray(spec.tp_grid)
-    # conservative in Hs: the next grid value at or above (to float noise) the row's
-    index = np.searchsorted(grid_hs, hs - 1e-9, side="left")
+    h0, h1, index = _bracket(grid_hs, hs)
     above = index >= grid_hs.size
-    cell_hs = grid_hs[np.minimum(index, grid_hs.size - 1)]
     if above.any():
         notes.append(f"{int(above.sum())} rows have Hs above the cell grid's {grid_hs[-1]:g} m "
                      "and count as not operable")  # fmt: skip
-    cell_tp = grid_tp[np.argmin(np.abs(tp[:, None] - grid_tp[None, :]), axis=1)]
+    t0, t1, _ = _bracket(np.asarray(spec.tp_grid), tp)
     if spec.heading.kind == "record":
         grid_b = np.asarray(spec.heading_grid)
         nearest = np.argmin(angular_distance(betas[:, :, None], grid_b[None, None, :]), axis=2)
         cell_beta = grid_b[nearest]
     else:
         cell_beta = betas
-    low_hs, upper = cell_hs.copy(), np.ones(hs.size)
-    if spec.cell_lookup == "linear":  # between the cells below and above, linear in Hs
-        inside = (index > 0) & ~above
-        low_hs[inside] = grid_hs[index[inside] - 1]
-        span = cell_hs[inside] - low_hs[inside]
-        upper[inside] = np.clip((hs[inside] - low_hs[inside]) / span, 0.0, 1.0)
-    return cell_hs, cell_tp, cell_beta, above, low_hs, upper
+    return _Lookup(hs, tp, wide(h0), wide(h1), wide(t0), wide(t1), cell_beta, above)
+
+
+def _places(lookup: _Lookup, corners: Sequence[int]) -> np.ndarray:
+    """The distinct (Hs, Tp, heading) of the given corners (indices into `_Lookup.corners`) of
+    every row not above the grid, (m, 3)."""
+    keep = ~lookup.above
+    pairs = lookup.corners()
+    stacked = [np.stack([pairs[c][0][keep], pairs[c][1][keep], lookup.beta[keep]], axis=-1)
+               for c in corners]  # fmt: skip
+    return np.unique(np.concatenate([p.reshape(-1, 3) for p in stacked]), axis=0)
+
+
+def _corner_values(
+    lookup: _Lookup, judge: Callable[[float, float, float], tuple[float, str]],
+    corners: Sequence[int] = (0, 1, 2, 3),
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Probability and limiting constraint of each row's four corners, (4, n, k) each (rows
+    above the grid, and corners not in `corners`: 0 and "")."""
+    n, k = lookup.h0.shape
+    keep = np.repeat(~lookup.above[:, None], k, axis=1)
+    prob, limit = np.zeros((4, n, k)), np.full((4, n, k), "", dtype=object)
+    pairs = lookup.corners()
+    for c in corners:
+        h, t = pairs[c]
+        places = np.stack([h[keep], t[keep], lookup.beta[keep]], axis=-1)
+        if places.size == 0:
+            continue
+        unique, inverse = np.unique(places, axis=0, return_inverse=True)
+        judged = [judge(*place) for place in unique.tolist()]
+        prob[c][keep] = np.array([j[0] for j in judged])[inverse.ravel()]
+        limit[c][keep] = np.array([j[1] for j in judged], dtype=object)[inverse.ravel()]
+    return prob, limit
+
+
+def _refine(lookup: _Lookup, prob: np.ndarray, spread: float) -> _Lookup | None:
+    """`lookup` with every cell whose corner probabilities `prob` (4, n, k) spread over
+    `spread` split once (`_Lookup.split`); None when none is."""
+    wider = (lookup.h1 > lookup.h0) | (lookup.t1 > lookup.t0)
+    mask = (prob.max(axis=0) - prob.min(axis=0) > spread) & wider & ~lookup.above[:, None]
+    return lookup.split(mask) if mask.any() else None
 
 
 def _run(
     spec: WorkabilitySpec, todo: list[tuple], fields_of: dict[tuple, dict[str, Any]],
     keys: dict[tuple, str], cache: CellCache, found: dict[str, dict[str, Any]],
-    executor: Executor | None, scheduler: str | None, n_workers: int | None, progress: bool,
-    on_progress: Callable[[int, int], None] | None, stop: Callable[[], bool] | None, total: int,
+    executor: Executor, progress: bool, on_progress: Callable[[int, int], None] | None,
+    stop: Callable[[], bool] | None, total: int,
 ) -> str:  # fmt: skip
     """Run the runs `todo` on the executor in chunks (one planner each), caching each chunk."""
-    if executor is None:
-        with Executor.start(scheduler, n_workers=n_workers) as own:
-            return _run(spec, todo, fields_of, keys, cache, found, own, None, None, progress,
-                        on_progress, stop, total)  # fmt: skip
     todo = sorted(todo, key=lambda c: (c[0], c[1], c[2], c[3], c[4]))
     size = spec.chunk_size
     chunks = [todo[s : s + size] for s in range(0, len(todo), size)]
@@ -711,63 +851,80 @@ def _run(
     return executor.where
 
 
-def _evaluate(
-    spec: WorkabilitySpec, record: SiteRecord, betas: np.ndarray, cell_hs: np.ndarray,
-    cell_tp: np.ndarray, cell_beta: np.ndarray, above: np.ndarray, low_hs: np.ndarray,
-    upper: np.ndarray, summaries: dict[tuple, dict[str, Any]],
-) -> pd.DataFrame:  # fmt: skip
-    """One row per record row and planner: probability, heading chosen, limiting constraint."""
-    threshold = spec.tip_error_threshold
-    seeds = range(spec.seeds)
-    # per distinct run set: (probability, most frequent limiting constraint)
+def _judge(
+    spec: WorkabilitySpec, planner: str, summaries: dict[tuple, dict[str, Any]]
+) -> Callable[[float, float, float], tuple[float, str]]:
+    """(probability, most frequent limiting constraint) of `planner`'s runs at a (Hs, Tp,
+    heading), over the spec's seeds, remembered per place."""
     memo: dict[tuple, tuple[float, str]] = {}
 
-    def judge(planner: str, h: float, p: float, b: float) -> tuple[float, str]:
-        key = (planner, h, p, b)
-        if key not in memo:
+    def judge(h: float, p: float, b: float) -> tuple[float, str]:
+        if (h, p, b) not in memo:
             ok, limits = 0, Counter[str]()
-            for seed in seeds:
+            for seed in range(spec.seeds):
                 s = summaries[(planner, h, p, b, seed)]
-                if s["violations"] == 0 and s["tip_error"] <= threshold:
+                if s["violations"] == 0 and s["tip_error"] <= spec.tip_error_threshold:
                     ok += 1
                 else:
                     limits[s["limit"] or "tip error"] += 1
-            memo[key] = (ok / spec.seeds, limits.most_common(1)[0][0] if limits else "")
-        return memo[key]
+            common = limits.most_common(1)[0][0] if limits else ""
+            memo[(h, p, b)] = (ok / spec.seeds, common)
+        return memo[(h, p, b)]
 
+    return judge
+
+
+def _row_values(
+    spec: WorkabilitySpec, lookup: _Lookup, prob: np.ndarray, limit: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each row and option's probability, limiting constraint and cell Tp from its corners'
+    (4, n, k): linear, bilinear in Hs and Tp; conservative, the worse of the upper-Hs corners.
+    The constraint (and Tp) is that of the worst corner weighing in; "" when it is operable."""
+    wh, wt = lookup.weights()
+    if spec.cell_lookup == "linear":
+        weight = np.stack([(1 - wh) * (1 - wt), (1 - wh) * wt, wh * (1 - wt), wh * wt])
+        value = np.sum(weight * prob, axis=0)
+    else:
+        weight = np.stack([np.zeros_like(wh)] * 2 + [np.ones_like(wh)] * 2)
+        value = np.minimum(prob[2], prob[3])
+    worst = np.argmin(np.where(weight > 0, prob, np.inf), axis=0)[None]
+    named = np.take_along_axis(limit, worst, axis=0)[0]
+    worst_p = np.take_along_axis(prob, worst, axis=0)[0]
+    named = np.where(worst_p < 1.0, named, "")
+    if spec.cell_lookup == "linear":  # the nearer Tp end (ties: the longer period)
+        cell_tp = np.where(wt >= 0.5, lookup.t1, lookup.t0)
+    else:
+        cell_tp = np.where(worst[0] == 2, lookup.t0, lookup.t1)
+    return value, named, cell_tp
+
+
+def _evaluate(
+    spec: WorkabilitySpec, record: SiteRecord, betas: np.ndarray, lookups: dict[str, _Lookup],
+    summaries: dict[tuple, dict[str, Any]],
+) -> pd.DataFrame:  # fmt: skip
+    """One row per record row and planner: probability, heading chosen, limiting constraint."""
     frames = []
-    weight = record.weights
+    rows = np.arange(record.n)
     for planner in spec.planners or []:
-        prob = np.zeros(record.n)
-        chosen = np.zeros(record.n, dtype=int)
-        limiting = np.full(record.n, "", dtype=object)
-        for i in range(record.n):
-            if above[i]:
-                limiting[i] = "Hs above the cell grid"
-                continue
-            best, best_j, best_limit = -1.0, 0, ""
-            for j in range(betas.shape[1]):
-                tp_i, beta_ij = float(cell_tp[i]), float(cell_beta[i, j])
-                p, limit = judge(planner, float(cell_hs[i]), tp_i, beta_ij)
-                if upper[i] < 1.0:  # linear in Hs; the upper cell's constraint named
-                    p_low, limit_low = judge(planner, float(low_hs[i]), tp_i, beta_ij)
-                    p = upper[i] * p + (1.0 - upper[i]) * p_low
-                    limit = limit or (limit_low if p < 1.0 else "")
-                if p > best:
-                    best, best_j, best_limit = p, j, limit
-            prob[i], chosen[i], limiting[i] = best, best_j, best_limit
+        lookup = lookups[planner]
+        corners = (0, 1, 2, 3) if spec.cell_lookup == "linear" else (2, 3)
+        prob, limit = _corner_values(lookup, _judge(spec, planner, summaries), corners)
+        value, named, cell_tp = _row_values(spec, lookup, prob, limit)
+        chosen = np.argmax(value, axis=1)  # best of the options, the first on ties
+        probability = np.where(lookup.above, 0.0, value[rows, chosen])
+        limiting = np.where(lookup.above, "Hs above the cell grid", named[rows, chosen])
         columns: dict[str, Any] = {}
         if record.time is not None:
             columns["time"] = record.time
         columns |= {"hs": record.hs, "tp": record.tp}
         if record.direction is not None:
             columns["direction"] = record.direction
-        rows = np.arange(record.n)
         columns |= {
             "planner": planner, "heading": betas[rows, chosen],
-            "cell_hs": cell_hs, "cell_tp": cell_tp, "cell_heading": cell_beta[rows, chosen],
-            "probability": prob, "operable": prob >= OPERABLE_LEVEL, "limiting": limiting,
-            "weight": weight,
+            "cell_hs": lookup.h1[rows, chosen], "cell_tp": cell_tp[rows, chosen],
+            "cell_heading": lookup.beta[rows, chosen],
+            "probability": probability, "operable": probability >= OPERABLE_LEVEL,
+            "limiting": limiting, "weight": record.weights,
         }  # fmt: skip
         frames.append(pd.DataFrame(columns))
     return pd.concat(frames, ignore_index=True)

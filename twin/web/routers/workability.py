@@ -73,6 +73,10 @@ class WorkabilityRequest(WorkabilitySpec):
     record: str | None = Field(
         None, description="a shipped record's name (GET /api/workability/records)"
     )
+    max_runs: int = Field(
+        MAX_RUNS, ge=1, le=MAX_RUNS, description="most runs in all (the server's MAX_RUNS): "
+        "more for the grid is a 422; a refinement of the cells that would pass it is not made",
+    )  # fmt: skip
     record_csv: str | None = Field(
         None, max_length=MAX_RECORD_BYTES,
         description="an uploaded record's text (NDBC, time-series CSV, scatter CSV or "
@@ -128,16 +132,25 @@ def options(spec: WorkabilitySpec) -> int:
 
 def price(spec: WorkabilitySpec, rows: int) -> tuple[int, int]:
     """(runs, steps) a job on `rows` rows needs at most: rows × heading options × seeds ×
-    planners for `direct`, cells (Hs × Tp × headings) × seeds × planners for `cells` (an upper
-    bound: cells no row falls in, and cached ones, are not run)."""
-    planners = len(spec.planners or [])
+    planners for `direct`; for `cells`, the grid's cells (Hs × Tp × headings) and the cells its
+    refinement may add, × seeds × planners (an upper bound: cells no row falls in, cached
+    ones, and cells whose corners agree are not run).
+
+    A refinement halves cells in Hs and Tp, so after `refine_levels` = L its points lie on the
+    grid refined 2^L times; and it adds at most 3 points per row, heading option and level
+    (the corners of the row's half-cell that are new). It is not made past `max_runs`, so a
+    job's runs stay within the grid's or `max_runs`, whichever is more."""
+    per_place = spec.seeds * len(spec.planners or [])
     if spec.method == "direct":
-        places = rows * options(spec)
+        runs = rows * options(spec) * per_place
     else:
         headings = (len(spec.heading_grid) if spec.heading.kind == "record"
                     else len(spec.heading.headings))  # fmt: skip
-        places = len(spec.hs_grid) * len(spec.tp_grid) * headings
-    runs = places * spec.seeds * planners
+        hs, tp, levels = len(spec.hs_grid), len(spec.tp_grid), spec.refine_levels
+        grid = hs * tp * headings
+        lattice = (2**levels * (hs - 1) + 1) * (2**levels * (tp - 1) + 1) * headings
+        places = min(lattice, grid + 3 * levels * rows * options(spec))
+        runs = min(places * per_place, max(grid * per_place, spec.max_runs))
     return runs, runs * max(round(spec.duration / spec.dt), 1)
 
 
