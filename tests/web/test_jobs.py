@@ -287,3 +287,49 @@ def test_a_full_store_is_507_saying_what_to_do(tmp_path: Path) -> None:
     run_id = store.list_runs()[0].id
     assert client.delete(f"/api/runs/{run_id}").status_code == 204  # room again
     assert client.post("/api/runs", json=SHORT).status_code == 202
+
+
+# -- shutdown ----------------------------------------------------------------------------------
+
+
+def test_a_start_reported_after_the_stop_leaves_the_run_queued(tmp_path: Path) -> None:
+    """A worker's "started" report, or an in-process run's start, handled after the shutdown
+    began marks nothing: the run stays queued for the next start (no run left `running`)."""
+    from twin.web.jobs import JobRunner
+
+    with RunStore(tmp_path / "runs.sqlite") as store:
+        runner = JobRunner(store)
+        executor = Executor.start(IN_PROCESS)
+        try:
+            runner.start(executor)
+            run = store.create(Scenario(**SHORT))  # stored, not yet handed to the runner
+            runner.shutdown()
+            runner._progress(run.id, {"name": run.id, "progress": 0.0})
+            assert not runner._mark_running(run.id)
+            assert store.get(run.id).status == "queued"
+        finally:
+            executor.close()
+
+
+class FailingSweeps(SweepQueueOnly):
+    def shutdown(self, timeout: float = 2.0) -> None:
+        raise RuntimeError("a runner that fails to stop")
+
+
+def test_runs_are_requeued_at_shutdown_even_when_another_runner_fails_to_stop(
+    tmp_path: Path,
+) -> None:
+    """The app's shutdown stops every runner whatever another raised: a run left running is
+    queued again although the sweep runner's shutdown failed."""
+    from twin.web.jobs import JobRunner
+
+    store = RunStore(tmp_path / "runs.sqlite")
+    app = create_app(LiveSession({"sea_state": 3}), store, access=access(),
+                     jobs=JobRunner(store), sweeps=FailingSweeps(store))  # fmt: skip
+    try:
+        with TestClient(app):
+            run = store.create(Scenario(**SHORT))
+            assert store.mark_running(run.id)
+        assert store.get(run.id).status == "queued"
+    finally:
+        store.close()

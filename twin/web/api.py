@@ -22,6 +22,7 @@ was deleted or replaced answers 503.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import AsyncIterator, Callable
 from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from pathlib import Path
@@ -72,6 +73,8 @@ from twin.web.store import RunNotFound, RunStore
 from twin.web.warmup import Warmup
 from twin.web.workability_jobs import UPLOAD_BODY, WorkabilityRunner
 from twin.web.workability_store import WorkabilityStore
+
+log = logging.getLogger(__name__)
 
 #: Swagger UI's and ReDoc's files, as the `fastapi-offline` package ships them
 DOCS_ASSETS = Path(fastapi_offline.__file__).resolve().parent / "static"
@@ -201,10 +204,16 @@ def _lifespan(
             yield
         finally:
             services.stopping.set()
-            await run_in_threadpool(services.sweeps.shutdown)
+            # runs first (what most clients wait on), and each runner whatever another raised:
+            # one that fails to stop must not leave the others' jobs marked running
+            stops: list[Callable[[], None]] = [services.jobs.shutdown, services.sweeps.shutdown]
             if services.workability is not None:
-                await run_in_threadpool(services.workability.shutdown)
-            await run_in_threadpool(services.jobs.shutdown)
+                stops.append(services.workability.shutdown)
+            for stop in stops:
+                try:
+                    await run_in_threadpool(stop)
+                except Exception:
+                    log.exception("%s failed", getattr(stop, "__qualname__", stop))
             if own is not None:
                 await run_in_threadpool(own.close)
 

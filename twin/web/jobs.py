@@ -71,6 +71,9 @@ WATCHDOG_GRACE = 10.0
 WATCHDOG_PERIOD = 1.0
 #: [s] how often a sweep thread waiting on the executor looks whether to stop
 POLL = 0.2
+#: tries, and [s] between them, at requeueing the unfinished runs at shutdown (a store busy
+#: under load answers a moment later)
+REQUEUE_ATTEMPTS, REQUEUE_PAUSE = 3, 0.5
 
 
 def steps(scenario: Scenario) -> int:
@@ -114,6 +117,10 @@ class JobRunner:
         self._running: dict[str, tuple[float, str]] = {}  # run id → (start, worker address)
         self._writer: ThreadPoolExecutor | None = None
         self._stopping = threading.Event()
+        # held while a run is marked running, and while stopping is set: a mark that began
+        # before the stop lands before the requeue, one after sees the stop (no run is left
+        # `running` by a mark racing the shutdown)
+        self._marking = threading.Lock()
         self._watchdog: threading.Thread | None = None
 
     @property
@@ -153,7 +160,8 @@ class JobRunner:
     def shutdown(self) -> None:
         """Stop: cancel the runs' futures, finish the store write in hand, and leave every
         unfinished run queued (the next start runs it)."""
-        self._stopping.set()
+        with self._marking:
+            self._stopping.set()
         with self._lock:
             futures = list(self._futures.values())
             self._futures.clear()
@@ -166,10 +174,16 @@ class JobRunner:
             self._inline.shutdown(wait=False, cancel_futures=True)
         if self._writer is not None:
             self._writer.shutdown(wait=True, cancel_futures=True)
-        try:
-            self.store.requeue_unfinished()
-        except StoreUnavailable:
-            log.warning("run store unavailable at shutdown: unfinished runs not requeued")
+        for attempt in range(REQUEUE_ATTEMPTS):
+            try:
+                self.store.requeue_unfinished()
+                return
+            except StoreUnavailable as exc:  # a busy store under load: once more, shortly
+                log.warning("run store unavailable at shutdown (attempt %d of %d): %s",
+                            attempt + 1, REQUEUE_ATTEMPTS, exc)  # fmt: skip
+                if attempt + 1 < REQUEUE_ATTEMPTS:
+                    time.sleep(REQUEUE_PAUSE)
+        log.error("unfinished runs not requeued at shutdown: the next start requeues them")
 
     # -- runs ----------------------------------------------------------------------------------
     def cancel(self, run_id: str, reason: str = "by request") -> bool:
@@ -267,11 +281,7 @@ class JobRunner:
         try:
             with self._lock:
                 ours = run_id in self._futures
-            if ours and not self._stopping.is_set():
-                try:
-                    self.store.mark_running(run_id)
-                except (RunNotFound, StoreUnavailable):
-                    pass  # `_settle` finds out and says so
+            if ours and self._mark_running(run_id):
                 try:
                     outcome.set_result(run_scenario(fields, name=run_id, budget=self.budget))
                 except Exception as exc:  # as the Dask future would carry it
@@ -302,7 +312,7 @@ class JobRunner:
             return
         try:
             if message.get("progress", 0.0) == 0.0:
-                if self.store.mark_running(run_id):
+                if self._mark_running(run_id):
                     with self._lock:
                         if run_id in self._futures:
                             self._running[run_id] = (time.monotonic(), message.get("worker", ""))
@@ -310,6 +320,19 @@ class JobRunner:
                 self.store.set_progress(run_id, float(message["progress"]))
         except (RunNotFound, StoreUnavailable):
             pass  # a refused run deleted, or a store gone: nothing to report into
+
+    def _mark_running(self, run_id: str) -> bool:
+        """Mark a queued run running unless the server is stopping; whether it runs (a store
+        that cannot say is `_settle`'s to report: the run goes ahead)."""
+        with self._marking:
+            if self._stopping.is_set():
+                return False
+            try:
+                return self.store.mark_running(run_id)
+            except RunNotFound:  # deleted meanwhile: nothing to run
+                return False
+            except StoreUnavailable:
+                return True
 
     def _settle(self, run_id: str, future: Any, done: Future[Run]) -> None:
         """Store a run's outcome; resolve `done`."""
