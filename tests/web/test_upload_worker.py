@@ -86,3 +86,37 @@ def test_no_free_child_within_the_wait_is_busy(worker: BoundedWorker) -> None:
             worker.call("sleep", 0.0, budget=Budget(wall=10.0), wait=0.1)
     finally:
         busy.join(15)
+
+
+def test_a_child_slow_to_import_is_waited_for_not_given_up(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A child whose import takes many of the start's polls (a loaded machine) is kept until it
+    is ready, and then answers: no wall-clock deadline gives up a live child."""
+    from twin.web import upload_worker
+
+    monkeypatch.setattr(upload_worker, "START_POLL", 0.1)  # 25 polls of the 2.5 s import
+    worker = BoundedWorker("tests.web.upload_slow_tasks", size=1, memory=MEMORY)
+    try:
+        assert worker.call("echo", 4.0, budget=Budget(wall=10.0), wait=WAIT) == 4.0
+    finally:
+        worker.close()
+
+
+def test_a_child_that_cannot_start_is_retried_a_few_times_then_busy(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A child that exits before it is ready (its module fails to import) is replaced, up to
+    START_ATTEMPTS times, each logged; then the pool stops trying and a call is `WorkerBusy`."""
+    from twin.web.upload_worker import START_ATTEMPTS
+
+    with caplog.at_level("WARNING", logger="twin.web.upload_worker"):
+        worker = BoundedWorker("tests.web.no_such_module", size=1, memory=MEMORY)
+        try:
+            assert wait_for(lambda: "fail to start" in caplog.text, WAIT)
+            attempts = [r for r in caplog.records if "exited before it was ready" in r.message]
+            assert len(attempts) == START_ATTEMPTS
+            with pytest.raises(WorkerBusy):
+                worker.call("echo", 1.0, wait=0.5)
+        finally:
+            worker.close()

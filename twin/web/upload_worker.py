@@ -46,8 +46,12 @@ log = logging.getLogger(__name__)
 
 #: [bytes] a child's address space: the interpreter with pandas takes about 380 MB of it
 MEMORY = 1536 * 1024 * 1024
-#: [s] how long a new child may take to import its module before it is given up
-START_TIMEOUT = 60.0
+#: [s] how often a starting child is looked at: it is waited for as long as it lives (a
+#: loaded machine may take a minute to import pandas), and replaced if it exits first
+START_POLL = 1.0
+#: children started in a row that exit before they are ready, before the pool stops trying
+#: (a child that cannot import its module will not do better the next time)
+START_ATTEMPTS = 3
 
 #: the child's program: limits first, then its module (without twin.web's initialiser, which
 #: loads the whole REST app), then calls until its pipe closes
@@ -132,12 +136,15 @@ class _Child:
         child.close()
         self.conn: Connection = parent
 
-    def ready(self, timeout: float) -> bool:
-        """Whether it said it is ready within `timeout` s."""
+    def ready(self, timeout: float) -> bool | None:
+        """Whether it said it is ready within `timeout` s: True; False if it cannot be (it
+        exited, or said something else); None if it is still starting."""
         try:
-            return self.conn.poll(timeout) and self.conn.recv_bytes() == b"ready"
+            if self.conn.poll(timeout):
+                return self.conn.recv_bytes() == b"ready"
         except (EOFError, OSError):
             return False
+        return None if self.process.poll() is None else False
 
     def kill(self) -> None:
         with contextlib.suppress(OSError):
@@ -173,17 +180,24 @@ class BoundedWorker:
         """Start a child in the background; it joins the idle ones once ready."""
 
         def start() -> None:
-            child = _Child(self.module, self.memory)
-            with self._lock:
-                if self._closed:
-                    child.kill()
+            for attempt in range(1, START_ATTEMPTS + 1):
+                child = _Child(self.module, self.memory)
+                with self._lock:
+                    if self._closed:
+                        child.kill()
+                        return
+                    self._children.add(child)
+                while (ready := child.ready(START_POLL)) is None and not self._closed:
+                    pass
+                if ready:
+                    self._idle.put(child)
                     return
-                self._children.add(child)
-            if child.ready(START_TIMEOUT):
-                self._idle.put(child)
-                return
-            log.warning("an upload worker did not start (exit %s)", child.process.poll())
-            self._forget(child)
+                self._forget(child)
+                if self._closed:
+                    return
+                log.warning("an upload worker exited before it was ready (exit %s; attempt %d "
+                            "of %d)", child.process.poll(), attempt, START_ATTEMPTS)  # fmt: skip
+            log.error("upload workers fail to start: uploads wait, then answer 503")
 
         threading.Thread(target=start, name="twin-upload-worker-start", daemon=True).start()
 
