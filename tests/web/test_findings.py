@@ -145,8 +145,8 @@ def test_finding_1_a_20000_column_scatter_is_refused_naming_max_columns_within_1
     tps = [f"{4 + 16 * i / 20_000:.5f}" for i in range(20_000)]
     wide = "hs," + ",".join(tps) + "\n1.0," + ",".join("1" for _ in tps) + "\n"
     outcome = submit(server, upload(wide), ends=(*ENDED, "queued", "running"))
-    assert outcome.how == "422", outcome
-    assert "MAX_COLUMNS" in outcome.message and "20001 columns" in outcome.message, outcome
+    assert outcome.how == "422", f"{outcome}"
+    assert "MAX_COLUMNS" in outcome.message and "20001 columns" in outcome.message, f"{outcome}"
 
 
 def test_finding_2_rows_a_nanosecond_apart_are_refused_before_any_grid_is_built(
@@ -174,7 +174,7 @@ def test_finding_3_a_record_over_max_row_work_at_36_headings_is_refused_not_eval
     server = serve()
     headings = {"kind": "best", "headings": [10.0 * i for i in range(36)]}
     outcome = submit(server, upload(hourly_record(120_000), heading=headings))
-    assert outcome.how in ("422", "failed") and "MAX_ROW_WORK" in outcome.message, outcome
+    assert outcome.how in ("422", "failed") and "MAX_ROW_WORK" in outcome.message, f"{outcome}"
 
 
 def test_finding_4_cancelled_uploads_count_against_the_quota_and_leave_no_text(

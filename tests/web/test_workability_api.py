@@ -96,9 +96,10 @@ def test_a_job_has_progress_the_librarys_result_and_png_plots(
     queued = response.json()
     assert response.headers["location"] == f"/api/workability/{queued['id']}"
     assert queued["record"] == {"name": SHIPPED} and queued["spec"]["seeds"] == 1
-    # priced: 4 × 2 cells refined up to twice, on the grid halved twice: (4·3 + 1) × (4·1 + 1)
-    # points × 1 seed × 1 planner (an upper bound)
-    assert queued["total"] == 65
+    # priced: 4 × 2 cells refined up to L times, on the grid halved L times: (2^L·3 + 1) ×
+    # (2^L·1 + 1) points × 1 seed × 1 planner (an upper bound)
+    levels = WorkabilitySpec().refine_levels
+    assert queued["total"] == (2**levels * 3 + 1) * (2**levels + 1)
     job = wait_finished(client, response.headers["location"])
     assert job["status"] == "done", job["error"]
     assert job["progress"] == 1.0 and job["done"] == job["total"]

@@ -236,7 +236,7 @@ class WorkabilitySpec(BaseModel):
         "upper Hs (a lower bound)",
     )
     refine_levels: int = Field(
-        2, ge=0, le=4, description="cells: times a cell whose corners differ by more than "
+        3, ge=0, le=4, description="cells: times a cell whose corners differ by more than "
         "refine_spread is split at its Hs and Tp midpoints (0: the grid alone)",
     )  # fmt: skip
     refine_spread: float = Field(
