@@ -25,6 +25,7 @@ import viser
 from twin.runs.onboard_live import LiveOnboard, alerts
 from twin.runs.workability import OPERABLE_LEVEL
 from twin.sim.live import LiveSession
+from twin.web.viewer.readout import plain
 
 if TYPE_CHECKING:
     from twin.web.viewer.gui import TwinGui
@@ -123,7 +124,7 @@ def onboard_text(result: dict[str, Any] | None, source: dict[str, Any], threshol
                               f"{a['turn']:+.0f}°)" for a in ranked[:3])  # fmt: skip
             lines.append(f"**Heading advice** {planner}: {best}")
     tip, margin = result["tip_error_max"], result["leg_margin"]
-    lines.append(f"**Over the last {result['span_s']:.0f} s** tip error max "
+    lines.append(f"**Over the last {plain(result['span_s'], 2)} s** tip error max "
                  f"{_mm(tip)} · leg margin min {_mm(margin)}")  # fmt: skip
     low = alerts(result, threshold)
     if low:

@@ -208,7 +208,7 @@ class Readout:
         span = "the whole run" if fs.replay else "the history"
         m = self._metrics
         tips = np.asarray(self._tips)
-        window = f"the last {PLOT_DT * len(tips):.0f} s"
+        window = f"the last {plain(PLOT_DT * len(tips), 2)} s"  # 0.40 s early on, not "0 s"
         if tips.size:
             lines.append(
                 f"- over {window}: tip error rms {mm(np.sqrt(np.mean(tips[:, 0] ** 2)))}, "
