@@ -55,7 +55,9 @@ def figures(result: WorkabilityResult, title: str | None = None) -> dict[str, Fi
 
 def _title(result: WorkabilityResult, title: str | None = None) -> str:
     spec = result.spec
-    method = f"cells ({spec.cell_lookup} in Hs)" if spec.method == "cells" else "direct runs"
+    lookup = "bilinear" if spec.cell_lookup == "linear" else "conservative"
+    refined = f", refined ×{spec.refine_levels}" if spec.refine_levels else ""
+    method = f"cells ({lookup} in Hs, Tp{refined})" if spec.method == "cells" else "direct runs"
     name = title or result.record.source
     return (f"{name}: {spec.mechanism}, {spec.heading.label()}, {spec.seeds} "
             f"seeds, {spec.duration:g} s runs, {method}\noperable: no limit violation, tip "
