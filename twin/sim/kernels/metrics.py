@@ -173,7 +173,7 @@ def trend_clear(d: np.record) -> None:
 
 
 @register_borrowing
-def drift_lane(t: np.ndarray, x: np.ndarray, state: np.record, out: np.ndarray) -> None:
+def drift_lane(t: np.ndarray, x: np.ndarray, state: np.ndarray, out: np.ndarray) -> None:
     """Least-squares trend of each column of x (T, k) over the run, slope × duration, in x's
     unit (`trend_add` over every sample, then `trend_finish`), as many columns at a time as
     `state` holds (the columns' sums are independent).
@@ -183,16 +183,18 @@ def drift_lane(t: np.ndarray, x: np.ndarray, state: np.record, out: np.ndarray) 
 
     Args:
         t: (T,) sample times [s]; x: (T, k) samples.
-        state: a trend (`trend_dtype`), scratch, overwritten; out: (k,) the drifts, written.
+        state: (1,) a trend (`trend_dtype`), scratch, overwritten (an array, not its record:
+            numba's records do not keep their array alive); out: (k,) the drifts, written.
     """
     T, K = x.shape
-    width = state.means.shape[0]
+    d = state[0]
+    width = d.means.shape[0]
     for j0 in range(0, K, width):
         j1 = min(j0 + width, K)
-        trend_clear(state)
+        trend_clear(d)
         for i in range(T):
-            trend_add(state, i + 1, t[i], x[i, j0:j1])
-        trend_finish(state, out[j0:j1])
+            trend_add(d, i + 1, t[i], x[i, j0:j1])
+        trend_finish(d, out[j0:j1])
 
 
 @register_inline
@@ -234,11 +236,12 @@ def efficacy_finish(e: np.record) -> tuple[float, float]:
 
 @register_borrowing
 def efficacy_sums(
-    alpha_top: np.ndarray, alpha_bottom: np.ndarray, e: np.record
+    alpha_top: np.ndarray, alpha_bottom: np.ndarray, sums: np.ndarray
 ) -> tuple[float, float]:
     """Seed 002 eq (29) as printed and SPEC erratum 11's integral form, as fractions (module
-    docstring), from the tilts α_top, α_bottom (T,) [rad] (uniform dt); e (`EFFICACY`)
-    scratch, overwritten."""
+    docstring), from the tilts α_top, α_bottom (T,) [rad] (uniform dt); sums (1,) `EFFICACY`
+    scratch, overwritten (an array, not its record, as `drift_lane`'s state)."""
+    e = sums[0]
     e.printed, e.tilted, e.top, e.bottom = 0.0, 0.0, 0.0, 0.0
     for k in range(alpha_top.shape[0]):
         efficacy_add(e, alpha_top[k], alpha_bottom[k])
@@ -516,12 +519,12 @@ def compiled_hybrid_reductions(parallel: bool) -> Callable:
 def run_drift(t: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
     """`drift_lane` of one series (the small platforms' metrics): t (T,) [s], x (T, k); the
     drifts (k,) written into out."""
-    drift_lane(t, x, np.zeros(1, DRIFT_TREND)[0], out)
+    drift_lane(t, x, np.zeros(1, DRIFT_TREND), out)
 
 
 def run_efficacy(alpha_top: np.ndarray, alpha_bottom: np.ndarray, out: np.ndarray) -> None:
     """`efficacy_sums` of one run's tilts (T,) [rad]: (printed, integral) written into out (2,)."""
-    out[0], out[1] = efficacy_sums(alpha_top, alpha_bottom, np.zeros(1, EFFICACY)[0])
+    out[0], out[1] = efficacy_sums(alpha_top, alpha_bottom, np.zeros(1, EFFICACY))
 
 
 class SeriesReductions(NamedTuple):
