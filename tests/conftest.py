@@ -11,9 +11,10 @@ from hypothesis import settings
 
 from tests.figures import record
 from twin.mechanisms import HybridBoardingSystem
+from twin.planners.parameters import as_records
 from twin.sim.base_motion import BaseMotion
 from twin.sim.engine import Simulation
-from twin.sim.kernels.layout import TARGET_V
+from twin.sim.kernels.layout import TARGET
 
 # No property test may depend on the machine's speed: hypothesis' 200 ms deadline failed a
 # first example that compiled a kernel (0.5 s) on a loaded machine.
@@ -85,7 +86,7 @@ def nan_target(monkeypatch: pytest.MonkeyPatch) -> Callable[..., None]:
             rows = original(self, block, local, m, out, end)
             for k in steps:
                 if 0 <= k - block.start - local < m:
-                    rows[:, k - block.start - local, TARGET_V:] = np.nan
+                    as_records(rows[:, k - block.start - local], TARGET)["twist"] = np.nan
             return rows
 
         monkeypatch.setattr(Simulation, "targets", poisoned)

@@ -12,10 +12,11 @@ import pytest
 
 from tests.figures import record
 from tests.timing import scaled
+from twin.planners.parameters import as_record
 from twin.sim import Simulation
 from twin.sim.base_motion import BaseMotion
 from twin.sim.faults import Fault, FaultLog, hold_invalid, hold_nonfinite
-from twin.sim.kernels.layout import P_HOLD
+from twin.sim.kernels.layout import COMMON_PARAMETERS
 from twin.sim.live import LiveSession
 
 #: [s] the window of simulated time whose base motion is NaN
@@ -157,7 +158,7 @@ def test_joint_limits_switch_live_without_a_restart() -> None:
     for _ in range(10):
         sim.step()
     sim.update({"joint_limits": "hold"})
-    assert sim.prm[0, P_HOLD] == 1.0 and sim.k == 10
+    assert as_record(sim.prm[0], COMMON_PARAMETERS).hold == 1.0 and sim.k == 10
 
 
 # -- the pure pieces ------------------------------------------------------------------------------

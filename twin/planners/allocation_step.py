@@ -18,7 +18,8 @@ A lane's parameters are `twin.planners.families.ALLOCATION_PARAMETERS`, read by 
 (written by `AllocationPlanner.pack` after its reset); the hybrid system's constants are
 `twin.mechanisms.hybrid.HYBRID_CONSTANTS`, read by name.
 
-`memory` rows: `M_SHARE` (3), DWA's position shares for the next step (seed 004's t − 1).
+`memory` is read by name (`ALLOCATION_MEMORY`): DWA's position shares for the next step
+(seed 004's t − 1).
 """
 
 from __future__ import annotations
@@ -35,15 +36,13 @@ from twin.mechanisms.hybrid import HYBRID_CONSTANTS, HybridBoardingSystem
 from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
 from twin.planners.families import ALLOCATION_METHODS, ALLOCATION_PARAMETERS
 from twin.planners.lane_rows import (
-    D_POSITION_SHARE,
     FAULT_PLANNER,
+    HYBRID_DIAGNOSTICS,
     N_HYBRID_DIAGNOSTICS,
     N_TARGET,
-    TARGET_P,
-    TARGET_R,
-    TARGET_V,
+    TARGET,
 )
-from twin.planners.parameters import MEMORY_SIZE, refuse
+from twin.planners.parameters import MEMORY_SIZE, record_dtype, refuse
 from twin.planners.target import TipTarget
 from twin.planners.tasks import advance_target_lane, target_rows, tip_error_lane
 from twin.spatial import (
@@ -59,8 +58,8 @@ if TYPE_CHECKING:  # the object imports this module: its step sits below it
 #: Methods (a row's `method`), as `twin.planners.families.ALLOCATION_METHODS` numbers them.
 METHOD_CONV1, METHOD_CONV2, METHOD_DWA = (ALLOCATION_METHODS["conv1"], ALLOCATION_METHODS["conv2"],
                                           ALLOCATION_METHODS["dwa"])  # fmt: skip
-#: memory rows: DWA's position shares (3).
-M_SHARE = 0
+#: An allocation lane's memory (MEMORY_SIZE floats, read by name): DWA's position shares (3).
+ALLOCATION_MEMORY = record_dtype((("share", 3),), MEMORY_SIZE, "ALLOCATION_MEMORY")
 
 
 @register_borrowing
@@ -119,8 +118,8 @@ def platform_pose_lane(
     """The platform pose a method plans, [R_out (3, 3), p_out (3,) [m]] in B, for the predicted
     target [Ra, pa]: T_full = C ᴮT_P(0) with the compensating motion C = T_a ᴮT_E(0)⁻¹
     (seed 000 §5.1) for conv1; its rotation at the reset position for conv2; its roll and pitch,
-    the reset yaw and the share memory[M_SHARE + i] of each position axis for dwa (seed 004
-    §3.2). Rc, pc, rpy: scratch."""
+    the reset yaw and the share of each position axis for dwa (seed 004 §3.2; the memory's
+    `share`, `ALLOCATION_MEMORY`). Rc, pc, rpy: scratch."""
     compose_lane(Ra, pa, prm.T_E0_inv, Rc, pc)
     compose_lane(Rc, pc, prm.T_P0, R_out, p_out)
     if method == METHOD_CONV2:
@@ -129,9 +128,10 @@ def platform_pose_lane(
     elif method == METHOD_DWA:
         matrix_to_rpy_lane(R_out, rpy)
         rpy_to_matrix_lane(rpy[0], rpy[1], prm.yaw0, R_out)  # the slew takes the yaw
+        share = memory.view(ALLOCATION_MEMORY)[0].share
         for i in range(3):
             p0 = prm.T_P0[4 * i + 3]
-            p_out[i] = p0 + memory[M_SHARE + i] * (p_out[i] - p0)
+            p_out[i] = p0 + share[i] * (p_out[i] - p0)
 
 
 @register_inline
@@ -196,18 +196,19 @@ def allocation_velocity(
     Args:
         x: (9,) xi [m, rad]: platform pose in B, then q1, q2 [rad], d3 [m].
         R: (3, 3) ᴮR_P of x (`rpy_to_matrix_lane`).
-        target: (18,) `TARGET_*`: ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ_d; ᴮω_d]
+        target: (N_TARGET,) a `TARGET` row: ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ_d; ᴮω_d]
             [m/s, rad/s] in B.
         prm: the lane's `ALLOCATION_PARAMETERS` record (its row, `AllocationPlanner.pack`).
-        memory: (MEMORY_SIZE,) the lane's state: DWA's shares at `M_SHARE`, read and updated.
+        memory: (MEMORY_SIZE,) the lane's state (`ALLOCATION_MEMORY`): DWA's shares, read and
+            updated.
         const: (N_HYBRID_CONSTANTS,) the hybrid constants (`HybridBoardingSystem.pack`).
         dt: [s] control period.
         work: `allocation_work()`, overwritten.
         v_out: (9,) written: platform body twist [ᴾṖ; ω_P] in P [m/s, rad/s], then q̇1, q̇2
             [rad/s], ḋ3 [m/s] (`HybridBoardingSystem.integrate`).
-        diag_out: (N_HYBRID_DIAGNOSTICS,) written: at `D_POSITION_SHARE` (3) the position
-            shares used (dwa), 1 (conv1) or 0 (conv2); the differential planners' rows
-            (`D_WEIGHTS` … `D_SCALE`) NaN; `D_LIMIT_SCALE` is the runner's.
+        diag_out: (N_HYBRID_DIAGNOSTICS,) a `HYBRID_DIAGNOSTICS` row: its `position_share`
+            (3) written, the shares used (dwa), 1 (conv1) or 0 (conv2); the other families'
+            fields left alone; `limit_scale` is the runner's.
 
     Returns:
         Fault bits: `FAULT_PLANNER` when the velocity is not finite, else 0.
@@ -219,8 +220,8 @@ def allocation_velocity(
     pa, pc, pP, rpy = points[0], points[1], points[2], points[3]
     q, following, prel = points[4], points[5], points[6]
     # the target one dt ahead, T_a = [exp(ω dt) R_d, p_d + v dt] (seed 004 §1)
-    advance_target_lane(target[TARGET_R : TARGET_R + 9], target[TARGET_P : TARGET_P + 3],
-                        target[TARGET_V : TARGET_V + 6], dt, E, Ra, pa)  # fmt: skip
+    t = target.view(TARGET)[0]  # the rows by name
+    advance_target_lane(t.R_d, t.p_d, t.twist, dt, E, Ra, pa)
     platform_pose_lane(method, prm, memory, Ra, pa, Rc, pc, rpy, RP, pP)
     # gangway joints: conv1 keeps them, else seed 004 eqs (7)-(8) for the tip in P
     if method == METHOD_CONV1:
@@ -236,26 +237,28 @@ def allocation_velocity(
             c.a1,
             q,
         )
+    used = diag_out.view(HYBRID_DIAGNOSTICS)[0].position_share
     if method == METHOD_DWA:
+        share = memory.view(ALLOCATION_MEMORY)[0].share
         for i in range(3):
-            diag_out[D_POSITION_SHARE + i] = memory[M_SHARE + i]  # the shares used
+            used[i] = share[i]  # the shares used
         # next step's shares (t − 1 in seed 004); a step that cannot be planned (a target that
         # is not finite: AllocationPlanner raises there) keeps the last good ones
         shares_lane(RP, pP, prm, c, vectors, lengths, J, following)
         if math.isfinite(following[0] + following[1] + following[2]):
             for i in range(3):
-                memory[M_SHARE + i] = following[i]
+                share[i] = following[i]
     else:
         one = 1.0 if method == METHOD_CONV1 else 0.0
         for i in range(3):
-            diag_out[D_POSITION_SHARE + i] = one
+            used[i] = one
     return reaching_velocity_lane(x, R, RP, pP, q, dt, Rrel, prel, v_out)
 
 
 def pack_allocation(planner: AllocationPlanner, hold: bool) -> tuple[np.ndarray, np.ndarray]:
     """(prm (ROW_SIZE,), memory (MEMORY_SIZE,)) of one lane from an `AllocationPlanner` after
     its `reset(xi, target)`: its `pack(hold)` (`ALLOCATION_PARAMETERS` by name), and memory
-    with DWA's shares at `M_SHARE`.
+    with DWA's shares (`ALLOCATION_MEMORY`).
 
     Raises:
         TwinError: the planner has no `pack`, is not reset, or has an unknown method.
@@ -265,7 +268,7 @@ def pack_allocation(planner: AllocationPlanner, hold: bool) -> tuple[np.ndarray,
         raise refuse(f"a {type(planner).__name__} as an allocation planner")
     prm, shares = pack(hold)
     memory = np.zeros(MEMORY_SIZE)
-    memory[M_SHARE : M_SHARE + 3] = shares
+    memory.view(ALLOCATION_MEMORY)[0].share = shares
     return prm, memory
 
 
@@ -288,31 +291,34 @@ def _allocation_batch(
 ) -> None:
     """The engine's step (`allocation_velocity`) over states x (N, 9), target rows (N, 18),
     parameter rows (N, ROW_SIZE) and DWA's shares (N, 3) carried in: the velocity v_out
-    (N, 9), the shares used (N, 3; `D_POSITION_SHARE`), the shares carried to the next step
-    (N, 3; the lane's memory after the step) and the pose error e (N, 6) [m, rad] in B of the
-    tip of the state the step plans (its platform pose and gangway joints, from the work)
-    against the predicted target it planned for (`tip_error_lane`)."""
+    (N, 9), the shares used (N, 3; the diagnostics' `position_share`), the shares carried to
+    the next step (N, 3; the lane's memory after the step) and the pose error e (N, 6)
+    [m, rad] in B of the tip of the state the step plans (its platform pose and gangway
+    joints, from the work) against the predicted target it planned for (`tip_error_lane`)."""
     R, memory, diag = np.empty((3, 3)), np.zeros(MEMORY_SIZE), np.empty(N_HYBRID_DIAGNOSTICS)
+    share, used = memory.view(ALLOCATION_MEMORY)[0].share, diag.view(HYBRID_DIAGNOSTICS)[0]
+    goal = np.zeros(N_TARGET)  # the predicted target, the state planned
+    ahead = goal.view(TARGET)[0]
     work = allocation_work()
     rotations, points = work[0], work[1]
-    ahead, planned = np.zeros(N_TARGET), np.zeros(9)  # the predicted target, the state planned
+    planned = np.zeros(9)
     frames, M = np.empty((2, 4, 4)), np.empty((3, 3))
     c = const.view(HYBRID_CONSTANTS)[0]
     for k in range(x.shape[0]):
         rpy_to_matrix_lane(x[k, 3], x[k, 4], x[k, 5], R)
         for i in range(3):
-            memory[M_SHARE + i] = shares[k, i]
+            share[i] = shares[k, i]
         prm = rows[k].view(ALLOCATION_PARAMETERS)[0]  # the row by name, as the runner reads it
         allocation_velocity(x[k], R, target[k], prm, memory, const, dt, work, v_out[k], diag)
         for i in range(3):
-            share_out[k, i] = diag[D_POSITION_SHARE + i]
-            following[k, i] = memory[M_SHARE + i]
+            share_out[k, i] = used.position_share[i]
+            following[k, i] = share[i]
             # the work's predicted target [Ra, pa] and planned platform [RP, pP], joints q
             for j in range(3):
-                ahead[TARGET_R + 3 * i + j] = rotations[1, i, j]
-            ahead[TARGET_P + i] = points[0, i]
+                ahead.R_d[3 * i + j] = rotations[1, i, j]
+            ahead.p_d[i] = points[0, i]
             planned[i], planned[6 + i] = points[2, i], points[4, i]
-        tip_error_lane(planned, rotations[3], ahead, c.d1, c.a1, frames, M, error_out[k])
+        tip_error_lane(planned, rotations[3], goal, c.d1, c.a1, frames, M, error_out[k])
 
 
 #: the step over a batch (compiled on first use, `twin.batch`): what `AllocationPlanner.step`
@@ -334,7 +340,7 @@ def allocation_step(
     Args:
         mechanism: the hybrid system.
         rows: (..., ROW_SIZE) the planner's parameter rows (`AllocationPlanner.rows`).
-        shares: (..., 3) DWA's position shares for this step (`M_SHARE`).
+        shares: (..., 3) DWA's position shares for this step (`ALLOCATION_MEMORY`).
         xi: (..., 9) [m, rad] the states; target: the desired tip motion in B; the leading
             axes of these four broadcast.
         dt: [s] the control period.

@@ -48,14 +48,7 @@ from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.planners.families import DIFFERENTIAL_PARAMETERS
 from twin.planners.gains import proportional_gain
-from twin.planners.lane_rows import (
-    D_DAMPING,
-    D_SCALE,
-    D_SHARE,
-    D_WEIGHTS,
-    FAULT_SINGULAR,
-    N_HYBRID_DIAGNOSTICS,
-)
+from twin.planners.lane_rows import FAULT_SINGULAR, HYBRID_DIAGNOSTICS, N_HYBRID_DIAGNOSTICS
 from twin.planners.limits import held_yaw_rate_lane, slew_priority_lane, velocity_limit_lane
 from twin.planners.linalg import (
     cholesky_lane,
@@ -65,7 +58,13 @@ from twin.planners.linalg import (
     svd_pinv_apply,
     weighted_gram_lane,
 )
-from twin.planners.parameters import KIND_DIFFERENTIAL, parameter_record, refuse
+from twin.planners.parameters import (
+    KIND_DIFFERENTIAL,
+    as_records,
+    parameter_record,
+    record_dtype,
+    refuse,
+)
 from twin.planners.target import PlannerOutput, TipTarget
 from twin.planners.tasks import target_rows, tip_task_lane
 from twin.planners.weights import joint_limit_weight_lane
@@ -93,10 +92,13 @@ def pack_differential(planner: DifferentialPlanner, hold: bool) -> np.ndarray:
     return row
 
 
-#: rows of `differential_work`'s vectors (9 wide; the 6-vectors use the first 6): diag(W⁻¹),
-#: the demand (turned into P), the posture column, its back-projection, the solve's scratch,
-#: the tip's pose error e in B (`tip_error_lane`; the runner hands it to the record)
-W_WEIGHTS, W_DEMAND, W_COLUMN, W_BACK, W_SOLVE, W_ERROR = 0, 1, 2, 3, 4, 5
+#: `differential_work`'s vectors, read by name (9 wide; the 6-vectors use the first 6):
+#: diag(W⁻¹), the demand (turned into P), the posture column, its back-projection, the solve's
+#: scratch, the tip's pose error e in B (`tip_error_lane`; the runner hands it to the record)
+DIFFERENTIAL_VECTORS = record_dtype(
+    (("weights", 9), ("demand", 9), ("column", 9), ("back", 9), ("solve", 9), ("error", 9)),
+    what="DIFFERENTIAL_VECTORS",
+)
 
 
 @register_jitable
@@ -105,9 +107,10 @@ def differential_work() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
     """Scratch of `differential_velocity`, allocated once per lane (numba puts every array on
     the heap: a malloc per step would cost more than the arithmetic; and leading-axis views
     are free where a reshape is not): K (6, 9), A = K W Kᵀ and its factor L (6, 6), ᴾT_E and
-    ᴮT_E (2, 4, 4), R_d R_Eᵀ (3, 3), the vectors (6, 9) (rows `W_*`)."""
+    ᴮT_E (2, 4, 4), R_d R_Eᵀ (3, 3), the vectors (1,) (`DIFFERENTIAL_VECTORS`: its one
+    record, indexed where it is read, while the work holds the array)."""
     return (np.empty((6, 9)), np.empty((6, 6)), np.empty((6, 6)), np.empty((2, 4, 4)),
-            np.empty((3, 3)), np.empty((6, 9)))  # fmt: skip
+            np.empty((3, 3)), np.empty(1, DIFFERENTIAL_VECTORS))  # fmt: skip
 
 
 @register_inline
@@ -161,7 +164,7 @@ def differential_velocity(
 
     Args:
         x: (9,) xi [m, rad] at sample k; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
-        target: (18,) the held target in B (layout `TARGET_*`): ᴮR_d row-major, ᴮp_d [m],
+        target: (N_TARGET,) the held target in B (a `TARGET` row): ᴮR_d row-major, ᴮp_d [m],
             twist ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s].
         p: the lane's `DIFFERENTIAL_PARAMETERS` record (its row, `DifferentialPlanner.pack`).
         const: (N_HYBRID_CONSTANTS,) the hybrid constants (`HybridBoardingSystem.pack`).
@@ -169,11 +172,12 @@ def differential_velocity(
             (1 − e^(−k_e dt))/dt (`proportional_gain`); dt ≤ 0 applies k_e itself.
         work: `differential_work()`, overwritten: K, K W Kᵀ, diag(W⁻¹), the demand and the
             posture column in P, which `damped_differential_velocity` goes on from; the tip
-            ᴮT_E (frames[1]) and its error (row W_ERROR), which the runner hands to the record.
+            ᴮT_E (frames[1]) and its error (the vectors' `error`), which the runner hands to
+            the record.
         v_out: (9,) written: the velocity [ᴾṖ [m/s]; ω_P [rad/s] in P; q̇1, q̇2 [rad/s];
             ḋ3 [m/s]]: `DifferentialPlanner.step(...).velocity`.
-        diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written (weights, null-space
-            share, damping λ, rate scale); the other families' rows are left alone.
+        diag_out: (N_HYBRID_DIAGNOSTICS,) a `HYBRID_DIAGNOSTICS` row: weights, null-space
+            share, damping λ and rate scale written; the other families' fields left alone.
 
     Returns:
         Fault bits (0: λ = 0 on this path), or NEEDS_SVD where the damping test fails (near a
@@ -181,12 +185,13 @@ def differential_velocity(
         step with `damped_differential_velocity(x, p, work, v_out, diag_out)`.
     """
     K, A, L, frames, M, vectors = work
-    w, b, column = vectors[W_WEIGHTS], vectors[W_DEMAND, :6], vectors[W_COLUMN, :6]
-    back, y = vectors[W_BACK], vectors[W_SOLVE, :6]
+    named = vectors[0]  # the vectors by name
+    w, b, column = named.weights, named.demand[:6], named.column[:6]
+    back, y = named.back, named.solve[:6]
     # the tip task: K and the demand ẋ_d + k_e e in B (eqs (14), (24), (34)), k_e sampled
     c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
     tip_task_lane(x, R, target, proportional_gain(p.gain, dt), c.d1, c.a1, frames, M, K, b,
-                  vectors[W_ERROR, :6])  # fmt: skip
+                  named.error[:6])  # fmt: skip
     # turned into P in place: b = Dᵀ (ẋ_d + k_e e)
     for half in (0, 3):
         d0, d1, d2 = b[half], b[half + 1], b[half + 2]
@@ -237,9 +242,9 @@ def damped_differential_velocity(
     Returns:
         Fault bits: FAULT_SINGULAR when the damping λ > 0.
     """
-    K, vectors = work[0], work[5]
-    w, b, column = vectors[W_WEIGHTS], vectors[W_DEMAND, :6], vectors[W_COLUMN, :6]
-    back = vectors[W_BACK]
+    K, named = work[0], work[5][0]  # the vectors by name
+    w, b, column = named.weights, named.demand[:6], named.column[:6]
+    back = named.back
     sqrt_w = np.empty(9)
     KW = np.empty((6, 9))
     for j in range(9):
@@ -270,17 +275,17 @@ def differential_finish(
 
     Args:
         x: (9,) xi [m, rad]; p: the lane's `DIFFERENTIAL_PARAMETERS` record.
-        work: `differential_work()` holding diag(W⁻¹) and J_W⁺ J J_aᵀ ζ̇_a (rows W_WEIGHTS,
-            W_BACK; the latter read only with a posture task).
+        work: `differential_work()` holding diag(W⁻¹) and J_W⁺ J J_aᵀ ζ̇_a (the vectors'
+            `weights` and `back`; the latter read only with a posture task).
         lam2: λ² of the solve [-].
         v_out: (9,) J_W⁺ ẋ on entry; the velocity on return (`differential_velocity`).
-        diag_out: (N_HYBRID_DIAGNOSTICS,) rows D_WEIGHTS … D_SCALE written.
+        diag_out: (N_HYBRID_DIAGNOSTICS,) its weights … velocity_scale written.
 
     Returns:
         Fault bits: FAULT_SINGULAR when the damping λ > 0.
     """
-    vectors = work[5]
-    w, back = vectors[W_WEIGHTS], vectors[W_BACK]
+    named = work[5][0]  # the vectors by name
+    w, back = named.weights, named.back
     # v = J_W⁺ ẋ + λ (I − J_W⁺ J) J_aᵀ ζ̇_a (eq (34); J_a⁺ = J_aᵀ for a selector row)
     posture = int(p.posture_index)
     wanted = posture_rate(x, p, posture) if posture >= 0 else 0.0
@@ -306,17 +311,19 @@ def differential_finish(
     scale = 1.0
     if p.rate_limited > 0.0:  # VelocityLimit: one scale, the direction kept
         scale = velocity_limit_lane(v_out, p.rate)
+    d = diag_out.view(HYBRID_DIAGNOSTICS)[0]  # the row by name
+    weights = d.weights
     norm2 = 0.0
     for j in range(9):
         norm2 += v_out[j] * v_out[j]
-        diag_out[D_WEIGHTS + j] = w[j]
+        weights[j] = w[j]
     norm = math.sqrt(norm2)
-    diag_out[D_SHARE] = math.sqrt(null2) / (1e-12 if norm < 1e-12 else norm)
+    d.null_space_share = math.sqrt(null2) / (1e-12 if norm < 1e-12 else norm)
     # λ ≤ λ_max by its definition; for a λ_max under 1e-154, λ_max² is subnormal and its
     # square root can come back above λ_max (`weighted_pinv_lane`)
     damping = min(math.sqrt(lam2), p.damping)
-    diag_out[D_DAMPING] = damping
-    diag_out[D_SCALE] = scale
+    d.damping = damping
+    d.velocity_scale = scale
     return FAULT_SINGULAR if damping > 0.0 else 0
 
 
@@ -338,22 +345,24 @@ def _differential_batch(
     """The engine's step of one planner row over states x (N, 9) and target rows (N, 18):
     `differential_velocity`, finished by `damped_differential_velocity` where it returns
     NEEDS_SVD (as `twin.sim.kernels.hybrid_runner.run_hybrid` takes it), into v_out (N, 9),
-    diag_out (N, N_HYBRID_DIAGNOSTICS) (rows D_WEIGHTS … D_SCALE written) and the tip's pose
-    error e (N, 6) [m, rad] in B that the tip task planned on (row W_ERROR of the work).
+    diag_out (N, N_HYBRID_DIAGNOSTICS) (`HYBRID_DIAGNOSTICS`' weights … velocity_scale
+    written) and the tip's pose error e (N, 6) [m, rad] in B that the tip task planned on (the
+    work vectors' `error`).
     row: the planner's (ROW_SIZE,) (`DifferentialPlanner.pack`); const: the hybrid constants;
     dt: [s] the control period (`differential_velocity`)."""
     R = np.empty((3, 3))
     work = differential_work()
     p = row.view(DIFFERENTIAL_PARAMETERS)[0]  # the row by name, as the runner reads it
-    error = work[5]
+    vectors = work[5]
     for k in range(x.shape[0]):
         rpy_to_matrix_lane(x[k, 3], x[k, 4], x[k, 5], R)
         bits = differential_velocity(x[k], R, target[k], p, const, dt, work, v_out[k],
                                      diag_out[k])  # fmt: skip
         if bits == NEEDS_SVD:
             damped_differential_velocity(x[k], p, work, v_out[k], diag_out[k])
+        error = vectors[0].error
         for i in range(6):
-            error_out[k, i] = error[W_ERROR, i]
+            error_out[k, i] = error[i]
 
 
 #: the step over a batch (compiled on first use, `twin.batch`): what `DifferentialPlanner.step`
@@ -391,13 +400,14 @@ def differential_step(
     v, diag, error = DIFFERENTIAL_STEP(
         [xi, target_rows(target)], [row, const, float(dt)], [(9,), (N_HYBRID_DIAGNOSTICS,), (6,)]
     )
+    d = as_records(diag, HYBRID_DIAGNOSTICS)  # by name
     return PlannerOutput(
         velocity=v,
         diagnostics={
-            "weights": diag[..., D_WEIGHTS : D_WEIGHTS + 9],
+            "weights": d["weights"],
             "task_error": error,
-            "null_space_share": diag[..., D_SHARE][()],
-            "damping": diag[..., D_DAMPING][()],
-            "velocity_scale": diag[..., D_SCALE][()],
+            "null_space_share": d["null_space_share"][()],
+            "damping": d["damping"][()],
+            "velocity_scale": d["velocity_scale"][()],
         },
     )

@@ -153,42 +153,93 @@ KIND_DIFFERENTIAL, KIND_ALLOCATION, KIND_PLATFORM, KIND_QP = 0, 1, 2, 3
 COMMON_FIELDS: tuple[tuple[str, int], ...] = (("kind", 1), ("hold", 1))
 
 
-def family_dtype(fields: tuple[tuple[str, int], ...]) -> np.dtype:
-    """A planner family's parameter record: `COMMON_FIELDS` then `fields` (name, count) as
-    float64 values in order (a count > 1 is a (count,) array field), padded to `ROW_SIZE`
-    values, so a lane's float row (ROW_SIZE,) is viewed as one record (`parameter_record`)
-    and numba's kernels read the fields by name.
+#: A record's fields: (name, count) in order, a count of 1 a float64 value, a count > 1 a
+#: (count,) float64 array, a record dtype a nested record (`record_dtype`)
+RecordFields = tuple[tuple[str, "int | np.dtype"], ...]
+
+
+def record_dtype(fields: RecordFields, size: int | None = None, what: str = "record") -> np.dtype:
+    """A row of float64 values read by name: `fields` (name, count or nested record dtype)
+    in order, padded to `size` values (their own number by default), as an `np.record` dtype,
+    so a float row (size,) is viewed as one record (`as_record`, `as_records`) and numba's
+    kernels read and write the fields by name. Every accumulator, row and block the engine's
+    kernels index is one (`family_dtype`, the metrics', records' and diagnostics' rows).
 
     Raises:
-        TwinError: the fields do not fit a row, or a name repeats.
+        TwinError: a name repeats, or the fields do not fit `size` values.
     """
-    names, formats, offsets, at = [], [], [], 0
-    for name, count in (*COMMON_FIELDS, *fields):
+    names: list[str] = []
+    formats: list[np.dtype] = []
+    offsets: list[int] = []
+    at = 0
+    for name, count in fields:
         if name in names:
-            raise TwinError(f"family_dtype: field {name!r} given twice")
+            raise TwinError(f"{what}: field {name!r} given twice")
         names.append(name)
-        formats.append(np.dtype((np.float64, (count,))) if count > 1 else np.dtype(np.float64))
+        if isinstance(count, np.dtype):  # a nested record of float64 values
+            formats.append(count)
+            width = count.itemsize // 8
+        else:
+            formats.append(np.dtype((np.float64, (count,))) if count > 1 else np.dtype(np.float64))
+            width = count
         offsets.append(8 * at)
-        at += count
-    if at > ROW_SIZE:
-        raise TwinError(f"family_dtype: {at} values do not fit a row of {ROW_SIZE}")
-    fields_ = {"names": names, "formats": formats, "offsets": offsets, "itemsize": 8 * ROW_SIZE}
+        at += width
+    if size is None:
+        size = at
+    if at > size:
+        raise TwinError(f"{what}: {at} values do not fit a row of {size}")
+    fields_ = {"names": names, "formats": formats, "offsets": offsets, "itemsize": 8 * size}
     # np.record: a record reads its fields as attributes (`p.gain`) in plain Python too, as
     # numba's records do, so the interpreted engine runs the kernels unchanged
     return np.dtype((np.record, fields_))
 
 
+def row_size(dtype: np.dtype) -> int:
+    """The float64 values of one row of a `record_dtype`."""
+    return dtype.itemsize // 8
+
+
+def as_record(row: np.ndarray, dtype: np.dtype) -> np.record:
+    """A float row (row_size(dtype),) seen as one record of `dtype` (`record_dtype`): writing
+    a field writes the row."""
+    return row.view(dtype)[0]
+
+
+def as_records(rows: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """Float rows (..., row_size(dtype)) seen as records (...) of `dtype` (`record_dtype`),
+    the last axis contiguous: `as_records(diag, HYBRID_DIAGNOSTICS)["weights"]` is a view."""
+    return rows.view(dtype)[..., 0]
+
+
+def family_dtype(fields: tuple[tuple[str, int], ...]) -> np.dtype:
+    """A planner family's parameter record (`record_dtype`): `COMMON_FIELDS` then `fields`
+    (name, count) as float64 values in order (a count > 1 is a (count,) array field), padded
+    to `ROW_SIZE` values, so a lane's float row (ROW_SIZE,) is viewed as one record
+    (`parameter_record`) and numba's kernels read the fields by name.
+
+    Raises:
+        TwinError: the fields do not fit a row, or a name repeats.
+    """
+    return record_dtype((*COMMON_FIELDS, *fields), ROW_SIZE, "family_dtype")
+
+
+#: The fields every family's row starts with (`COMMON_FIELDS`), as the engine reads a row
+#: whatever its family: `kind` (`KIND_*`) and `hold`
+COMMON_PARAMETERS = family_dtype(())
+
+
 def parameter_row(kind: int, hold: bool) -> np.ndarray:
     """A new lane row (ROW_SIZE,) of zeros with its common fields set."""
     row = np.zeros(ROW_SIZE)
-    row[0], row[1] = kind, 1.0 if hold else 0.0
+    common = as_record(row, COMMON_PARAMETERS)
+    common.kind, common.hold = kind, 1.0 if hold else 0.0
     return row
 
 
 def parameter_record(row: np.ndarray, dtype: np.dtype) -> np.record:
     """The lane row (ROW_SIZE,) seen as one record of `dtype` (`family_dtype`): writing a
     field writes the row."""
-    return row.view(dtype)[0]
+    return as_record(row, dtype)
 
 
 def refuse(what: str) -> TwinError:

@@ -60,9 +60,10 @@ from twin.errors import TwinError
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS, N_HYBRID_CONSTANTS, HybridBoardingSystem
 from twin.planners.active_set import INF
 from twin.planners.families import QP_PARAMETERS
-from twin.planners.lane_rows import D_QP_ACTIVE, D_QP_LEVEL, N_HYBRID_DIAGNOSTICS
+from twin.planners.lane_rows import HYBRID_DIAGNOSTICS, N_HYBRID_DIAGNOSTICS
 from twin.planners.parameters import (
     KIND_QP,
+    as_records,
     pack_part,
     parameter_record,
     parameter_row,
@@ -447,7 +448,8 @@ class QPPlanner:
                 [as_array(xi, "xi", (9,)), target_rows(target)], [row, const, checked_dt(dt)],
                 [(9,), (N_HYBRID_DIAGNOSTICS,)],
             )  # fmt: skip
-            level, active = float(diag[..., D_QP_LEVEL]), float(diag[..., D_QP_ACTIVE])
+            named = as_records(diag, HYBRID_DIAGNOSTICS)  # by name
+            level, active = float(named["qp_level"]), float(named["qp_active"])
         return PlannerOutput(
             velocity=velocity,
             diagnostics={

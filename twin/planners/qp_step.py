@@ -40,7 +40,7 @@ from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.mechanisms.legs import leg_arm_lane, leg_component, leg_twist_row_lane
 from twin.planners.families import MIN_SPLIT, QP_PARAMETERS
 from twin.planners.gains import proportional_gain
-from twin.planners.lane_rows import D_QP_ACTIVE, D_QP_LEVEL, FAULT_INFEASIBLE
+from twin.planners.lane_rows import FAULT_INFEASIBLE, HYBRID_DIAGNOSTICS
 from twin.planners.parameters import KIND_QP, parameter_record, refuse
 from twin.planners.qp_levels import N_POSITION, levels_work, solve_levels_lane
 from twin.planners.tasks import tip_task_lane
@@ -283,14 +283,16 @@ def qp_velocity(
     """The qp planner's step in a hybrid lane (`twin.sim.kernels.hybrid_runner.qp_lane`
     guards and integrates it): its QP at the state x (9,) and target row (18,)
     (`qp_problem_lane`), solved by the planner object's own `solve_levels_lane`; v (9,)
-    written (NaN when no level is solved), and D_QP_LEVEL, D_QP_ACTIVE of d. Returns
+    written (NaN when no level is solved), and the `qp_level`, `qp_active` of the diagnostics
+    row d (`HYBRID_DIAGNOSTICS`). Returns
     FAULT_INFEASIBLE at level 2 (the limits relaxed), else 0. `work` from `qp_lane_work`."""
     H, f, A, lower, upper, problem, levels = work
     qp_problem_lane(x, target, row, const, dt, H, f, A, lower, upper, problem)
     position = row.view(QP_PARAMETERS)[0].position
     level = solve_levels_lane(H, f, A, lower, upper, position, levels, v)
-    d[D_QP_LEVEL] = level
-    d[D_QP_ACTIVE] = count_active_lane(v, A, lower, upper)  # 0 for a NaN v
+    diagnostics = d.view(HYBRID_DIAGNOSTICS)[0]  # the row by name
+    diagnostics.qp_level = level
+    diagnostics.qp_active = count_active_lane(v, A, lower, upper)  # 0 for a NaN v
     return FAULT_INFEASIBLE if level == 2 else 0
 
 
@@ -336,7 +338,8 @@ def _qp_step_batch(
     v_out: np.ndarray, diag_out: np.ndarray,
 ) -> None:  # fmt: skip
     """The engine's qp step (`qp_velocity`) over states x (N, 9) and target rows (N, 18) into
-    v_out (N, 9) and diag_out (N, N_HYBRID_DIAGNOSTICS) (D_QP_LEVEL, D_QP_ACTIVE written)."""
+    v_out (N, 9) and diag_out (N, N_HYBRID_DIAGNOSTICS) (`qp_level`, `qp_active`
+    written)."""
     work = qp_lane_work()
     for k in range(x.shape[0]):
         qp_velocity(x[k], target[k], row, const, dt, work, v_out[k], diag_out[k])

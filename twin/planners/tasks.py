@@ -15,7 +15,8 @@ from twin.compiled import register_inline
 from twin.mechanisms.gangway import gangway_jacobian_lane
 from twin.mechanisms.hybrid import HybridBoardingSystem, tip_transform
 from twin.planners.gains import proportional_gain
-from twin.planners.parameters import refuse
+from twin.planners.lane_rows import N_TARGET, TARGET
+from twin.planners.parameters import as_records, refuse
 from twin.planners.target import TipTarget
 from twin.spatial import rpy_to_matrix_lane, so3_exp_lane, so3_log_lane
 from twin.validation import as_array
@@ -190,10 +191,6 @@ class PlatformYawTask:
 # compiled by numba, `twin.compiled`; plain Python without numba)
 # ---------------------------------------------------------------------------------------------
 
-#: The target row a lane's tip task reads (18,): ᴮR_d row-major (9), ᴮp_d [m] (3), the twist
-#: ᴮξ̇_d = [ᴮṗ_d; ᴮω_d] [m/s, rad/s] (6), all in the Stewart base frame B
-#: (`twin.sim.kernels.layout.TARGET_*` names these offsets for the engine)
-TARGET_ROW = ("R_d", 9), ("p_d", 3), ("twist", 6)
 
 
 @register_inline
@@ -212,7 +209,7 @@ def tip_error_lane(
 
     Args:
         x: (9,) xi [m, rad]; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
-        target: (18,) the target row (`TARGET_ROW`; ᴮR_d and ᴮp_d read).
+        target: (N_TARGET,) the target row (`TARGET`; ᴮR_d and ᴮp_d read).
         d1, a1: [m] the gangway's (`gangway_tip_lane`).
         frames: (2, 4, 4) written: ᴾT_E and ᴮT_E (`tip_transform`).
         M: (3, 3) written: R_d R_Eᵀ.
@@ -252,7 +249,7 @@ def tip_task_lane(
 
     Args:
         x: (9,) xi [m, rad]; R: (3, 3) its ᴮR_P (`rpy_to_matrix_lane`).
-        target: (18,) the target row (`TARGET_ROW`); gain: k_e [1/s].
+        target: (N_TARGET,) the target row (`TARGET`); gain: k_e [1/s].
         d1, a1: [m] the gangway's (`gangway_tip_lane`).
         frames: (2, 4, 4) written: ᴾT_E and ᴮT_E (`tip_transform`).
         M: (3, 3) written: R_d R_Eᵀ.
@@ -275,7 +272,7 @@ def advance_target_lane(
     R_d: np.ndarray, p_d: np.ndarray, twist: np.ndarray, dt: float, E: np.ndarray,
     R_out: np.ndarray, p_out: np.ndarray,
 ) -> None:  # fmt: skip
-    """A target (R_d (9,) row-major, p_d (3,) [m], twist (6,) [m/s, rad/s]: a `TARGET_ROW`'s
+    """A target (R_d (9,) row-major, p_d (3,) [m], twist (6,) [m/s, rad/s]: a `TARGET` row's
     parts) moved by its twist, held constant over dt [s]: exp(ω dt) R_d into R_out (3, 3)
     (`so3_exp_lane`; Ṙ_d = [ω]× R_d, ω in B), p_d + ṗ_d dt into p_out (3,) [m]. The one-step
     prediction of seed 004 §1 and the `ik` law's next sample (`twin.planners.platform.
@@ -289,14 +286,16 @@ def advance_target_lane(
 
 
 def target_rows(target: TipTarget) -> np.ndarray:
-    """The target as lane rows (..., 18) (`TARGET_ROW`): ᴮR_d row-major, ᴮp_d [m], the twist."""
+    """The target as lane rows (..., N_TARGET) (`TARGET`): ᴮR_d row-major, ᴮp_d [m], the
+    twist."""
     transform = np.asarray(target.transform, dtype=float)
     twist = np.asarray(target.twist, dtype=float)
     shape = np.broadcast_shapes(transform.shape[:-2], twist.shape[:-1])
-    rows = np.empty((*shape, 18))
-    rows[..., :9] = transform[..., :3, :3].reshape(*transform.shape[:-2], 9)
-    rows[..., 9:12] = transform[..., :3, 3]
-    rows[..., 12:] = twist
+    rows = np.empty((*shape, N_TARGET))
+    named = as_records(rows, TARGET)  # by name
+    named["R_d"] = transform[..., :3, :3].reshape(*transform.shape[:-2], 9)
+    named["p_d"] = transform[..., :3, 3]
+    named["twist"] = twist
     return rows
 
 

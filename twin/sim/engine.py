@@ -40,6 +40,7 @@ from tqdm import tqdm
 from twin.compiled import limit_threads, numba_threads
 from twin.errors import TwinError
 from twin.mechanisms import MECHANISMS
+from twin.planners.parameters import as_records
 from twin.sim.base_motion import BaseMotion
 from twin.sim.faults import (
     HOLDS,
@@ -506,7 +507,9 @@ class Simulation:
         prm, memory = self.prm.copy(), self.memory.copy()
         if replan:
             prm, memory = self._pack(new, block, self.k - block.start)
-        prm[:, layout.P_HOLD] = [float(s.joint_limits == "hold") for s in new]
+        as_records(prm, layout.COMMON_PARAMETERS)["hold"] = [
+            float(s.joint_limits == "hold") for s in new
+        ]
         # nothing below raises
         self.scenarios, self.base_motions, self._block = new, base_motions, block
         self.prm, self.memory, self.n_steps = prm, memory, n_steps

@@ -30,6 +30,7 @@ from twin.planners import (
 from twin.planners.allocation_step import pack_allocation
 from twin.planners.differential_step import pack_differential
 from twin.planners.families import FAMILY_DIAGNOSTICS
+from twin.planners.parameters import as_record, as_records
 from twin.planners.qp_step import pack_qp
 from twin.sim.kernels import layout
 from twin.sim.metrics import (
@@ -93,11 +94,12 @@ def runner(kind: str, compiled: bool, lanes: int) -> Any:
 
 
 def tip_target(row: np.ndarray) -> TipTarget:
-    """A `TipTarget` from a packed target row (18,) (`layout.TARGET_*`)."""
+    """A `TipTarget` from a packed target row (N_TARGET,) (`layout.TARGET`)."""
+    target = as_record(np.ascontiguousarray(row), layout.TARGET)
     T = np.eye(4)
-    T[:3, :3] = row[layout.TARGET_R : layout.TARGET_R + 9].reshape(3, 3)
-    T[:3, 3] = row[layout.TARGET_P : layout.TARGET_P + 3]
-    return TipTarget(T, np.array(row[layout.TARGET_V : layout.TARGET_V + 6]))
+    T[:3, :3] = target.R_d.reshape(3, 3)
+    T[:3, 3] = target.p_d
+    return TipTarget(T, np.array(target.twist))
 
 
 #: a lane's packed planner: its parameter row (`layout.ROW_SIZE`) and memory row (`N_MEMORY`)
@@ -211,7 +213,7 @@ class HybridLanes:
         self._recorded = record_arrays(N, S)
         errors = self._recorded[1]  # the kernel hands differential lanes' errors over into it
         tips = scratch("tips", (N, S, N_TIP))  # dies with the chunk
-        kinds = prm[:, layout.P_KIND]
+        kinds = as_records(prm, layout.COMMON_PARAMETERS)["kind"]
         handed = np.where(kinds == layout.KIND_DIFFERENTIAL, S - 1, 0)
         run(xs, targets, prm, memory, self.const, dt, diag, faults, first, errors, tips)
         self._handed = (targets, handed, tips)
@@ -300,15 +302,10 @@ class HybridLanes:
         """The records `out` with the samples' base poses, states and diagnostics from
         `first` on."""
         out = {"base_pose": poses[:, first:], "xi": xs[:, first:], **out}
-        diag = diag[:, first:]
-        out["weights"] = diag[..., layout.D_WEIGHTS : layout.D_WEIGHTS + 9]
-        out["null_space_share"] = diag[..., layout.D_SHARE]
-        out["damping"] = diag[..., layout.D_DAMPING]
-        out["velocity_scale"] = diag[..., layout.D_SCALE]
-        out["position_share"] = diag[..., layout.D_POSITION_SHARE : layout.D_POSITION_SHARE + 3]
-        out["limit_scale"] = diag[..., layout.D_LIMIT_SCALE]
-        out["qp_level"] = diag[..., layout.D_QP_LEVEL]
-        out["qp_active"] = diag[..., layout.D_QP_ACTIVE]
+        diagnostics = as_records(diag[:, first:], layout.HYBRID_DIAGNOSTICS)  # by name
+        for name in ("weights", "null_space_share", "damping", "velocity_scale",
+                     "position_share", "limit_scale", "qp_level", "qp_active"):
+            out[name] = diagnostics[name]  # fmt: skip
         return out
 
     #: every hybrid family's diagnostics (a lane keeps its own planner's, `keys`)
@@ -411,15 +408,16 @@ class PlatformLanes:
         """Records (N, S − first, …) of the chunk just run (`run` keeps its actuator lengths):
         its states xs (N, S, 3) on base poses (N, S, 6) with the steps' diagnostics, the start
         in row 0, samples first … S − 1 (as `HybridLanes.records`; the start's rates are 0)."""
-        from twin.sim.kernels.platform import D_CLIPPED, D_SATURATED
+        from twin.sim.kernels.platform import PLATFORM_DIAGNOSTICS
 
         legs = self._legs[:, :, : self.model.n_legs]
         self.extra = self._legs[:, -1].copy()
         rates = np.zeros_like(legs)
         rates[:, 1:] = np.diff(legs, axis=1) / dt
         out = self._lanes(poses[:, first:], xs[:, first:], legs[:, first:], rates[:, first:])
-        out["clipped"] = diag[:, first:, D_CLIPPED]
-        out["saturated"] = diag[:, first:, D_SATURATED]
+        diagnostics = as_records(diag[:, first:], PLATFORM_DIAGNOSTICS)  # by name
+        out["clipped"] = diagnostics["clipped"]
+        out["saturated"] = diagnostics["saturated"]
         return out
 
     def initial_records(self, poses: np.ndarray, x: np.ndarray) -> dict:

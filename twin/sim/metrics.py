@@ -20,6 +20,7 @@ import numpy as np
 from twin.compiled import pick_runner
 from twin.mechanisms.hybrid import JOINT_NAMES, HybridBoardingSystem
 from twin.mechanisms.upu3up import Upu3Up
+from twin.planners.parameters import as_records
 from twin.planners.platform_model import PlatformModel
 from twin.sim.kernels import metrics as kernel
 from twin.sim.kernels.metrics import SETTLE as SETTLE  # re-exported: claims, scripts
@@ -123,7 +124,7 @@ def hybrid_metrics_lanes(
     run(*(np.ascontiguousarray(data[key], dtype=float) for key in kernel.REDUCED), ends, hold,
         mechanism.lower, mechanism.upper, float(stewart.leg_min), float(stewart.leg_max),
         rows)  # fmt: skip
-    return [hybrid_metrics_from(row, mechanism) for row in rows.tolist()]
+    return [hybrid_metrics_from(row, mechanism) for row in as_records(rows, kernel.HYBRID_ROW)]
 
 
 class HybridReduction:
@@ -159,7 +160,7 @@ class HybridReduction:
     @property
     def seen(self) -> np.ndarray:
         """(N,) samples added so far per lane."""
-        return self.acc[:, kernel.A_SEEN].astype(np.int64)
+        return as_records(self.acc, kernel.HYBRID_ACCUMULATOR)["seen"].astype(np.int64)
 
     def add(self, records: dict[str, np.ndarray], start: int) -> None:
         """Add samples start … start + S − 1 of every lane (each up to its end), the next ones.
@@ -197,11 +198,12 @@ class HybridReduction:
         rows = np.empty((len(self.ends), kernel.N_ROW))
         for acc, row in zip(self.acc, rows, strict=True):
             kernel.hybrid_finish_lane(acc, row)
-        return [hybrid_metrics_from(row, self.mechanism) for row in rows.tolist()]
+        return [hybrid_metrics_from(row, self.mechanism)
+                for row in as_records(rows, kernel.HYBRID_ROW)]  # fmt: skip
 
 
-def hybrid_metrics_from(row: Sequence[float], mechanism: HybridBoardingSystem) -> dict:
-    """A lane's metrics dict from its row of reductions (`twin.sim.kernels.metrics`, N_ROW):
+def hybrid_metrics_from(row: np.record, mechanism: HybridBoardingSystem) -> dict:
+    """A lane's metrics dict from its row of reductions (`twin.sim.kernels.metrics.HYBRID_ROW`):
     counts as ints; joints q1, q2, roll, pitch, yaw in degrees, x, y, z, d3 and legs in m; tip
     position errors in m, orientation errors in degrees; φe, θe in degrees; η in %."""
     lower, upper = mechanism.lower.tolist(), mechanism.upper.tolist()  # floats: cheap to index
@@ -209,19 +211,18 @@ def hybrid_metrics_from(row: Sequence[float], mechanism: HybridBoardingSystem) -
     joints: dict[str, dict[str, float]] = {}
     for j, name in enumerate(JOINT_NAMES):
         scale = _DEGREES if name in _ANGLES else 1.0
-        low, high = row[kernel.R_JOINT_MIN + j], row[kernel.R_JOINT_MAX + j]
+        low, high = float(row.joint_min[j]), float(row.joint_max[j])
         joints[name] = {
             "min": finite(low * scale),
             "max": finite(high * scale),
             "margin": finite(min(low - lower[j], upper[j] - high) * scale),
-            "drift": finite(row[kernel.R_JOINT_DRIFT + j] * scale),
+            "drift": finite(row.joint_drift[j] * scale),
         }
-    legs_low, legs_high = row[kernel.R_LEGS_MIN], row[kernel.R_LEGS_MAX]
-    leg_drift = row[kernel.R_LEG_DRIFT : kernel.R_LEG_DRIFT + kernel.N_LEGS]
+    legs_low, legs_high = float(row.legs_min), float(row.legs_max)
     return {
-        "violations": int(row[kernel.R_VIOLATIONS]),
-        "joint_violations": int(row[kernel.R_JOINT_VIOLATIONS]),
-        "leg_violations": int(row[kernel.R_LEG_VIOLATIONS]),
+        "violations": int(row.violations),
+        "joint_violations": int(row.joint_violations),
+        "leg_violations": int(row.leg_violations),
         "table7": {  # seed 000 Table 7's columns: q1, q2 [deg], d3 [m], legs [m]
             "q1_max": joints["q1"]["max"], "q1_min": joints["q1"]["min"],
             "q2_max": joints["q2"]["max"], "q2_min": joints["q2"]["min"],
@@ -230,16 +231,16 @@ def hybrid_metrics_from(row: Sequence[float], mechanism: HybridBoardingSystem) -
         },
         "joints": joints,
         "leg_margin": finite(min(legs_low - leg_min, leg_max - legs_high)),
-        "leg_drift": [finite(v) for v in leg_drift],
-        "tip_position_error_rms": finite(row[kernel.R_POSITION_RMS]),
-        "tip_position_error_max": finite(row[kernel.R_POSITION_MAX]),
-        "tip_orientation_error_rms": finite(row[kernel.R_ORIENTATION_RMS] * _DEGREES),
-        "tip_orientation_error_max": finite(row[kernel.R_ORIENTATION_MAX] * _DEGREES),
-        "manipulability_min": finite(row[kernel.R_MANIPULABILITY_MIN]),
-        "phi_e_max": finite(row[kernel.R_PHI_E] * _DEGREES),
-        "theta_e_max": finite(row[kernel.R_THETA_E] * _DEGREES),
-        **efficacy_percent(row[kernel.R_ETA_PRINTED], row[kernel.R_ETA]),
-        "first_bound": first_bound(row[kernel.R_BOUND_T], hybrid_bound_name(row[kernel.R_BOUND])),
+        "leg_drift": [finite(v) for v in row.leg_drift],
+        "tip_position_error_rms": finite(row.position_rms),
+        "tip_position_error_max": finite(row.position_max),
+        "tip_orientation_error_rms": finite(row.orientation_rms * _DEGREES),
+        "tip_orientation_error_max": finite(row.orientation_max * _DEGREES),
+        "manipulability_min": finite(row.manipulability_min),
+        "phi_e_max": finite(row.phi_e * _DEGREES),
+        "theta_e_max": finite(row.theta_e * _DEGREES),
+        **efficacy_percent(row.eta_printed, row.eta),
+        "first_bound": first_bound(row.bound_t, hybrid_bound_name(row.bound)),
     }  # fmt: skip
 
 
@@ -309,8 +310,8 @@ def platform_metrics_lanes(
 class PlatformReduction:
     """The 3UPU_UP's or 4-UPR's metrics of N lanes reduced chunk by chunk, as the chunks are
     stepped (`platform_metrics` is one chunk of it): each lane's accumulator row
-    (`twin.sim.kernels.metrics.platform_add_lane`, N_PLATFORM_ACC + one float per limit kind)
-    is all it keeps, so its memory does not depend on the run's length.
+    (`twin.sim.kernels.metrics.platform_add_lane`, N_PLATFORM_ACC floats, a count per limit
+    kind among them) is all it keeps, so its memory does not depend on the run's length.
 
     Each sample's limit flags are `PlatformModel.reached` (record mode, with the clamped
     demand) or `PlatformModel.violations` (hold mode) of the chunk's states and actuator
@@ -337,7 +338,10 @@ class PlatformReduction:
         # the limit kinds, in `violations`' order, then the clamped demand (record mode's)
         probe = self.model.violations(np.zeros(3), self.model.stroke[0])
         self.kinds = [*probe, "clamped"]
-        self.acc = np.empty((len(self.ends), kernel.N_PLATFORM_ACC + len(self.kinds)))
+        if len(self.kinds) > kernel.MAX_LIMIT_KINDS:  # pragma: no cover - a new mechanism's
+            raise ValueError(f"reduction: {len(self.kinds)} limit kinds, at most "
+                             f"{kernel.MAX_LIMIT_KINDS} are counted")  # fmt: skip
+        self.acc = np.empty((len(self.ends), kernel.N_PLATFORM_ACC))
         for row, end in zip(self.acc, self.ends.tolist(), strict=True):
             kernel.platform_begin_lane(row, end)
         self._run = pick_runner(
@@ -348,7 +352,7 @@ class PlatformReduction:
     @property
     def seen(self) -> np.ndarray:
         """(N,) samples added so far per lane."""
-        return self.acc[:, kernel.PA_SEEN].astype(np.int64)
+        return as_records(self.acc, kernel.PLATFORM_ACCUMULATOR)["seen"].astype(np.int64)
 
     def flags(self, records: dict[str, np.ndarray]) -> np.ndarray:
         """(N, S, kinds) bool: each limit kind violated at each sample of a chunk (class doc)."""
@@ -405,63 +409,64 @@ class PlatformReduction:
         self._finish(self.acc, self.model.n_legs, rows)
         return [
             platform_metrics_from(acc, row, model, self.kinds, bool(hold))
-            for acc, row, model, hold in zip(self.acc.tolist(), rows.tolist(), self.models,
+            for acc, row, model, hold in zip(as_records(self.acc, kernel.PLATFORM_ACCUMULATOR),
+                                             as_records(rows, kernel.PLATFORM_ROW), self.models,
                                              self.hold.tolist(), strict=True)
         ]  # fmt: skip
 
 
 def platform_metrics_from(
-    acc: Sequence[float],
-    row: Sequence[float],
+    acc: np.record,
+    row: np.record,
     model: PlatformModel,
     kinds: Sequence[str],
     hold: bool,
 ) -> dict:
     """A small platform lane's metrics dict (`platform_metrics`) from its accumulator row acc
-    and its finished row (`twin.sim.kernels.metrics`, `PA_*`, `PR_*`): counts as ints; state
+    and its finished row (`twin.sim.kernels.metrics.PLATFORM_ACCUMULATOR`, `.PLATFORM_ROW`):
+    counts as ints; state
     z and legs in the mechanism's unit, angles in degrees, `leg_rate_max` in m/s, tip position
     errors in m, orientation errors in degrees, η in %."""
     low, high = model.mechanism.state_limits
     states: dict[str, dict[str, float]] = {}
     for j, name in enumerate(model.mechanism.state_names):
         scale = 1.0 if j == 0 else _DEGREES
-        x_min, x_max = acc[kernel.PA_STATE_MIN + j], acc[kernel.PA_STATE_MAX + j]
+        x_min, x_max = float(acc.state_min[j]), float(acc.state_max[j])
         states[name] = {
             "min": finite(x_min * scale),
             "max": finite(x_max * scale),
             "margin": finite(min(x_min - low[j], high[j] - x_max) * scale),
-            "drift": finite(row[kernel.PR_STATE_DRIFT + j] * scale),
+            "drift": finite(row.state_drift[j] * scale),
         }
     stroke_low, stroke_high = model.stroke
-    legs_low, legs_high = acc[kernel.PA_LEGS_MIN], acc[kernel.PA_LEGS_MAX]
+    legs_low, legs_high = float(acc.legs_min), float(acc.legs_max)
     counted = kinds[:-1] if hold else kinds  # the clamped demand counts in record mode alone
     n_legs = model.n_legs
     metrics = {
-        "violations": int(acc[kernel.PA_VIOLATIONS]),
-        "limit_violations": {name: int(acc[kernel.PA_KINDS + j])
+        "violations": int(acc.violations),
+        "limit_violations": {name: int(acc.kinds[j])
                              for j, name in enumerate(counted)},
         "states": states,
         "legs_min": finite(legs_low),
         "legs_max": finite(legs_high),
         "leg_margin": finite(min(legs_low - stroke_low[0], stroke_high[0] - legs_high)),
-        "leg_drift": [finite(v) for v in row[kernel.PR_LEG_DRIFT : kernel.PR_LEG_DRIFT + n_legs]],
-        "leg_rate_max": finite(acc[kernel.PA_RATE_MAX] * model.unit),
-        "tip_position_error_rms": finite(row[kernel.PR_POSITION_RMS]),
-        "tip_position_error_max": finite(acc[kernel.PA_POSITION_MAX]),
-        "tip_orientation_error_rms": finite(row[kernel.PR_ORIENTATION_RMS] * _DEGREES),
-        "tip_orientation_error_max": finite(acc[kernel.PA_ORIENTATION_MAX] * _DEGREES),
-        "alpha_top_max": finite(acc[kernel.PA_ALPHA_TOP_MAX] * _DEGREES),
-        "alpha_bottom_max": finite(acc[kernel.PA_ALPHA_BOTTOM_MAX] * _DEGREES),
-        "clipped": int(acc[kernel.PA_CLIPPED]),
-        "saturated": int(acc[kernel.PA_SATURATED]),
-        **efficacy_percent(row[kernel.PR_ETA_PRINTED], row[kernel.PR_ETA]),  # seed 002 eq (29)
+        "leg_drift": [finite(v) for v in row.leg_drift[:n_legs]],
+        "leg_rate_max": finite(acc.rate_max * model.unit),
+        "tip_position_error_rms": finite(row.position_rms),
+        "tip_position_error_max": finite(acc.tip.position_max),
+        "tip_orientation_error_rms": finite(row.orientation_rms * _DEGREES),
+        "tip_orientation_error_max": finite(acc.tip.orientation_max * _DEGREES),
+        "alpha_top_max": finite(acc.alpha_top_max * _DEGREES),
+        "alpha_bottom_max": finite(acc.alpha_bottom_max * _DEGREES),
+        "clipped": int(acc.clipped),
+        "saturated": int(acc.saturated),
+        **efficacy_percent(row.eta_printed, row.eta),  # seed 002 eq (29)
         # the first limit kind its first violating sample violates (kinds' names, as above)
-        "first_bound": first_bound(acc[kernel.PA_BOUND_T],
-                                   kinds[int(acc[kernel.PA_BOUND]) - 1]
-                                   if acc[kernel.PA_BOUND] > 0 else None),
+        "first_bound": first_bound(acc.bound_t, kinds[int(acc.bound) - 1]
+                                   if acc.bound > 0 else None),
     }  # fmt: skip
     if isinstance(model.mechanism, Upu3Up):  # seed 001 eq (15), mm
-        peak = acc[kernel.PA_COUPLED_MAX : kernel.PA_COUPLED_MAX + 3]
+        peak = acc.coupled_max
         metrics["coupled_displacement_max"] = {
             a: finite(v) for a, v in zip("xyz", peak, strict=True)
         }

@@ -13,6 +13,7 @@ import numpy as np
 
 from twin.mechanisms import HybridBoardingSystem
 from twin.mechanisms.upu3up import Upu3Up
+from twin.planners.parameters import as_records
 from twin.planners.platform_model import PlatformModel
 from twin.sim.target import tilt
 from twin.spatial import invert_transform, pose_error, pose_to_transform
@@ -63,16 +64,17 @@ def record_views(
     theta_e (seed 004 §3.1 a: the gangway's azimuth and elevation change since t = 0 [rad]),
     alpha_top (tilt of the tip's "up" axis from its held direction [rad]), alpha_bottom (the
     base's tilt [rad]), each (N, S − first, ...)."""
-    from twin.sim.kernels import records as kernel
+    from twin.sim.kernels.records import SCALARS
 
+    named = as_records(scalars[:, first:], SCALARS)  # the scalars by name
     return {
         "legs": legs[:, first:],
         "tip_error": errors[:, first:],
-        "manipulability": scalars[:, first:, kernel.S_MANIPULABILITY],
-        "phi_e": scalars[:, first:, kernel.S_PHI_E],
-        "theta_e": scalars[:, first:, kernel.S_THETA_E],
-        "alpha_top": scalars[:, first:, kernel.S_ALPHA_TOP],
-        "alpha_bottom": scalars[:, first:, kernel.S_ALPHA_BOTTOM],
+        "manipulability": named["manipulability"],
+        "phi_e": named["phi_e"],
+        "theta_e": named["theta_e"],
+        "alpha_top": named["alpha_top"],
+        "alpha_bottom": named["alpha_bottom"],
     }
 
 

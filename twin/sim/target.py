@@ -50,7 +50,7 @@ def held_targets(
 
     Returns:
         (N, B + end, 18): ᴮR_d row-major, ᴮp_d [m], twist [ᴮṗ; ᴮω] [m/s, rad/s] at samples
-        k … k + B − 1 (+ end) (rows `twin.sim.kernels.layout.TARGET_*`).
+        k … k + B − 1 (+ end) (`twin.sim.kernels.layout.TARGET` rows).
     """
     from twin.compiled import pick_runner
     from twin.sim.kernels.target import compiled_targets, run_held_targets

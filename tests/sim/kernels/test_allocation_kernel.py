@@ -25,6 +25,7 @@ from twin.planners import allocation_step as ak
 from twin.planners.allocation import AllocationPlanner, reachable_range
 from twin.planners.allocation_step import reachable_range_lane
 from twin.planners.families import ALLOCATION_METHODS, ALLOCATION_PARAMETERS
+from twin.planners.parameters import as_record
 from twin.planners.target import TipTarget
 from twin.sim.base_motion import BaseMotion, BaseSamples
 from twin.sim.kernels import layout as lay
@@ -105,8 +106,9 @@ def test_pack_round_trip(method: str, hold: bool, base: BaseSamples) -> None:
     planner.reset(xi, held_target(base.transform[0] @ MECHANISM.end_effector(xi), base, 0, DT))
     prm, memory = ak.pack_allocation(planner, hold)
     assert prm.shape == (lay.N_PARAMETERS,) and memory.shape == (lay.N_MEMORY,)
-    assert prm[lay.P_KIND] == lay.KIND_ALLOCATION
-    assert prm[lay.P_HOLD] == (1.0 if hold else 0.0)
+    common = as_record(prm, lay.COMMON_PARAMETERS)
+    assert common.kind == lay.KIND_ALLOCATION
+    assert common.hold == (1.0 if hold else 0.0)
     record = prm.view(ALLOCATION_PARAMETERS)[0]
     assert record["method"] == ALLOCATION_METHODS[method]
     manip_mid, range_mid = planner.start.manip_mid, planner.start.range_mid
@@ -116,7 +118,7 @@ def test_pack_round_trip(method: str, hold: bool, base: BaseSamples) -> None:
     np.testing.assert_array_equal(record["T_E0_inv"].reshape(3, 4), planner.start.T_E0_inv[:3])
     assert record["yaw0"] == pytest.approx(xi[5], abs=1e-12)
     np.testing.assert_array_equal(record["q0"], xi[6:])
-    np.testing.assert_array_equal(memory[ak.M_SHARE : ak.M_SHARE + 3], planner._share)
+    np.testing.assert_array_equal(as_record(memory, ak.ALLOCATION_MEMORY).share, planner._share)
     used = sum(ALLOCATION_PARAMETERS[name].itemsize for name in ALLOCATION_PARAMETERS.names) // 8
     assert not np.any(prm[used:]) and not np.any(memory[3:])
 
@@ -142,7 +144,7 @@ def test_non_finite_target_is_a_planner_fault(engine: str, request: pytest.Fixtu
     planner.reset(xi, TipTarget(MECHANISM.end_effector(xi), np.zeros(6)))
     prm, memory = ak.pack_allocation(planner, hold=False)
     target = pack_target(TipTarget(MECHANISM.end_effector(xi), np.zeros(6)))
-    target[lay.TARGET_P] = np.nan
+    as_record(target, lay.TARGET).p_d[0] = np.nan
     v, diag = np.empty(9), np.zeros(lay.N_HYBRID_DIAGNOSTICS)
     assert step(xi, target, prm, memory, CONST, DT, v, diag) == lay.FAULT_PLANNER
 

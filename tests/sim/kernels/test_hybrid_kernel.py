@@ -45,6 +45,7 @@ from twin.planners.differential import DifferentialPlanner
 from twin.planners.families import DIFFERENTIAL_PARAMETERS
 from twin.planners.limits import SlewPriority, VelocityLimit
 from twin.planners.linalg import cholesky_lane, smallest_eigenvalue_bound
+from twin.planners.parameters import as_record, as_records
 from twin.planners.registry import HYBRID_RATE_LIMITS
 from twin.planners.tasks import JointPostureTask, TipPoseTask
 from twin.planners.weights import BetaSplit
@@ -162,7 +163,10 @@ def run_one(
     v, d = np.empty(9), np.zeros(layout.N_HYBRID_DIAGNOSTICS)
     bits = differential(x, target, prm, CONST, v, d)
     assert bits == faults[0, 0] & layout.FAULT_SINGULAR
-    np.testing.assert_array_equal(d[: layout.D_LIMIT_SCALE], diag[0, 1, : layout.D_LIMIT_SCALE])
+    step = as_record(d, layout.HYBRID_DIAGNOSTICS)
+    runner_diag = as_record(diag[0, 1], layout.HYBRID_DIAGNOSTICS)
+    for name in ("weights", "null_space_share", "damping", "velocity_scale", "position_share"):
+        np.testing.assert_array_equal(step[name], runner_diag[name])  # the planner's fields
     return xs[0, 1], diag[0, 1], v, int(faults[0, 0])
 
 
@@ -197,7 +201,7 @@ def assert_step(
     np.testing.assert_allclose(d1, d2, rtol=0, atol=TOL)
     assert bits1 == bits2
     assert v is not None
-    s = float(d2[layout.D_LIMIT_SCALE])
+    s = float(as_record(d2, layout.HYBRID_DIAGNOSTICS).limit_scale)
     GUARD.check(x, x2, s, bits2, hold, v=v.copy(), resolution=guard_resolution())
     return x2, d2, v, bits2
 
@@ -233,10 +237,10 @@ def test_the_states_cover_the_limit_cases(compiled: object) -> None:
     base = base_samples(3)
     shortened = {
         state: [
-            assert_step(
+            as_record(assert_step(
                 compiled, x, held_target(held, base, 0, DT),
                 ds.pack_differential(build(name, PlannerParameters(), x), True), True,
-            )[1][layout.D_LIMIT_SCALE] < 1
+            )[1], layout.HYBRID_DIAGNOSTICS).limit_scale < 1
             for name in PLANNERS
             for held in helds(x, base)
         ]
@@ -262,8 +266,9 @@ def run_chunk(
 
 def assert_chunk_guarded(xs: np.ndarray, diag: np.ndarray, faults: np.ndarray, hold: bool) -> None:
     """Every step of a chunk keeps the guard's contract, its velocity read from the outcome."""
+    scale = as_records(diag, layout.HYBRID_DIAGNOSTICS)["limit_scale"]
     for k in range(faults.size):
-        s = float(diag[k, layout.D_LIMIT_SCALE])
+        s = float(scale[k])
         GUARD.check(xs[k], xs[k + 1], s, int(faults[k]), hold, resolution=guard_resolution())
 
 
@@ -287,7 +292,7 @@ def test_chunk_keeps_the_guard(name: str, hold: bool, compiled: object) -> None:
     xs, diag, faults = run_chunk(compiled, start, targets, prm)
     assert_chunk_guarded(xs, diag, faults, hold)
     assert hold == bool(np.bitwise_or.reduce(faults) & Fault.JOINT_LIMIT)  # a limit is met
-    assert np.any(diag[:, layout.D_SCALE] < 1)  # and the rate limit
+    assert np.any(as_records(diag, layout.HYBRID_DIAGNOSTICS)["velocity_scale"] < 1)  # rate limit
     passed = np.any([limit_excess(H, x) > FIT_TOL for x in xs])
     assert passed != hold
     for got, want in zip(run_chunk(hybrid_runner.run_hybrid, start, targets, prm),
@@ -355,20 +360,21 @@ def test_damping_engages_near_a_singularity(
     x = STATES["off_centre"]
     prm = ds.pack_differential(build(name, parameters, x), True)
     _, diag, v, bits = assert_step(compiled, x, held_target(held, base, 20, DT), prm, True)
-    sqrt_w = np.sqrt(diag[layout.D_WEIGHTS : layout.D_WEIGHTS + 9])
+    named = as_record(diag, layout.HYBRID_DIAGNOSTICS)
+    sqrt_w = np.sqrt(named.weights)
     sigma_min = np.linalg.svd(H.task_jacobian(x) * sqrt_w, compute_uv=False)[-1]
     assert sigma_min < 0.01  # ε: the planner's filter is on
     assert bool(bits & Fault.SINGULAR) == (damping > 0)
-    lam = diag[layout.D_DAMPING]
+    lam = named.damping
     assert 0 < lam <= damping or lam == damping == 0
     if beta > 0:
         assert lam < damping or damping == 0
     assert np.all(np.isfinite(v))
 
 
-@pytest.mark.parametrize("row", [layout.TARGET_R + 4, layout.TARGET_P + 1, layout.TARGET_W + 2])
+@pytest.mark.parametrize("field", [("R_d", 4), ("p_d", 1), ("twist", 5)], ids=str)
 @pytest.mark.parametrize("name", PLANNERS)
-def test_nan_target_holds_the_state(name: str, row: int, compiled: object) -> None:
+def test_nan_target_holds_the_state(name: str, field: tuple[str, int], compiled: object) -> None:
     """A NaN in the target: the planner's velocity is not finite, so the lane is held (same
     xi), FAULT_PLANNER, limit scale 0, and the planner's weights (a function of the state
     alone) still reported: those of the same step towards the finite target."""
@@ -378,15 +384,16 @@ def test_nan_target_holds_the_state(name: str, row: int, compiled: object) -> No
     target = pack_target(held_target(held, base, 2, DT))
     prm = ds.pack_differential(build(name, PlannerParameters(), x), True)
     clean = assert_step(compiled, x, target, prm, True)[1]
-    target[row] = np.nan
+    as_record(target, layout.TARGET)[field[0]][field[1]] = np.nan
     got_x, diag, v, bits = assert_step(compiled, x, target, prm, True)
     assert not np.all(np.isfinite(v))
     assert np.array_equal(got_x, x)
     assert bits & layout.FAULT_PLANNER and not bits & layout.FAULT_JOINT_LIMIT
-    assert diag[layout.D_LIMIT_SCALE] == 0.0
-    weights = slice(layout.D_WEIGHTS, layout.D_WEIGHTS + 9)
-    assert np.all(np.isfinite(diag[weights]))
-    np.testing.assert_array_equal(diag[weights], clean[weights])
+    named = as_record(diag, layout.HYBRID_DIAGNOSTICS)
+    clean_named = as_record(clean, layout.HYBRID_DIAGNOSTICS)
+    assert named.limit_scale == 0.0
+    assert np.all(np.isfinite(named.weights))
+    np.testing.assert_array_equal(named.weights, clean_named.weights)
 
 
 def test_lanes_are_independent_in_the_parallel_runner(compiled: object) -> None:
@@ -527,8 +534,9 @@ def test_every_registry_planner_packs(rng: np.random.Generator) -> None:
             prm = ds.pack_differential(planner, name == "mtmp")
             assert prm.shape == (layout.N_PARAMETERS,)
             assert np.all(np.isfinite(prm))
-            assert prm[layout.P_KIND] == layout.KIND_DIFFERENTIAL
-            assert prm[layout.P_HOLD] == (name == "mtmp")
+            common = as_record(prm, layout.COMMON_PARAMETERS)
+            assert common.kind == layout.KIND_DIFFERENTIAL
+            assert common.hold == (name == "mtmp")
             record = prm.view(DIFFERENTIAL_PARAMETERS)[0]
             assert record["gain"] == parameters.k_e
             assert record["damping"] == parameters.damping

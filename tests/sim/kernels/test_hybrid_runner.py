@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from twin.planners.parameters import as_records
 from twin.sim import Simulation
 from twin.sim.kernels import hybrid_runner, layout
 from twin.sim.kernels.records import N_TIP, compiled_records, keep_records, run_hybrid_records
@@ -37,7 +38,7 @@ def test_handed_tips_give_the_records_computed_alone(first: int, engine: str) ->
     errors, tips = np.full((N, m + 1, 6), np.nan), np.full((N, m + 1, N_TIP), np.nan)
     run(xs, targets, sim.prm, sim.memory.copy(), lanes.const, sim.dt, diag, faults, first,
         errors, tips)  # fmt: skip
-    differential = sim.prm[:, layout.P_KIND] == layout.KIND_DIFFERENTIAL
+    differential = as_records(sim.prm, layout.COMMON_PARAMETERS)["kind"] == layout.KIND_DIFFERENTIAL
     assert differential.tolist() == [True, False, True]
     for n in range(N):  # handed over: a differential lane's rows first … m − 1, nothing else
         handed = np.isfinite(tips[n]).all(axis=1)

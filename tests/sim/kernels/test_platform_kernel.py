@@ -21,6 +21,7 @@ import pytest
 from tests.sim.oracle import assert_platform_steps, held_target, pack_target
 from twin.mechanisms import Upr4, Upu3Up
 from twin.mechanisms.platforms import MECHANISM_UPR4, MECHANISM_UPU3UP
+from twin.planners.parameters import as_records
 from twin.planners.platform import PlatformPlanner, platform_builder
 from twin.planners.platform_model import PlatformModel
 from twin.planners.platform_step import LAW_IK, LAW_PID, PLATFORM_PARAMETERS, memory_record
@@ -217,11 +218,12 @@ def test_lanes_cover_limits_and_faults(mechanism: str) -> None:
     """The lanes exercise what they are meant to: the speed limit binding (both laws), clipping,
     JOINT_LIMIT (Upr4 near full stroke), PLANNER and KINEMATICS faults holding the platform."""
     out, lanes = run(mechanism, "python"), LANES[mechanism]
-    saturated = out.diag[..., kernel.D_SATURATED].sum(axis=1)
+    diagnostics = as_records(out.diag, kernel.PLATFORM_DIAGNOSTICS)
+    saturated = diagnostics["saturated"].sum(axis=1)
     for i, lane in enumerate(lanes):
         if "actuator_speed" in lane.sea or (mechanism == "upu3up" and lane.sea == {"sea_state": 9}):
             assert saturated[i] > 20
-    assert out.diag[..., kernel.D_CLIPPED].sum() > 100
+    assert diagnostics["clipped"].sum() > 100
     for i, lane in enumerate(lanes):
         planner = (out.faults[i] & FAULT_PLANNER) != 0
         kinematics = (out.faults[i] & FAULT_KINEMATICS) != 0

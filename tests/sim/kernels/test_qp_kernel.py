@@ -17,7 +17,7 @@ from twin.mechanisms import HybridBoardingSystem
 from twin.planners import HYBRID_RATE_LIMITS, PlannerParameters, TipTarget, get_planner
 from twin.planners import qp_step as kq
 from twin.planners.families import QP_PARAMETERS
-from twin.planners.parameters import parameter_record
+from twin.planners.parameters import as_record, as_records, parameter_record
 from twin.planners.qp import (
     JointLimit,
     LegStrokeLimit,
@@ -137,17 +137,17 @@ def test_a_chunk_steps_as_daqp_solves(rng: np.random.Generator) -> None:
                          strict=True):  # fmt: skip
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
     assert not diag[:, 0].any()  # row 0, the chunk's start, is left alone
-    diag = diag[:, 1:]
-    assert np.all(diag[..., layout.D_LIMIT_SCALE] == 1.0)
+    diag = as_records(diag[:, 1:], layout.HYBRID_DIAGNOSTICS)  # by name
+    assert np.all(diag["limit_scale"] == 1.0)
     for lane in range(2):
         for k in range(n):
             x, out = xs[lane, k], daqp.step(xs[lane, k], tips[k], dt)
             want = integrate(x, out.velocity, dt)
             np.testing.assert_allclose(xs[lane, k + 1], want, rtol=0, atol=1e-7, err_msg=f"k={k}")
             level = out.diagnostics["qp_level"]
-            assert diag[lane, k, layout.D_QP_LEVEL] == level
+            assert diag["qp_level"][lane, k] == level
             assert faults[lane, k] == (Fault.INFEASIBLE if level == 2 else 0)
-    assert diag[:, :, layout.D_QP_ACTIVE].max() > 0  # the limits did bind
+    assert diag["qp_active"].max() > 0  # the limits did bind
     np.testing.assert_array_equal(xs[0], xs[1])  # `hold` has nothing to hold
 
 
@@ -162,10 +162,12 @@ def test_the_lanes_faults() -> None:
     xs, diag, faults = run_lanes(H.working_state, nan, prm, 0.05, False)
     assert np.all(faults == Fault.PLANNER)
     np.testing.assert_array_equal(xs[0, 2], H.working_state)
-    assert not diag[0, 1:, layout.D_LIMIT_SCALE].any() and not diag[0, 1:, layout.D_QP_ACTIVE].any()
+    named = as_records(diag[0, 1:], layout.HYBRID_DIAGNOSTICS)
+    assert not named["limit_scale"].any() and not named["qp_active"].any()
     held = pack_target(TipTarget(H.end_effector(past), np.zeros(6)))
     xs, diag, faults = run_lanes(past, np.tile(held, (1, 2, 1)), prm, 0.05, False)
-    assert faults[0, 0] == Fault.INFEASIBLE and diag[0, 1, layout.D_QP_LEVEL] == 2
+    assert faults[0, 0] == Fault.INFEASIBLE
+    assert as_record(diag[0, 1], layout.HYBRID_DIAGNOSTICS).qp_level == 2
     assert H.leg_lengths(xs[0, 1]).max() < H.leg_lengths(past).max()
 
 
@@ -174,7 +176,8 @@ def test_the_fault_bit_and_rows() -> None:
     are distinct."""
     assert layout.FAULT_INFEASIBLE == Fault.INFEASIBLE
     assert QP_PARAMETERS.itemsize == 8 * layout.N_PARAMETERS
-    assert layout.D_QP_ACTIVE < layout.N_HYBRID_DIAGNOSTICS
+    assert {"qp_level", "qp_active"} <= set(layout.HYBRID_DIAGNOSTICS.names)
+    assert layout.HYBRID_DIAGNOSTICS.itemsize == 8 * layout.N_HYBRID_DIAGNOSTICS
     assert layout.KIND_QP not in (layout.KIND_DIFFERENTIAL, layout.KIND_ALLOCATION,
                                   layout.KIND_PLATFORM)  # fmt: skip
 

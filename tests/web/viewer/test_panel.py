@@ -12,7 +12,8 @@ from tests.web.support import TOKEN, free_port, wait_for
 from tests.web.viewer.support import connect
 from tests.web.viser_client import ViserClient
 from twin.planners import PlannerParameters
-from twin.sim.kernels.layout import P_HOLD
+from twin.planners.parameters import as_record
+from twin.sim.kernels.layout import COMMON_PARAMETERS
 from twin.sim.live import LiveSession
 from twin.web.access import Access
 from twin.web.viewer import (
@@ -155,10 +156,11 @@ def test_joint_limits_dropdown_switches_hold_and_record(
 ) -> None:
     """The live session starts holding at the limits; the dropdown switches without a reset."""
     client, _ = browser
-    assert session.scenario.joint_limits == "hold" and session._sim.prm[0, P_HOLD] == 1.0
+    assert session.scenario.joint_limits == "hold"
+    assert as_record(session._sim.prm[0], COMMON_PARAMETERS).hold == 1.0
     client.update(client.wait_widget("Joint limits"), value="record")
     assert wait_for(lambda: session.scenario.joint_limits == "record")
-    assert wait_for(lambda: session._sim.prm[0, P_HOLD] == 0.0)
+    assert wait_for(lambda: as_record(session._sim.prm[0], COMMON_PARAMETERS).hold == 0.0)
     assert session.version == 0
 
 

@@ -25,7 +25,7 @@ import numpy as np
 from twin.compiled import register_borrowing, register_inline, register_jitable
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS, HybridBoardingSystem, integrate_hybrid
 from twin.mechanisms.legs import leg_lengths_lane
-from twin.sim.kernels.layout import D_LIMIT_SCALE, FAULT_JOINT_LIMIT, FAULT_PLANNER
+from twin.sim.kernels.layout import FAULT_JOINT_LIMIT, FAULT_PLANNER, HYBRID_DIAGNOSTICS
 from twin.spatial import rpy_to_matrix_lane
 
 #: bisection steps of `limit_scale_lane`: the step is shortened to within 2⁻¹² of the limit
@@ -139,15 +139,17 @@ def guarded_step(
     dt: float, limit: tuple, d: np.ndarray, x_next: np.ndarray,
 ) -> int:  # fmt: skip
     """The guard of the former `HybridRig.advance` and the step (module doc): a non-finite
-    velocity v (9,) holds xi x (9,) (FAULT_PLANNER, d[D_LIMIT_SCALE] = 0); else, holding the
-    joint limits, v is shortened to s·v (`limit_scale_lane`, FAULT_JOINT_LIMIT when s < 1),
-    d[D_LIMIT_SCALE] = s, and x_next (9,) = x after s·v for dt (`integrate_hybrid`). R is x's
-    ᴮR_P, limit the guard's work; the planner's fault bits come in, the step's go out."""
+    velocity v (9,) holds xi x (9,) (FAULT_PLANNER, the diagnostics row d's `limit_scale` = 0,
+    `HYBRID_DIAGNOSTICS`); else, holding the joint limits, v is shortened to s·v
+    (`limit_scale_lane`, FAULT_JOINT_LIMIT when s < 1), `limit_scale` = s, and x_next (9,) = x
+    after s·v for dt (`integrate_hybrid`). R is x's ᴮR_P, limit the guard's work; the
+    planner's fault bits come in, the step's go out."""
     finite = True
     for j in range(9):
         finite = finite and math.isfinite(v[j])
+    diagnostics = d.view(HYBRID_DIAGNOSTICS)[0]  # the row by name
     if not finite:  # a planner fault holds the mechanism still
-        d[D_LIMIT_SCALE] = 0.0
+        diagnostics.limit_scale = 0.0
         for j in range(9):
             x_next[j] = x[j]
         return bits | FAULT_PLANNER
@@ -156,7 +158,7 @@ def guarded_step(
         s = limit_scale_lane(x, R, v, dt, const, limit)
         if s < 1.0:
             bits |= FAULT_JOINT_LIMIT
-    d[D_LIMIT_SCALE] = s
+    diagnostics.limit_scale = s
     for j in range(9):
         v[j] = s * v[j]
     integrate_hybrid(x, R, v, dt, x_next)

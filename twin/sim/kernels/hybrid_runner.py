@@ -2,15 +2,17 @@
 
 Per lane and step, with ᴮR_P computed once for all of them:
 
-1. the planner of prm[n, P_KIND] gives the velocity v, its step in the planners' layer
-   (differential: `twin.planners.differential_step.differential_velocity`, finished by
+1. the planner of the lane's `kind` (its prm row's, `COMMON_PARAMETERS`) gives the velocity
+   v, its step in the planners' layer (differential:
+   `twin.planners.differential_step.differential_velocity`, finished by
    `damped_differential_velocity` where it returns NEEDS_SVD; allocation:
    `twin.planners.allocation_step.allocation_velocity`; qp:
    `twin.planners.qp_step.qp_velocity`, its QP solved in the lane);
 2. the guard of the former `HybridRig.advance` (`twin.sim.kernels.hybrid.guarded_step`): a
-   non-finite v holds the mechanism (FAULT_PLANNER, D_LIMIT_SCALE = 0); otherwise a lane with
-   prm[n, P_HOLD] > 0 shortens the step to s = `limit_scale_lane` (FAULT_JOINT_LIMIT when
-   s < 1), D_LIMIT_SCALE = s, and xi integrates s·v for dt (`integrate_hybrid`).
+   non-finite v holds the mechanism (FAULT_PLANNER, the diagnostics' `limit_scale` = 0);
+   otherwise a lane whose row's `hold` > 0 shortens the step to s = `limit_scale_lane`
+   (FAULT_JOINT_LIMIT when s < 1), `limit_scale` = s, and xi integrates s·v for dt
+   (`integrate_hybrid`).
 
 Two runners share that guard: `run_hybrid` steps the differential and allocation lanes,
 `run_hybrid_qp` the qp lanes; each leaves the other's lanes alone, and `run_hybrid_families`
@@ -38,21 +40,20 @@ from twin.compiled import compile_runner, prange, register_borrowing
 from twin.planners.allocation_step import allocation_velocity, allocation_work
 from twin.planners.differential_step import (
     NEEDS_SVD,
-    W_ERROR,
     damped_differential_velocity,
     differential_velocity,
     differential_work,
 )
 from twin.planners.families import ALLOCATION_PARAMETERS, DIFFERENTIAL_PARAMETERS
+from twin.planners.parameters import as_records
 from twin.planners.qp_step import qp_lane_work, qp_velocity
 from twin.sim.kernels.hybrid import guarded_step, limit_work
 from twin.sim.kernels.layout import (
+    COMMON_PARAMETERS,
     FAULT_PLANNER,
     KIND_ALLOCATION,
     KIND_DIFFERENTIAL,
     KIND_QP,
-    P_HOLD,
-    P_KIND,
 )
 from twin.sim.kernels.records import hand_over
 from twin.spatial import rpy_to_matrix_lane
@@ -97,7 +98,8 @@ def hybrid_lane(
         borrowing function cannot call it: the runner takes it
         (`damped_differential_velocity`) and calls again from k, resumed.
     """
-    kind, hold = row[P_KIND], row[P_HOLD] > 0.0
+    common = row.view(COMMON_PARAMETERS)[0]  # the fields every family's row starts with
+    kind, hold = common.kind, common.hold > 0.0
     # the row by name, as the lane's family reads it (one of the two is used)
     differential_row = row.view(DIFFERENTIAL_PARAMETERS)[0]
     allocation_row = row.view(ALLOCATION_PARAMETERS)[0]
@@ -120,7 +122,7 @@ def hybrid_lane(
                     v[j] = math.nan
                 bits = FAULT_PLANNER
         if kind == KIND_DIFFERENTIAL and k >= first:  # what the record would compute again
-            hand_over(R, differential[3][1], differential[5][W_ERROR], tips[k], errors[k])
+            hand_over(R, differential[3][1], differential[5][0].error, tips[k], errors[k])
         faults[k] = guarded_step(x, R, v, bits, hold, const, dt, limit, d, x_next)
     return xs.shape[0] - 1
 
@@ -143,7 +145,7 @@ def run_hybrid(
 
     Args:
         xs: (N, B + 1, 9) xi [m, rad]; row 0 the chunk's start, rows 1 … B written.
-        targets: (N, B, N_TARGET) the held target in B at each step (layout `TARGET_*`); a row
+        targets: (N, B, N_TARGET) the held target in B at each step (layout `TARGET`); a row
             B, the chunk's end (`held_targets` with `end=True`), is not read.
         prm: (N, N_PARAMETERS) each lane's planner row.
         memory: (N, N_MEMORY) each lane's planner state, read and written (allocation).
@@ -161,7 +163,7 @@ def run_hybrid(
     for n in prange(xs.shape[0]):
         # scratch allocated once per lane (numba puts every array on the heap)
         R, v = np.empty((3, 3)), np.empty(9)
-        if prm[n, P_KIND] == KIND_QP:
+        if prm[n].view(COMMON_PARAMETERS)[0].kind == KIND_QP:
             continue
         differential, allocation, limit = differential_work(), allocation_work(), limit_work()
         k, bits = 0, -1
@@ -230,7 +232,7 @@ def qp_lane(
     """Every step of one qp lane (`run_hybrid_qp`'s arrays without the lane axis, `row` its
     `prm` row): its QP solved in the lane (`qp_velocity`), then `guarded_step`. R (3, 3) and
     v (9,) scratch; limit, qp: the guard's and the planner's work."""
-    hold = row[P_HOLD] > 0.0
+    hold = row.view(COMMON_PARAMETERS)[0].hold > 0.0
     for k in range(xs.shape[0] - 1):
         x, x_next, d = xs[k], xs[k + 1], diag[k + 1]
         rpy_to_matrix_lane(x[3], x[4], x[5], R)
@@ -255,7 +257,7 @@ def run_hybrid_qp(
     `run_hybrid`'s, left alone. Arguments as `run_hybrid`'s (a qp lane keeps no memory and
     hands nothing to the records: `memory`, `first`, `errors` and `tips` are not read)."""
     for n in prange(xs.shape[0]):
-        if prm[n, P_KIND] != KIND_QP:
+        if prm[n].view(COMMON_PARAMETERS)[0].kind != KIND_QP:
             continue
         R, v = np.empty((3, 3)), np.empty(9)  # scratch allocated once per lane
         qp_lane(xs[n], targets[n], prm[n], const, dt, diag[n], faults[n], R, v, limit_work(),
@@ -310,7 +312,7 @@ class HybridRunners:
     def __call__(self, *arguments: Any) -> None:
         """One chunk: `run_hybrid`'s arguments (xs, targets, prm, …), prm the third."""
         prm = arguments[2]
-        is_qp = prm[:, P_KIND] == KIND_QP
+        is_qp = as_records(prm, COMMON_PARAMETERS)["kind"] == KIND_QP
         if not is_qp.all():
             self.main(*arguments)
         if is_qp.any():

@@ -4,7 +4,7 @@ A `Simulation` holds N lanes (one scenario each) as arrays; per chunk of B steps
 kernel runner with
 
 - `xs` (N, B + 1, S): the mechanism state, row 0 the chunk's start, rows 1 … B written;
-- `targets` (N, B, 18): the held target in the base frame at each step (`TARGET_*` rows);
+- `targets` (N, B, 18): the held target in the base frame at each step (`TARGET` rows);
 - `prm` (N, N_PARAMETERS): each lane's planner knobs, packed from its planner object;
 - `memory` (N, N_MEMORY): each lane's planner state carried from step to step (DWA's shares,
   a PID's integral, …), read and written by the kernel;
@@ -13,9 +13,10 @@ kernel runner with
   (row 0, the chunk's start, is left alone);
 - `faults` (N, B) int64: written, one row per step.
 
-Row 0 of `prm` names the lane's planner family (`KIND_*`), row 1 whether the lane holds its
-joint limits (1.0) or only records passing them (0.0) (`twin.planners.parameters.COMMON_FIELDS`);
-the rest belongs to the family, read by name as a record (`twin.planners.parameters.family_dtype`:
+Every `prm` row starts with the lane's planner family `kind` (`KIND_*`) and `hold`, whether the
+lane holds its joint limits (1.0) or only records passing them (0.0), read by name whatever the
+family (`COMMON_PARAMETERS`, `twin.planners.parameters.COMMON_FIELDS`); the rest belongs to the
+family, read by name as a record (`twin.planners.parameters.family_dtype`:
 `DIFFERENTIAL_PARAMETERS`, `ALLOCATION_PARAMETERS`, `QP_PARAMETERS`, `PLATFORM_PARAMETERS`).
 The hybrid constants are the float row of `HybridBoardingSystem.pack`, read by name too
 (`HYBRID_CONSTANTS`). The target row, the hybrid diagnostics rows and the planners' fault bits
@@ -26,34 +27,23 @@ are defined where the planners' steps that read and write them are
 from __future__ import annotations
 
 # The hybrid constants' size, the target, diagnostics and fault rows of the planners' steps,
-# the planner families (prm[P_KIND]) and the row sizes: each defined once, where what reads and
-# writes them is (`twin.mechanisms.hybrid`, `twin.planners.lane_rows`, `.parameters`)
+# the planner families (a prm row's `kind`) and the row sizes: each defined once, where what
+# reads and writes them is (`twin.mechanisms.hybrid`, `twin.planners.lane_rows`, `.parameters`)
 from twin.mechanisms.hybrid import N_HYBRID_CONSTANTS as N_HYBRID_CONSTANTS
-from twin.planners.lane_rows import D_DAMPING as D_DAMPING
-from twin.planners.lane_rows import D_LIMIT_SCALE as D_LIMIT_SCALE
-from twin.planners.lane_rows import D_POSITION_SHARE as D_POSITION_SHARE
-from twin.planners.lane_rows import D_QP_ACTIVE as D_QP_ACTIVE
-from twin.planners.lane_rows import D_QP_LEVEL as D_QP_LEVEL
-from twin.planners.lane_rows import D_SCALE as D_SCALE
-from twin.planners.lane_rows import D_SHARE as D_SHARE
-from twin.planners.lane_rows import D_WEIGHTS as D_WEIGHTS
 from twin.planners.lane_rows import FAULT_INFEASIBLE as FAULT_INFEASIBLE
 from twin.planners.lane_rows import FAULT_PLANNER as FAULT_PLANNER
 from twin.planners.lane_rows import FAULT_SINGULAR as FAULT_SINGULAR
+from twin.planners.lane_rows import HYBRID_DIAGNOSTICS as HYBRID_DIAGNOSTICS
 from twin.planners.lane_rows import N_HYBRID_DIAGNOSTICS as N_HYBRID_DIAGNOSTICS
 from twin.planners.lane_rows import N_TARGET as N_TARGET
-from twin.planners.lane_rows import TARGET_P as TARGET_P
-from twin.planners.lane_rows import TARGET_R as TARGET_R
-from twin.planners.lane_rows import TARGET_V as TARGET_V
-from twin.planners.lane_rows import TARGET_W as TARGET_W
+from twin.planners.lane_rows import TARGET as TARGET
+from twin.planners.parameters import COMMON_PARAMETERS as COMMON_PARAMETERS
 from twin.planners.parameters import KIND_ALLOCATION as KIND_ALLOCATION
 from twin.planners.parameters import KIND_DIFFERENTIAL as KIND_DIFFERENTIAL
 from twin.planners.parameters import KIND_PLATFORM as KIND_PLATFORM
 from twin.planners.parameters import KIND_QP as KIND_QP
 from twin.planners.parameters import MEMORY_SIZE, ROW_SIZE
 
-#: Common prm rows (the fields `COMMON_FIELDS` names); a family's own fields follow.
-P_KIND, P_HOLD, P_FAMILY = 0, 1, 2
 N_PARAMETERS = ROW_SIZE
 N_MEMORY = MEMORY_SIZE
 

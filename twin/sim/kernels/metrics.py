@@ -25,7 +25,8 @@ Per lane, over samples k = 0 … T−1 (T = end), S = min(SETTLE, T − 1) the f
   (`hybrid_first_bound`: of those it violates, the one passed furthest as a share of its
   range), all samples; what a workability row names as its limiting constraint.
 
-Every reduction is a running one: a lane's accumulator row (`A_*`, N_ACC floats) takes its
+Every reduction is a running one: a lane's accumulator row (`HYBRID_ACCUMULATOR`, N_ACC
+floats, read by name) takes its
 samples in order, one at a time (`hybrid_add_sample`), in as many chunks as come
 (`hybrid_add_lane`) or as each is recorded (`twin.sim.kernels.records.run_hybrid_records`), and
 `hybrid_finish_lane` turns it into the row of results. A whole series is one chunk
@@ -51,6 +52,7 @@ import numpy as np
 
 from twin.compiled import compile_runner, prange, register_borrowing, register_inline
 from twin.mechanisms.limits import joint_past_lane, leg_past_lane
+from twin.planners.parameters import record_dtype, row_size
 
 #: samples left out at the start of min/max and error statistics (seed 000 §5.3: "the first 10
 #: data points are removed")
@@ -59,60 +61,70 @@ SETTLE = 10
 TILTED = 1e-9
 
 N_JOINTS, N_LEGS = 9, 6
-#: a row of `run_hybrid_reductions`' output: counts, then per-joint blocks, then scalars
-R_VIOLATIONS, R_JOINT_VIOLATIONS, R_LEG_VIOLATIONS = 0, 1, 2
-R_JOINT_MIN = 3
-R_JOINT_MAX = R_JOINT_MIN + N_JOINTS
-R_JOINT_DRIFT = R_JOINT_MAX + N_JOINTS
-R_LEG_DRIFT = R_JOINT_DRIFT + N_JOINTS
-R_LEGS_MIN = R_LEG_DRIFT + N_LEGS
-R_LEGS_MAX = R_LEGS_MIN + 1
-R_POSITION_RMS, R_POSITION_MAX = R_LEGS_MAX + 1, R_LEGS_MAX + 2
-R_ORIENTATION_RMS, R_ORIENTATION_MAX = R_LEGS_MAX + 3, R_LEGS_MAX + 4
-R_MANIPULABILITY_MIN = R_LEGS_MAX + 5
-R_PHI_E, R_THETA_E = R_LEGS_MAX + 6, R_LEGS_MAX + 7
-R_ETA_PRINTED, R_ETA = R_LEGS_MAX + 8, R_LEGS_MAX + 9
-#: the first violating sample's time [s] and its limit's code (`hybrid_first_bound`; 0: none)
-R_BOUND_T, R_BOUND = R_ETA + 1, R_ETA + 2
-N_ROW = R_BOUND + 1
+#: a row of `run_hybrid_reductions`' output (`record_dtype`, read by name): the counts, the
+#: joints' min, max and drift, the legs' drift, min and max, the tip errors' RMS and max, the
+#: manipulability's min, φe and θe, seed 002 eq (29) printed and integral, the first violating
+#: sample's time [s] and its limit's code (`hybrid_first_bound`; 0: none)
+HYBRID_ROW = record_dtype(
+    (
+        ("violations", 1), ("joint_violations", 1), ("leg_violations", 1),
+        ("joint_min", N_JOINTS), ("joint_max", N_JOINTS), ("joint_drift", N_JOINTS),
+        ("leg_drift", N_LEGS), ("legs_min", 1), ("legs_max", 1),
+        ("position_rms", 1), ("position_max", 1), ("orientation_rms", 1), ("orientation_max", 1),
+        ("manipulability_min", 1), ("phi_e", 1), ("theta_e", 1), ("eta_printed", 1), ("eta", 1),
+        ("bound_t", 1), ("bound", 1),
+    ),
+    what="HYBRID_ROW",
+)  # fmt: skip
+N_ROW = row_size(HYBRID_ROW)
 
 #: the series `run_hybrid_reductions` reads, in its argument order
 REDUCED = ("t", "xi", "legs", "tip_error", "manipulability", "phi_e", "theta_e", "alpha_top",
            "alpha_bottom")  # fmt: skip
 
-#: a running least-squares trend of k columns (`trend_add`, 4 + 2k floats): the first and last
-#: time, the running mean of t and Σ (t − t̄)², then the k running means and the k co-moments
-#: Σ (t − t̄)(x − x̄)
-TR_T0, TR_T_LAST, TR_T_MEAN, TR_T_SPREAD, TR_MEAN = 0, 1, 2, 3, 4
+
+def trend_dtype(k: int) -> np.dtype:
+    """A running least-squares trend of up to k ≥ 2 columns (`trend_add`, 4 + 2k floats): the
+    first and last time, the running mean of t and Σ (t − t̄)², then the k running means and
+    the k co-moments Σ (t − t̄)(x − x̄)."""
+    return record_dtype((("t0", 1), ("t_last", 1), ("t_mean", 1), ("t_spread", 1),
+                         ("means", k), ("comoments", k)), what="trend_dtype")  # fmt: skip
+
+
+#: running tip-error sums (`tip_error_add`): Σ|e_p|² [m²], max |e_p| [m], Σ|e_r|² [rad²],
+#: max |e_r| [rad]
+TIP_ERRORS = record_dtype(
+    (("position", 1), ("position_max", 1), ("orientation", 1), ("orientation_max", 1)),
+    what="TIP_ERRORS",
+)
 #: running efficacy sums (`efficacy_add`): Σ (α_b − α_t)/α_b over tilted samples, their
 #: number, Σ|α_t|, Σ|α_b|
-E_PRINTED, E_TILTED, E_TOP, E_BOTTOM = 0, 1, 2, 3
-N_EFFICACY = 4
-#: a hybrid lane's accumulator row (`hybrid_add_lane`): samples seen, the first judged one, the
-#: counts, min/max and sums of the module docstring, then the efficacy sums, the joints' and
-#: legs' trends and the first bound (its time [s] and code)
-A_SEEN, A_FIRST, A_VIOLATIONS, A_JOINT_VIOLATIONS, A_LEG_VIOLATIONS = 0, 1, 2, 3, 4
-A_JOINT_MIN = 5
-A_JOINT_MAX = A_JOINT_MIN + N_JOINTS
-A_LEGS_MIN = A_JOINT_MAX + N_JOINTS
-A_LEGS_MAX = A_LEGS_MIN + 1
-A_POSITION, A_POSITION_MAX = A_LEGS_MAX + 1, A_LEGS_MAX + 2
-A_ORIENTATION, A_ORIENTATION_MAX = A_LEGS_MAX + 3, A_LEGS_MAX + 4
-A_MANIPULABILITY_MIN = A_LEGS_MAX + 5
-A_PHI_E, A_THETA_E = A_LEGS_MAX + 6, A_LEGS_MAX + 7
-A_EFFICACY = A_LEGS_MAX + 8
-A_JOINT_TREND = A_EFFICACY + N_EFFICACY
-A_LEG_TREND = A_JOINT_TREND + 4 + 2 * N_JOINTS
-A_BOUND_T = A_LEG_TREND + 4 + 2 * N_LEGS
-A_BOUND = A_BOUND_T + 1
-N_ACC = A_BOUND + 1
+EFFICACY = record_dtype((("printed", 1), ("tilted", 1), ("top", 1), ("bottom", 1)),
+                        what="EFFICACY")  # fmt: skip
+#: a hybrid lane's accumulator row (`hybrid_add_lane`), N_ACC floats read by name: samples
+#: seen, the first judged one, the counts, min/max and sums of the module docstring, then the
+#: efficacy sums, the joints' and legs' trends and the first bound (its time [s] and code)
+HYBRID_ACCUMULATOR = record_dtype(
+    (
+        ("seen", 1), ("first", 1), ("violations", 1), ("joint_violations", 1),
+        ("leg_violations", 1), ("joint_min", N_JOINTS), ("joint_max", N_JOINTS),
+        ("legs_min", 1), ("legs_max", 1), ("tip", TIP_ERRORS), ("manipulability_min", 1),
+        ("phi_e", 1), ("theta_e", 1), ("efficacy", EFFICACY),
+        ("joint_trend", trend_dtype(N_JOINTS)), ("leg_trend", trend_dtype(N_LEGS)),
+        ("bound_t", 1), ("bound", 1),
+    ),
+    what="HYBRID_ACCUMULATOR",
+)  # fmt: skip
+N_ACC = row_size(HYBRID_ACCUMULATOR)
+#: the scratch trend of `drift_lane`, which runs its columns N_JOINTS at a time
+DRIFT_TREND = trend_dtype(N_JOINTS)
 #: `hybrid_first_bound`'s codes: 1 + 2j + side for joint j (`JOINT_NAMES` order), then
 #: 1 + 2 N_JOINTS + 2i + side for leg i; side 0 lower, 1 upper; 0 none
 BOUND_LEGS = 1 + 2 * N_JOINTS
 
 
 @register_borrowing
-def trend_add(d: np.ndarray, n: int, t: float, x: np.ndarray) -> None:
+def trend_add(d: np.record, n: int, t: float, x: np.ndarray) -> None:
     """Add the n-th sample (n ≥ 1, in order) to a running least-squares trend of k columns.
 
     Welford 1962's update of running means and corrected sums of products: with
@@ -121,99 +133,116 @@ def trend_add(d: np.ndarray, n: int, t: float, x: np.ndarray) -> None:
     of `drift_lane`'s formula without knowing the means beforehand, as stable as they.
 
     Args:
-        d: (4 + 2k,) the trend's running sums (`TR_*`), zero before the first sample.
+        d: the trend's running sums (`trend_dtype` of k or more columns), zero before the
+            first sample.
         n: this sample's count, 1 for the first; t: its time [s]; x: (k,) its values.
     """
     k = x.shape[0]
     if n == 1:
-        d[TR_T0] = t
-    d[TR_T_LAST] = t
+        d.t0 = t
+    d.t_last = t
     inverse = 1.0 / n
-    delta = t - d[TR_T_MEAN]
-    d[TR_T_MEAN] += delta * inverse
-    d[TR_T_SPREAD] += delta * (t - d[TR_T_MEAN])
+    delta = t - d.t_mean
+    t_mean = d.t_mean + delta * inverse
+    d.t_mean = t_mean
+    d.t_spread += delta * (t - t_mean)
+    means, comoments = d.means, d.comoments
     for j in range(k):
-        d[TR_MEAN + j] += (x[j] - d[TR_MEAN + j]) * inverse
-        d[TR_MEAN + k + j] += delta * (x[j] - d[TR_MEAN + j])
+        means[j] += (x[j] - means[j]) * inverse
+        comoments[j] += delta * (x[j] - means[j])
 
 
 @register_borrowing
-def trend_finish(d: np.ndarray, out: np.ndarray) -> None:
+def trend_finish(d: np.record, out: np.ndarray) -> None:
     """The drifts (k,) of a running trend `d` (`trend_add`) into out: the least-squares slope
     times the duration, Σ (t − t̄)(x − x̄) / max(Σ (t − t̄)², 1e-300) · (t_last − t_0)."""
     k = out.shape[0]
-    scale = (d[TR_T_LAST] - d[TR_T0]) / max(d[TR_T_SPREAD], 1e-300)
+    scale = (d.t_last - d.t0) / max(d.t_spread, 1e-300)
+    comoments = d.comoments
     for j in range(k):
-        out[j] = d[TR_MEAN + k + j] * scale
+        out[j] = comoments[j] * scale
+
+
+@register_borrowing
+def trend_clear(d: np.record) -> None:
+    """Zero a running trend `d` (`trend_dtype`) for its first sample."""
+    d.t0, d.t_last, d.t_mean, d.t_spread = 0.0, 0.0, 0.0, 0.0
+    means, comoments = d.means, d.comoments
+    for j in range(means.shape[0]):
+        means[j], comoments[j] = 0.0, 0.0
 
 
 @register_borrowing
 def drift_lane(t: np.ndarray, x: np.ndarray, state: np.ndarray, out: np.ndarray) -> None:
     """Least-squares trend of each column of x (T, k) over the run, slope × duration, in x's
-    unit (`trend_add` over every sample, then `trend_finish`).
+    unit (`trend_add` over every sample, then `trend_finish`), as many columns at a time as
+    `state` holds (the columns' sums are independent).
 
     An oscillation around a steady mean has no drift; PI/WPI's divergence (seed 000 §5.3
     analysis 1) shows as a trend.
 
     Args:
         t: (T,) sample times [s]; x: (T, k) samples.
-        state: (≥ 4 + 2k,) scratch, overwritten; out: (k,) the drifts, written.
+        state: (1,) a trend (`trend_dtype`), scratch, overwritten (an array, not its record:
+            numba's records do not keep their array alive); out: (k,) the drifts, written.
     """
     T, K = x.shape
-    for j in range(4 + 2 * K):
-        state[j] = 0.0
-    for i in range(T):
-        trend_add(state, i + 1, t[i], x[i])
-    trend_finish(state, out)
+    d = state[0]
+    width = d.means.shape[0]
+    for j0 in range(0, K, width):
+        j1 = min(j0 + width, K)
+        trend_clear(d)
+        for i in range(T):
+            trend_add(d, i + 1, t[i], x[i, j0:j1])
+        trend_finish(d, out[j0:j1])
 
 
 @register_inline
-def tip_error_add(errors: np.ndarray, e: np.ndarray) -> None:
-    """Add one settled sample's tip error e (6,) [m, rad] to the running tip-error block errors
-    (4,): Σ|e_p|² [m²], max |e_p| [m], Σ|e_r|² [rad²], max |e_r| [rad] (the hybrid's
-    `A_POSITION` … and the small platforms' `PA_POSITION` … blocks)."""
+def tip_error_add(errors: np.record, e: np.ndarray) -> None:
+    """Add one settled sample's tip error e (6,) [m, rad] to the running tip-error sums errors
+    (`TIP_ERRORS`: the hybrid's and the small platforms' accumulators' `tip`)."""
     p = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
     r = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
-    errors[0] += p * p
-    errors[1] = max(errors[1], p)
-    errors[2] += r * r
-    errors[3] = max(errors[3], r)
+    errors.position += p * p
+    errors.position_max = max(errors.position_max, p)
+    errors.orientation += r * r
+    errors.orientation_max = max(errors.orientation_max, r)
 
 
 @register_inline
-def tip_error_rms(errors: np.ndarray, judged: float) -> tuple[float, float]:
-    """(position [m], orientation [rad]) RMS of the tip errors of a block errors (4,)
-    (`tip_error_add`) over `judged` samples."""
-    return math.sqrt(errors[0] / judged), math.sqrt(errors[2] / judged)
+def tip_error_rms(errors: np.record, judged: float) -> tuple[float, float]:
+    """(position [m], orientation [rad]) RMS of the tip errors of the sums errors
+    (`TIP_ERRORS`, `tip_error_add`) over `judged` samples."""
+    return math.sqrt(errors.position / judged), math.sqrt(errors.orientation / judged)
 
 
 @register_borrowing
-def efficacy_add(e: np.ndarray, alpha_top: float, alpha_bottom: float) -> None:
-    """Add one sample's tilts [rad] to the running efficacy sums e (N_EFFICACY,) (`E_*`)."""
+def efficacy_add(e: np.record, alpha_top: float, alpha_bottom: float) -> None:
+    """Add one sample's tilts [rad] to the running efficacy sums e (`EFFICACY`)."""
     if alpha_bottom > TILTED:
-        e[E_PRINTED] += (alpha_bottom - alpha_top) / alpha_bottom
-        e[E_TILTED] += 1.0
-    e[E_TOP] += abs(alpha_top)
-    e[E_BOTTOM] += abs(alpha_bottom)
+        e.printed += (alpha_bottom - alpha_top) / alpha_bottom
+        e.tilted += 1.0
+    e.top += abs(alpha_top)
+    e.bottom += abs(alpha_bottom)
 
 
 @register_borrowing
-def efficacy_finish(e: np.ndarray) -> tuple[float, float]:
+def efficacy_finish(e: np.record) -> tuple[float, float]:
     """Seed 002 eq (29) as printed and SPEC erratum 11's integral form, as fractions (module
-    docstring), from the running sums e (`efficacy_add`)."""
-    printed = e[E_PRINTED] / e[E_TILTED] if e[E_TILTED] > 0 else 0.0
-    return printed, (1.0 - e[E_TOP] / e[E_BOTTOM] if e[E_BOTTOM] > 0 else 0.0)
+    docstring), from the running sums e (`EFFICACY`, `efficacy_add`)."""
+    printed = e.printed / e.tilted if e.tilted > 0 else 0.0
+    return printed, (1.0 - e.top / e.bottom if e.bottom > 0 else 0.0)
 
 
 @register_borrowing
 def efficacy_sums(
-    alpha_top: np.ndarray, alpha_bottom: np.ndarray, e: np.ndarray
+    alpha_top: np.ndarray, alpha_bottom: np.ndarray, sums: np.ndarray
 ) -> tuple[float, float]:
     """Seed 002 eq (29) as printed and SPEC erratum 11's integral form, as fractions (module
-    docstring), from the tilts α_top, α_bottom (T,) [rad] (uniform dt); e (≥ N_EFFICACY,)
-    scratch, overwritten."""
-    for j in range(N_EFFICACY):
-        e[j] = 0.0
+    docstring), from the tilts α_top, α_bottom (T,) [rad] (uniform dt); sums (1,) `EFFICACY`
+    scratch, overwritten (an array, not its record, as `drift_lane`'s state)."""
+    e = sums[0]
+    e.printed, e.tilted, e.top, e.bottom = 0.0, 0.0, 0.0, 0.0
     for k in range(alpha_top.shape[0]):
         efficacy_add(e, alpha_top[k], alpha_bottom[k])
     return efficacy_finish(e)
@@ -225,7 +254,7 @@ def hybrid_begin_lane(acc: np.ndarray, end: int) -> None:
     first judged sample is min(SETTLE, end − 1)."""
     for j in range(acc.shape[0]):
         acc[j] = 0.0
-    acc[A_FIRST] = min(SETTLE, end - 1)
+    acc.view(HYBRID_ACCUMULATOR)[0].first = min(SETTLE, end - 1)
 
 
 #: a lane's samples as the reductions read them, `REDUCED`'s arrays in order, each (S, ...):
@@ -241,7 +270,7 @@ HybridLimits = tuple[bool, np.ndarray, np.ndarray, float, float]
 
 @register_inline
 def hybrid_settled_add(
-    acc: np.ndarray,
+    a: np.record,
     opening: bool,
     x: np.ndarray,
     legs: np.ndarray,
@@ -251,28 +280,30 @@ def hybrid_settled_add(
     theta_e: float,
 ) -> None:
     """A settled sample's (k ≥ the first judged) min and max, tip errors and manipulability
-    into acc (N_ACC,) (module docstring); opening: it is the first judged sample, which
-    starts the min and max. x (9,) [m, rad], legs (6,) [m], e (6,) [m, rad] in B."""
+    into a lane's accumulator a (`HYBRID_ACCUMULATOR`) (module docstring); opening: it is the
+    first judged sample, which starts the min and max. x (9,) [m, rad], legs (6,) [m], e (6,)
+    [m, rad] in B."""
+    joint_min, joint_max = a.joint_min, a.joint_max
     if opening:
         for j in range(N_JOINTS):
-            acc[A_JOINT_MIN + j], acc[A_JOINT_MAX + j] = x[j], x[j]
-        acc[A_LEGS_MIN], acc[A_LEGS_MAX] = legs[0], legs[0]
-        acc[A_MANIPULABILITY_MIN] = manipulability
-        acc[A_PHI_E], acc[A_THETA_E] = phi_e, theta_e
+            joint_min[j], joint_max[j] = x[j], x[j]
+        a.legs_min, a.legs_max = legs[0], legs[0]
+        a.manipulability_min = manipulability
+        a.phi_e, a.theta_e = phi_e, theta_e
     for j in range(N_JOINTS):
-        acc[A_JOINT_MIN + j] = min(acc[A_JOINT_MIN + j], x[j])
-        acc[A_JOINT_MAX + j] = max(acc[A_JOINT_MAX + j], x[j])
+        joint_min[j] = min(joint_min[j], x[j])
+        joint_max[j] = max(joint_max[j], x[j])
     for j in range(N_LEGS):
-        acc[A_LEGS_MIN] = min(acc[A_LEGS_MIN], legs[j])
-        acc[A_LEGS_MAX] = max(acc[A_LEGS_MAX], legs[j])
-    tip_error_add(acc[A_POSITION : A_ORIENTATION_MAX + 1], e)
-    acc[A_MANIPULABILITY_MIN] = min(acc[A_MANIPULABILITY_MIN], manipulability)
+        a.legs_min = min(a.legs_min, legs[j])
+        a.legs_max = max(a.legs_max, legs[j])
+    tip_error_add(a.tip, e)
+    a.manipulability_min = min(a.manipulability_min, manipulability)
     # the signed value of largest magnitude, the first on a tie (seed 004 reports φe, θe
     # maxima with sign)
-    if abs(phi_e) > abs(acc[A_PHI_E]):
-        acc[A_PHI_E] = phi_e
-    if abs(theta_e) > abs(acc[A_THETA_E]):
-        acc[A_THETA_E] = theta_e
+    if abs(phi_e) > abs(a.phi_e):
+        a.phi_e = phi_e
+    if abs(theta_e) > abs(a.theta_e):
+        a.theta_e = theta_e
 
 
 @register_inline
@@ -307,7 +338,7 @@ def hybrid_first_bound(
 
 @register_inline
 def hybrid_add_sample(
-    acc: np.ndarray,
+    a: np.record,
     t: float,
     x: np.ndarray,
     legs: np.ndarray,
@@ -315,9 +346,10 @@ def hybrid_add_sample(
     scalars: tuple[float, float, float, float, float],
     limits: HybridLimits,
 ) -> None:
-    """Add a lane's next sample to its accumulator row acc (N_ACC,) (`hybrid_begin_lane`;
-    module docstring): what `hybrid_add_lane` does per sample, and the records runner
-    reducing (`twin.sim.kernels.records.hybrid_record_lane`) as each sample is recorded.
+    """Add a lane's next sample to its accumulator a (`HYBRID_ACCUMULATOR`, a row of
+    `hybrid_begin_lane` as a record; module docstring): what `hybrid_add_lane` does per
+    sample, and the records runner reducing (`twin.sim.kernels.records.hybrid_record_lane`)
+    as each sample is recorded.
 
     Args:
         t: [s]; x: (9,) xi [m, rad]; legs: (6,) [m]; e: (6,) the tip error [m, rad] in B.
@@ -326,7 +358,7 @@ def hybrid_add_sample(
     """
     hold, lower, upper, leg_min, leg_max = limits
     manipulability, phi_e, theta_e, alpha_top, alpha_bottom = scalars
-    k = int(acc[A_SEEN])
+    k = int(a.seen)
     joint = False
     touching = 0.0 if hold else 1.0
     for j in range(N_JOINTS):  # `|`, not `or`: no branch per joint
@@ -335,19 +367,19 @@ def hybrid_add_sample(
     for j in range(N_LEGS):
         leg |= leg_past_lane(legs[j], leg_min, leg_max) != 0.0
     # counts as floats: whole numbers, exact to 2^53
-    acc[A_JOINT_VIOLATIONS] += 1.0 if joint else 0.0
-    acc[A_LEG_VIOLATIONS] += 1.0 if leg else 0.0
-    acc[A_VIOLATIONS] += 1.0 if joint | leg else 0.0
-    if (joint | leg) and acc[A_BOUND] == 0.0:
-        acc[A_BOUND_T] = t
-        acc[A_BOUND] = hybrid_first_bound(x, legs, lower, upper, leg_min, leg_max, hold)
-    if k >= int(acc[A_FIRST]):
-        hybrid_settled_add(acc, k == int(acc[A_FIRST]), x, legs, e, manipulability, phi_e,
+    a.joint_violations += 1.0 if joint else 0.0
+    a.leg_violations += 1.0 if leg else 0.0
+    a.violations += 1.0 if joint | leg else 0.0
+    if (joint | leg) and a.bound == 0.0:
+        a.bound_t = t
+        a.bound = hybrid_first_bound(x, legs, lower, upper, leg_min, leg_max, hold)
+    if k >= int(a.first):
+        hybrid_settled_add(a, k == int(a.first), x, legs, e, manipulability, phi_e,
                            theta_e)  # fmt: skip
-    efficacy_add(acc[A_EFFICACY : A_EFFICACY + N_EFFICACY], alpha_top, alpha_bottom)
-    trend_add(acc[A_JOINT_TREND:A_LEG_TREND], k + 1, t, x)
-    trend_add(acc[A_LEG_TREND:A_BOUND_T], k + 1, t, legs)
-    acc[A_SEEN] = k + 1
+    efficacy_add(a.efficacy, alpha_top, alpha_bottom)
+    trend_add(a.joint_trend, k + 1, t, x)
+    trend_add(a.leg_trend, k + 1, t, legs)
+    a.seen = k + 1
 
 
 @register_borrowing
@@ -356,8 +388,9 @@ def hybrid_add_lane(samples: HybridSamples, limits: HybridLimits, acc: np.ndarra
     order, to its accumulator row acc (N_ACC,) (`hybrid_begin_lane`), updated, judged by its
     limits (`HybridLimits`): `hybrid_add_sample` of each."""
     t, xi, legs, e, manipulability, phi_e, theta_e, alpha_top, alpha_bottom = samples
+    a = acc.view(HYBRID_ACCUMULATOR)[0]  # the row by name
     for i in range(t.shape[0]):
-        hybrid_add_sample(acc, t[i], xi[i], legs[i], e[i],
+        hybrid_add_sample(a, t[i], xi[i], legs[i], e[i],
                           (manipulability[i], phi_e[i], theta_e[i], alpha_top[i],
                            alpha_bottom[i]), limits)  # fmt: skip
 
@@ -366,23 +399,23 @@ def hybrid_add_lane(samples: HybridSamples, limits: HybridLimits, acc: np.ndarra
 def hybrid_finish_lane(acc: np.ndarray, out: np.ndarray) -> None:
     """A lane's row of reductions out (N_ROW,) from its accumulator row acc (N_ACC,), after
     its last sample (`hybrid_add_lane`)."""
-    judged = acc[A_SEEN] - acc[A_FIRST]
-    out[R_VIOLATIONS] = acc[A_VIOLATIONS]
-    out[R_JOINT_VIOLATIONS] = acc[A_JOINT_VIOLATIONS]
-    out[R_LEG_VIOLATIONS] = acc[A_LEG_VIOLATIONS]
+    a, r = acc.view(HYBRID_ACCUMULATOR)[0], out.view(HYBRID_ROW)[0]  # the rows by name
+    judged = a.seen - a.first
+    r.violations = a.violations
+    r.joint_violations = a.joint_violations
+    r.leg_violations = a.leg_violations
+    joint_min, joint_max, out_min, out_max = a.joint_min, a.joint_max, r.joint_min, r.joint_max
     for j in range(N_JOINTS):
-        out[R_JOINT_MIN + j], out[R_JOINT_MAX + j] = acc[A_JOINT_MIN + j], acc[A_JOINT_MAX + j]
-    out[R_LEGS_MIN], out[R_LEGS_MAX] = acc[A_LEGS_MIN], acc[A_LEGS_MAX]
-    out[R_POSITION_RMS], out[R_ORIENTATION_RMS] = tip_error_rms(
-        acc[A_POSITION : A_ORIENTATION_MAX + 1], judged
-    )
-    out[R_POSITION_MAX], out[R_ORIENTATION_MAX] = acc[A_POSITION_MAX], acc[A_ORIENTATION_MAX]
-    out[R_MANIPULABILITY_MIN] = acc[A_MANIPULABILITY_MIN]
-    out[R_PHI_E], out[R_THETA_E] = acc[A_PHI_E], acc[A_THETA_E]
-    out[R_ETA_PRINTED], out[R_ETA] = efficacy_finish(acc[A_EFFICACY : A_EFFICACY + N_EFFICACY])
-    trend_finish(acc[A_JOINT_TREND:A_LEG_TREND], out[R_JOINT_DRIFT : R_JOINT_DRIFT + N_JOINTS])
-    trend_finish(acc[A_LEG_TREND:A_BOUND_T], out[R_LEG_DRIFT : R_LEG_DRIFT + N_LEGS])
-    out[R_BOUND_T], out[R_BOUND] = acc[A_BOUND_T], acc[A_BOUND]
+        out_min[j], out_max[j] = joint_min[j], joint_max[j]
+    r.legs_min, r.legs_max = a.legs_min, a.legs_max
+    r.position_rms, r.orientation_rms = tip_error_rms(a.tip, judged)
+    r.position_max, r.orientation_max = a.tip.position_max, a.tip.orientation_max
+    r.manipulability_min = a.manipulability_min
+    r.phi_e, r.theta_e = a.phi_e, a.theta_e
+    r.eta_printed, r.eta = efficacy_finish(a.efficacy)
+    trend_finish(a.joint_trend, r.joint_drift)
+    trend_finish(a.leg_trend, r.leg_drift)
+    r.bound_t, r.bound = a.bound_t, a.bound
 
 
 @register_borrowing
@@ -486,12 +519,12 @@ def compiled_hybrid_reductions(parallel: bool) -> Callable:
 def run_drift(t: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
     """`drift_lane` of one series (the small platforms' metrics): t (T,) [s], x (T, k); the
     drifts (k,) written into out."""
-    drift_lane(t, x, np.empty(4 + 2 * x.shape[1]), out)
+    drift_lane(t, x, np.zeros(1, DRIFT_TREND), out)
 
 
 def run_efficacy(alpha_top: np.ndarray, alpha_bottom: np.ndarray, out: np.ndarray) -> None:
     """`efficacy_sums` of one run's tilts (T,) [rad]: (printed, integral) written into out (2,)."""
-    out[0], out[1] = efficacy_sums(alpha_top, alpha_bottom, np.empty(N_EFFICACY))
+    out[0], out[1] = efficacy_sums(alpha_top, alpha_bottom, np.zeros(1, EFFICACY))
 
 
 class SeriesReductions(NamedTuple):
@@ -513,9 +546,9 @@ def compiled_series_reductions() -> SeriesReductions:
 
 # ------------------------------------------------------------------ the small platforms' lanes
 # The 3UPU_UP's and 4-UPR's metrics (`twin.sim.metrics.platform_metrics`) run the same way: a
-# lane's accumulator row (`PA_*`) takes its samples in order, in as many chunks as come
-# (`platform_add_lane`), and `platform_finish_lane` gives what needs the last sample. Per lane,
-# over samples k = 0 … T−1, S = min(SETTLE, T − 1) the first one judged:
+# lane's accumulator row (`PLATFORM_ACCUMULATOR`) takes its samples in order, in as many chunks
+# as come (`platform_add_lane`), and `platform_finish_lane` gives what needs the last sample.
+# Per lane, over samples k = 0 … T−1, S = min(SETTLE, T − 1) the first one judged:
 #
 # - violations: samples where some limit kind is violated (each kind's flag per sample is
 #   `PlatformModel.reached` or `.violations`, computed by the caller in numpy: the limits are
@@ -532,37 +565,34 @@ def compiled_series_reductions() -> SeriesReductions:
 
 #: most actuators of a small platform (the 4-UPR's four; the 3UPU_UP has three)
 MAX_ACTUATORS = 4
-#: a small platform lane's accumulator row (`platform_add_lane`): samples seen, the first
-#: judged one, violating samples, then min/max, maxima and sums (block comment above), the
-#: efficacy sums, the state's and the actuators' trends, the first bound (its time [s] and
-#: 1 + its kind's index, 0 none), and last one count per limit kind (N_PLATFORM_ACC + kinds
-#: floats in all)
-PA_SEEN, PA_FIRST, PA_VIOLATIONS = 0, 1, 2
-PA_STATE_MIN = 3
-PA_STATE_MAX = PA_STATE_MIN + 3
-PA_LEGS_MIN = PA_STATE_MAX + 3
-PA_LEGS_MAX = PA_LEGS_MIN + 1
-PA_RATE_MAX = PA_LEGS_MAX + 1
-PA_POSITION, PA_POSITION_MAX = PA_RATE_MAX + 1, PA_RATE_MAX + 2
-PA_ORIENTATION, PA_ORIENTATION_MAX = PA_RATE_MAX + 3, PA_RATE_MAX + 4
-PA_ALPHA_TOP_MAX, PA_ALPHA_BOTTOM_MAX = PA_RATE_MAX + 5, PA_RATE_MAX + 6
-PA_CLIPPED, PA_SATURATED = PA_RATE_MAX + 7, PA_RATE_MAX + 8
-PA_COUPLED_MAX = PA_SATURATED + 1
-PA_EFFICACY = PA_COUPLED_MAX + 3
-PA_STATE_TREND = PA_EFFICACY + N_EFFICACY
-PA_LEG_TREND = PA_STATE_TREND + 4 + 2 * 3
-PA_BOUND_T = PA_LEG_TREND + 4 + 2 * MAX_ACTUATORS
-PA_BOUND = PA_BOUND_T + 1
-PA_KINDS = PA_BOUND + 1
-N_PLATFORM_ACC = PA_KINDS
-#: `platform_finish_lane`'s row: the state's drifts (3), the actuators' (MAX_ACTUATORS, the
-#: first n written), the tip errors' RMS, the two efficacies
-PR_STATE_DRIFT = 0
-PR_LEG_DRIFT = PR_STATE_DRIFT + 3
-PR_POSITION_RMS = PR_LEG_DRIFT + MAX_ACTUATORS
-PR_ORIENTATION_RMS = PR_POSITION_RMS + 1
-PR_ETA_PRINTED, PR_ETA = PR_ORIENTATION_RMS + 1, PR_ORIENTATION_RMS + 2
-N_PLATFORM_ROW = PR_ETA + 1
+#: most limit kinds a small platform's metrics count (`twin.sim.metrics.PlatformReduction`:
+#: its mechanism's, then the clamped demand)
+MAX_LIMIT_KINDS = 8
+#: a small platform lane's accumulator row (`platform_add_lane`), N_PLATFORM_ACC floats read
+#: by name: samples seen, the first judged one, violating samples, then min/max, maxima and
+#: sums (block comment above), the efficacy sums, the state's and the actuators' trends, the
+#: first bound (its time [s] and 1 + its kind's index, 0 none), and last one count per limit
+#: kind (the first `kinds` of MAX_LIMIT_KINDS)
+PLATFORM_ACCUMULATOR = record_dtype(
+    (
+        ("seen", 1), ("first", 1), ("violations", 1), ("state_min", 3), ("state_max", 3),
+        ("legs_min", 1), ("legs_max", 1), ("rate_max", 1), ("tip", TIP_ERRORS),
+        ("alpha_top_max", 1), ("alpha_bottom_max", 1), ("clipped", 1), ("saturated", 1),
+        ("coupled_max", 3), ("efficacy", EFFICACY), ("state_trend", trend_dtype(3)),
+        ("leg_trend", trend_dtype(MAX_ACTUATORS)), ("bound_t", 1), ("bound", 1),
+        ("kinds", MAX_LIMIT_KINDS),
+    ),
+    what="PLATFORM_ACCUMULATOR",
+)  # fmt: skip
+N_PLATFORM_ACC = row_size(PLATFORM_ACCUMULATOR)
+#: `platform_finish_lane`'s row, read by name: the state's drifts (3), the actuators'
+#: (MAX_ACTUATORS, the first n written), the tip errors' RMS, the two efficacies
+PLATFORM_ROW = record_dtype(
+    (("state_drift", 3), ("leg_drift", MAX_ACTUATORS), ("position_rms", 1),
+     ("orientation_rms", 1), ("eta_printed", 1), ("eta", 1)),
+    what="PLATFORM_ROW",
+)  # fmt: skip
+N_PLATFORM_ROW = row_size(PLATFORM_ROW)
 
 #: the series `run_platform_add` reads, in its argument order (then the coupled displacement,
 #: the limit flags and the counts)
@@ -572,11 +602,11 @@ PLATFORM_REDUCED = ("t", "state", "legs", "leg_rates", "tip_error", "alpha_top",
 
 @register_borrowing
 def platform_begin_lane(acc: np.ndarray, end: int) -> None:
-    """Clear a small platform lane's accumulator row acc (N_PLATFORM_ACC + kinds,) for a series
-    of `end` samples (≥ 1): the first judged sample is min(SETTLE, end − 1)."""
+    """Clear a small platform lane's accumulator row acc (N_PLATFORM_ACC,) for a series of
+    `end` samples (≥ 1): the first judged sample is min(SETTLE, end − 1)."""
     for j in range(acc.shape[0]):
         acc[j] = 0.0
-    acc[PA_FIRST] = min(SETTLE, end - 1)
+    acc.view(PLATFORM_ACCUMULATOR)[0].first = min(SETTLE, end - 1)
 
 
 @register_borrowing
@@ -603,67 +633,64 @@ def platform_add_lane(
             alpha_top, alpha_bottom: (S,) [rad]; clipped, saturated: (S,) the step's
             diagnostics; coupled: (S, 3) seed 001 eq (15) [mm], or (S, 0) for a mechanism
             without; flags: (S, kinds) bool, each limit kind violated at each sample: the
-            samples after those already added.
-        acc: (N_PLATFORM_ACC + kinds,) the lane's row (`platform_begin_lane`), updated.
+            samples after those already added (kinds ≤ MAX_LIMIT_KINDS).
+        acc: (N_PLATFORM_ACC,) the lane's row (`platform_begin_lane`), updated.
     """
-    first = int(acc[PA_FIRST])
-    seen = int(acc[PA_SEEN])
+    a = acc.view(PLATFORM_ACCUMULATOR)[0]  # the row by name
+    first = int(a.first)
+    seen = int(a.seen)
     n_legs, kinds, axes = legs.shape[1], flags.shape[1], coupled.shape[1]
-    efficacy = acc[PA_EFFICACY : PA_EFFICACY + N_EFFICACY]
-    state_trend = acc[PA_STATE_TREND:PA_LEG_TREND]
-    leg_trend = acc[PA_LEG_TREND : PA_LEG_TREND + 4 + 2 * n_legs]
+    counts, state_min, state_max, coupled_max = a.kinds, a.state_min, a.state_max, a.coupled_max
     for i in range(t.shape[0]):
         k = seen + i
         bad = False
         for j in range(kinds):
-            acc[PA_KINDS + j] += flags[i, j]
-            if flags[i, j] and acc[PA_BOUND] == 0.0:
-                acc[PA_BOUND_T], acc[PA_BOUND] = t[i], j + 1
+            counts[j] += flags[i, j]
+            if flags[i, j] and a.bound == 0.0:
+                a.bound_t, a.bound = t[i], j + 1
             bad |= flags[i, j]
-        acc[PA_VIOLATIONS] += bad
+        a.violations += bad
         for j in range(n_legs):
-            acc[PA_RATE_MAX] = max(acc[PA_RATE_MAX], abs(rates[i, j]))
-        acc[PA_CLIPPED] += clipped[i] > 0
-        acc[PA_SATURATED] += saturated[i] > 0
+            a.rate_max = max(a.rate_max, abs(rates[i, j]))
+        a.clipped += clipped[i] > 0
+        a.saturated += saturated[i] > 0
         if k >= first:  # min and max, errors and tilts over the settled samples
             if k == first:
                 for j in range(3):
-                    acc[PA_STATE_MIN + j], acc[PA_STATE_MAX + j] = state[i, j], state[i, j]
-                acc[PA_LEGS_MIN], acc[PA_LEGS_MAX] = legs[i, 0], legs[i, 0]
-                acc[PA_ALPHA_TOP_MAX] = alpha_top[i]
-                acc[PA_ALPHA_BOTTOM_MAX] = alpha_bottom[i]
+                    state_min[j], state_max[j] = state[i, j], state[i, j]
+                a.legs_min, a.legs_max = legs[i, 0], legs[i, 0]
+                a.alpha_top_max = alpha_top[i]
+                a.alpha_bottom_max = alpha_bottom[i]
                 for j in range(axes):
-                    acc[PA_COUPLED_MAX + j] = abs(coupled[i, j])
+                    coupled_max[j] = abs(coupled[i, j])
             for j in range(3):
-                acc[PA_STATE_MIN + j] = min(acc[PA_STATE_MIN + j], state[i, j])
-                acc[PA_STATE_MAX + j] = max(acc[PA_STATE_MAX + j], state[i, j])
+                state_min[j] = min(state_min[j], state[i, j])
+                state_max[j] = max(state_max[j], state[i, j])
             for j in range(n_legs):
-                acc[PA_LEGS_MIN] = min(acc[PA_LEGS_MIN], legs[i, j])
-                acc[PA_LEGS_MAX] = max(acc[PA_LEGS_MAX], legs[i, j])
-            tip_error_add(acc[PA_POSITION : PA_ORIENTATION_MAX + 1], tip_error[i])
-            acc[PA_ALPHA_TOP_MAX] = max(acc[PA_ALPHA_TOP_MAX], alpha_top[i])
-            acc[PA_ALPHA_BOTTOM_MAX] = max(acc[PA_ALPHA_BOTTOM_MAX], alpha_bottom[i])
+                a.legs_min = min(a.legs_min, legs[i, j])
+                a.legs_max = max(a.legs_max, legs[i, j])
+            tip_error_add(a.tip, tip_error[i])
+            a.alpha_top_max = max(a.alpha_top_max, alpha_top[i])
+            a.alpha_bottom_max = max(a.alpha_bottom_max, alpha_bottom[i])
             for j in range(axes):
-                acc[PA_COUPLED_MAX + j] = max(acc[PA_COUPLED_MAX + j], abs(coupled[i, j]))
-        efficacy_add(efficacy, alpha_top[i], alpha_bottom[i])
-        trend_add(state_trend, k + 1, t[i], state[i])
-        trend_add(leg_trend, k + 1, t[i], legs[i])
-    acc[PA_SEEN] = seen + t.shape[0]
+                coupled_max[j] = max(coupled_max[j], abs(coupled[i, j]))
+        efficacy_add(a.efficacy, alpha_top[i], alpha_bottom[i])
+        trend_add(a.state_trend, k + 1, t[i], state[i])
+        trend_add(a.leg_trend, k + 1, t[i], legs[i])
+    a.seen = seen + t.shape[0]
 
 
 @register_borrowing
 def platform_finish_lane(acc: np.ndarray, n_legs: int, out: np.ndarray) -> None:
     """What a small platform lane's metrics take beyond its accumulator row acc, after its last
-    sample (`platform_add_lane`), into out (N_PLATFORM_ROW,) (`PR_*`): the drifts, the tip
+    sample (`platform_add_lane`), into out (N_PLATFORM_ROW,) (`PLATFORM_ROW`): the drifts, the tip
     errors' RMS and the efficacies (fractions)."""
-    judged = acc[PA_SEEN] - acc[PA_FIRST]
-    trend_finish(acc[PA_STATE_TREND:PA_LEG_TREND], out[PR_STATE_DRIFT : PR_STATE_DRIFT + 3])
-    trend_finish(acc[PA_LEG_TREND : PA_LEG_TREND + 4 + 2 * n_legs],
-                 out[PR_LEG_DRIFT : PR_LEG_DRIFT + n_legs])  # fmt: skip
-    out[PR_POSITION_RMS], out[PR_ORIENTATION_RMS] = tip_error_rms(
-        acc[PA_POSITION : PA_ORIENTATION_MAX + 1], judged
-    )
-    out[PR_ETA_PRINTED], out[PR_ETA] = efficacy_finish(acc[PA_EFFICACY : PA_EFFICACY + N_EFFICACY])
+    a, r = acc.view(PLATFORM_ACCUMULATOR)[0], out.view(PLATFORM_ROW)[0]  # the rows by name
+    judged = a.seen - a.first
+    trend_finish(a.state_trend, r.state_drift)
+    trend_finish(a.leg_trend, r.leg_drift[:n_legs])
+    r.position_rms, r.orientation_rms = tip_error_rms(a.tip, judged)
+    r.eta_printed, r.eta = efficacy_finish(a.efficacy)
 
 
 def run_platform_add(
@@ -688,7 +715,7 @@ def run_platform_add(
         t .. flags: (N, S, ...) the chunk's records (`PLATFORM_REDUCED`), as
             `platform_add_lane` takes them per lane (coupled (N, S, 0) for the 4-UPR).
         counts: (N,) int.
-        acc: (N, N_PLATFORM_ACC + kinds), updated.
+        acc: (N, N_PLATFORM_ACC), updated.
     """
     for n in prange(counts.shape[0]):
         c = counts[n]
@@ -700,7 +727,7 @@ def run_platform_add(
 
 
 def run_platform_finish(acc: np.ndarray, n_legs: int, out: np.ndarray) -> None:
-    """`platform_finish_lane` of N lanes: acc (N, N_PLATFORM_ACC + kinds), out (N,
+    """`platform_finish_lane` of N lanes: acc (N, N_PLATFORM_ACC), out (N,
     N_PLATFORM_ROW) written."""
     for n in range(acc.shape[0]):
         platform_finish_lane(acc[n], n_legs, out[n])

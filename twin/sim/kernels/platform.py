@@ -31,6 +31,7 @@ import numpy as np
 
 from twin.compiled import compile_runner, prange, register_jitable
 from twin.mechanisms.platforms import NewtonWork, platform_fit
+from twin.planners.parameters import record_dtype, row_size
 from twin.planners.platform import PlatformPlanner
 from twin.planners.platform_model import PlatformModel
 from twin.planners.platform_step import (
@@ -44,15 +45,15 @@ from twin.sim.kernels.layout import (
     FAULT_KINEMATICS,
     FAULT_PLANNER,
     N_MEMORY,
-    TARGET_P,
-    TARGET_R,
-    TARGET_V,
+    TARGET,
 )
 
-#: diag rows (N, B + 1, N_PLATFORM_DIAGNOSTICS): 1.0 where the desired state or a desired length
-#: was clipped to a limit, 1.0 where the speed limit bound (`PlatformPlanner.step`).
-D_CLIPPED, D_SATURATED = 0, 1
-N_PLATFORM_DIAGNOSTICS = 2
+#: A step's diagnostics (a row of diag (N, B + 1, N_PLATFORM_DIAGNOSTICS), read by name):
+#: 1.0 where the desired state or a desired length was clipped to a limit, 1.0 where the speed
+#: limit bound (`PlatformPlanner.step`).
+PLATFORM_DIAGNOSTICS = record_dtype((("clipped", 1), ("saturated", 1)),
+                                    what="PLATFORM_DIAGNOSTICS")  # fmt: skip
+N_PLATFORM_DIAGNOSTICS = row_size(PLATFORM_DIAGNOSTICS)
 
 
 def platform_constants(model: PlatformModel) -> np.ndarray:
@@ -90,12 +91,12 @@ def step(
     Args:
         x: (3,) state at sample k [native, rad, rad]; legs: (4,) its actuator lengths
             [native] (the first n used).
-        target: (18,) the held target in B at sample k (`TARGET_*` rows).
+        target: (N_TARGET,) the held target in B at sample k (a `TARGET` row).
         p, m, g: the lane's `PLATFORM_PARAMETERS`, `PLATFORM_MEMORY` (updated) and
             `PLATFORM_GEOMETRY` records.
         dt: [s] control period.
         x_out, legs_out: (3,), (4,) written: sample k + 1 (sample k's on a hold).
-        diag_out: (N_PLATFORM_DIAGNOSTICS,) written.
+        diag_out: (N_PLATFORM_DIAGNOSTICS,) written (`PLATFORM_DIAGNOSTICS`).
         work: (8, 18) scratch; R (3, 3), J (4, 3), M (3, 4) scratch.
 
     Returns:
@@ -106,18 +107,18 @@ def step(
         legs_out[j] = legs[j]
     for j in range(3):
         x_out[j] = x[j]
-    diag_out[D_CLIPPED] = 0.0
-    diag_out[D_SATURATED] = 0.0
+    d = diag_out.view(PLATFORM_DIAGNOSTICS)[0]  # the rows by name
+    d.clipped = 0.0
+    d.saturated = 0.0
     for j in range(18):
         if not np.isfinite(target[j]):
             return FAULT_PLANNER  # NaN rates: the rig holds, memory untouched
     velocity, l_next, scratch = work[6], work[4], work[7]
-    clipped, saturated = plan_lane(
-        target[TARGET_R : TARGET_R + 9], target[TARGET_P : TARGET_P + 3],
-        target[TARGET_V : TARGET_V + 6], legs, p, m, g, dt, velocity, work, R, J, M,
-    )  # fmt: skip
-    diag_out[D_CLIPPED] = 1.0 if clipped else 0.0
-    diag_out[D_SATURATED] = 1.0 if saturated else 0.0
+    t = target.view(TARGET)[0]
+    clipped, saturated = plan_lane(t.R_d, t.p_d, t.twist, legs, p, m, g, dt, velocity, work, R,
+                                   J, M)  # fmt: skip
+    d.clipped = 1.0 if clipped else 0.0
+    d.saturated = 1.0 if saturated else 0.0
 
     # PlatformRig.advance: guard, end stops, forward kinematics
     for i in range(n):
@@ -194,14 +195,14 @@ def run_platform(
         xs: (N, B + 1, 3) platform states [native, rad, rad]; row 0 the chunk's start, rows
             1 … B written.
         legs: (N, B + 1, 4) actuator lengths [native], the first n_legs used; rows as xs.
-        targets: (N, B, 18) the held target in B at each step (`layout.TARGET_*`; a row B,
+        targets: (N, B, 18) the held target in B at each step (`layout.TARGET`; a row B,
             the chunk's end, is not read).
         prm: (N, ROW_SIZE) per lane (`PlatformPlanner.pack`).
         memory: (N, ≥ MEMORY_SIZE) per lane, read and written (`PLATFORM_MEMORY`).
         const: (1,) `PLATFORM_GEOMETRY` (`PlatformModel.pack`).
         dt: [s] control period.
-        diag: (N, B + 1, N_PLATFORM_DIAGNOSTICS): rows 1 … B written (`D_*` rows; step k's in
-            row k + 1).
+        diag: (N, B + 1, N_PLATFORM_DIAGNOSTICS): rows 1 … B written (`PLATFORM_DIAGNOSTICS`;
+            step k's in row k + 1).
         faults: (N, B) int64 written: fault bits of each step (`layout.FAULT_*`).
         stepper: `step_lanes` or its compiled form.
     """

@@ -39,18 +39,25 @@ from twin.compiled import (
 )
 from twin.mechanisms.hybrid import HYBRID_CONSTANTS
 from twin.mechanisms.legs import leg_vectors_lane, manipulability_lane
+from twin.planners.parameters import record_dtype, row_size
 from twin.planners.tasks import tip_error_lane
-from twin.sim.kernels.metrics import HybridLimits, hybrid_add_sample
+from twin.sim.kernels.metrics import HYBRID_ACCUMULATOR, HybridLimits, hybrid_add_sample
 from twin.spatial import rpy_to_matrix_lane, tilt_lane
 
-#: Scalar record rows (`run_hybrid_records`' `scalars`).
-S_MANIPULABILITY, S_PHI_E, S_THETA_E, S_ALPHA_TOP, S_ALPHA_BOTTOM = 0, 1, 2, 3, 4
-N_SCALARS = 5
+#: A sample's scalar record (a row of `run_hybrid_records`' `scalars`, N_SCALARS wide, read by
+#: name): manipulability [-], φe, θe, α_top, α_bottom [rad] (module docstring).
+SCALARS = record_dtype(
+    (("manipulability", 1), ("phi_e", 1), ("theta_e", 1), ("alpha_top", 1),
+     ("alpha_bottom", 1)),
+    what="SCALARS",
+)  # fmt: skip
+N_SCALARS = row_size(SCALARS)
 
-#: A sample's tip as the record reads it (a `tips` row, N_TIP wide): ᴮR_P row-major (9), then
-#: the tip's x and z axes in B, ᴮR_E e_x (3) and ᴮR_E e_z (3). The hybrid runner hands it over
-#: for a differential planner's steps, which computed it (`hand_over`).
-TIP_R, TIP_X, TIP_Z, N_TIP = 0, 9, 12, 15
+#: A sample's tip as the record reads it (a `tips` row, N_TIP wide, read by name): ᴮR_P
+#: row-major (9), then the tip's x and z axes in B, ᴮR_E e_x (3) and ᴮR_E e_z (3). The hybrid
+#: runner hands it over for a differential planner's steps, which computed it (`hand_over`).
+TIP = record_dtype((("R_BP", 9), ("x_axis", 3), ("z_axis", 3)), what="TIP")
+N_TIP = row_size(TIP)
 
 #: `record_work()`'s arrays
 RecordWork = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
@@ -80,12 +87,14 @@ def hand_over(
     error_out: np.ndarray,
 ) -> None:  # fmt: skip
     """A sample's ᴮR_P (3, 3), the tip ᴮT_E (4, 4) and its pose error (6,) as the record reads
-    them: into tip_out (N_TIP,) (`TIP_*`) and error_out (6,)."""
+    them: into tip_out (N_TIP,) (`TIP`) and error_out (6,)."""
+    tip = tip_out.view(TIP)[0]  # the row by name
+    R, x_axis, z_axis = tip.R_BP, tip.x_axis, tip.z_axis
     for i in range(3):
         for j in range(3):
-            tip_out[TIP_R + 3 * i + j] = R_BP[i, j]
-        tip_out[TIP_X + i] = T_E[i, 0]
-        tip_out[TIP_Z + i] = T_E[i, 2]
+            R[3 * i + j] = R_BP[i, j]
+        x_axis[i] = T_E[i, 0]
+        z_axis[i] = T_E[i, 2]
     for i in range(6):
         error_out[i] = error[i]
 
@@ -111,7 +120,7 @@ def record_from_tip(
     Args:
         target: (18,) the sample's target row (ᴮR_d row-major read).
         x: (9,) xi [m, rad].
-        tip: (N_TIP,) ᴮR_P and the tip's axes (`TIP_*`).
+        tip: (N_TIP,) ᴮR_P and the tip's axes (`TIP`).
         held: (4, 4) ᴵT_E*.
         landing: (3, 3) inertial → landing frame; phi0, theta0: [rad] the gangway's azimuth
             and elevation in it at t = 0 (`gangway_angles`).
@@ -122,9 +131,12 @@ def record_from_tip(
     rotations, axes, vectors, J = work[0], work[3], work[4], work[5]
     R_IB, R_BP = rotations[0], rotations[1]
     up, g = axes[0], axes[1]
+    handed = tip.view(TIP)[0]  # the rows by name
+    R, ex, ez = handed.R_BP, handed.x_axis, handed.z_axis
+    s = scalars_out.view(SCALARS)[0]
     for i in range(3):
         for j in range(3):
-            R_BP[i, j] = tip[TIP_R + 3 * i + j]
+            R_BP[i, j] = R[3 * i + j]
             R_IB[i, j] = (
                 held[i, 0] * target[3 * j] + held[i, 1] * target[3 * j + 1]
                 + held[i, 2] * target[3 * j + 2]
@@ -132,25 +144,23 @@ def record_from_tip(
     # legs and manipulability
     platform = c.platform_hinges
     leg_vectors_lane(R_BP, x, c.base_hinges, platform, vectors, legs_out)
-    scalars_out[S_MANIPULABILITY] = manipulability_lane(R_BP, vectors, legs_out, platform, J)
+    s.manipulability = manipulability_lane(R_BP, vectors, legs_out, platform, J)
     # inertial directions of the tip's axes: ᴵR_B ᴮR_E e_x (up) and d3 ᴵR_B ᴮR_E e_z (gangway)
     for i in range(3):
-        up[i] = R_IB[i, 0] * tip[TIP_X] + R_IB[i, 1] * tip[TIP_X + 1] + R_IB[i, 2] * tip[TIP_X + 2]
-        g[i] = x[8] * (
-            R_IB[i, 0] * tip[TIP_Z] + R_IB[i, 1] * tip[TIP_Z + 1] + R_IB[i, 2] * tip[TIP_Z + 2]
-        )
+        up[i] = R_IB[i, 0] * ex[0] + R_IB[i, 1] * ex[1] + R_IB[i, 2] * ex[2]
+        g[i] = x[8] * (R_IB[i, 0] * ez[0] + R_IB[i, 1] * ez[1] + R_IB[i, 2] * ez[2])
     gl0 = landing[0, 0] * g[0] + landing[0, 1] * g[1] + landing[0, 2] * g[2]
     gl1 = landing[1, 0] * g[0] + landing[1, 1] * g[1] + landing[1, 2] * g[2]
     gl2 = landing[2, 0] * g[0] + landing[2, 1] * g[1] + landing[2, 2] * g[2]
-    scalars_out[S_PHI_E] = math.atan2(gl1, gl0) - phi0
-    scalars_out[S_THETA_E] = math.atan2(gl2, gl0) - theta0
+    s.phi_e = math.atan2(gl1, gl0) - phi0
+    s.theta_e = math.atan2(gl2, gl0) - theta0
     u0, u1, u2 = held[0, 0], held[1, 0], held[2, 0]
     c0 = up[1] * u2 - up[2] * u1
     c1 = up[2] * u0 - up[0] * u2
     c2 = up[0] * u1 - up[1] * u0
     dot = up[0] * u0 + up[1] * u1 + up[2] * u2
-    scalars_out[S_ALPHA_TOP] = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot)
-    scalars_out[S_ALPHA_BOTTOM] = tilt_lane(R_IB[0, 2], R_IB[1, 2], R_IB[2, 2])
+    s.alpha_top = math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot)
+    s.alpha_bottom = tilt_lane(R_IB[0, 2], R_IB[1, 2], R_IB[2, 2])
 
 
 @register_borrowing
@@ -268,6 +278,7 @@ def hybrid_record_lane(
     legs_out, errors_out, scalars_out = out
     acc, t, hold, count = reduction
     reduce = acc.shape[0] > 0
+    accumulator = acc.view(HYBRID_ACCUMULATOR)  # (1,) the row by name, reducing; else (0,)
     angles0 = gangway_angles(g0)  # once per lane
     c = const.view(HYBRID_CONSTANTS)[0]  # the constants by name
     limits: HybridLimits = (hold, c.lower, c.upper, c.leg_min, c.leg_max)
@@ -280,10 +291,10 @@ def hybrid_record_lane(
             if not finite_record(xs[k], legs, error, scalars):
                 return False
             if k - first < count:
-                hybrid_add_sample(acc, t[k - first], xs[k], legs, error,
-                                  (scalars[S_MANIPULABILITY], scalars[S_PHI_E], scalars[S_THETA_E],
-                                   scalars[S_ALPHA_TOP], scalars[S_ALPHA_BOTTOM]),
-                                  limits)  # fmt: skip
+                s = scalars.view(SCALARS)[0]
+                hybrid_add_sample(accumulator[0], t[k - first], xs[k], legs, error,
+                                  (s.manipulability, s.phi_e, s.theta_e, s.alpha_top,
+                                   s.alpha_bottom), limits)  # fmt: skip
     return True
 
 

@@ -16,7 +16,7 @@ from functools import cache
 import numpy as np
 
 from twin.compiled import compile_runner, prange, register_borrowing
-from twin.sim.kernels.layout import TARGET_P, TARGET_R, TARGET_V, TARGET_W
+from twin.sim.kernels.layout import TARGET
 from twin.spatial import rpy_to_matrix_lane, so3_log_lane
 
 
@@ -77,19 +77,23 @@ def held_targets_lane(
                     + nxt[3 * i + 2] * now[3 * j + 2]
                 )
         so3_log_lane(R_step, w)
-        row = out[k]
+        row = out[k].view(TARGET)[0]  # the row by name
+        R_d, p_d, twist = row.R_d, row.p_d, row.twist
         for i in range(9):
-            row[TARGET_R + i] = now[i]
+            R_d[i] = now[i]
         for i in range(3):
-            row[TARGET_P + i] = now[9 + i]
-            row[TARGET_V + i] = (nxt[9 + i] - now[9 + i]) / dt
-            row[TARGET_W + i] = w[i] / dt
+            p_d[i] = now[9 + i]
+            twist[i] = (nxt[9 + i] - now[9 + i]) / dt  # ᴮṗ_d
+            twist[3 + i] = w[i] / dt  # ᴮω_d
     if out.shape[0] > steps:  # the end: its desired pose, for what is recorded there
-        row = out[steps]
-        for i in range(12):
-            row[i] = nxt[i]
+        row = out[steps].view(TARGET)[0]
+        R_d, p_d, twist = row.R_d, row.p_d, row.twist
+        for i in range(9):
+            R_d[i] = nxt[i]
+        for i in range(3):
+            p_d[i] = nxt[9 + i]
         for i in range(6):
-            row[TARGET_V + i] = math.nan
+            twist[i] = math.nan
 
 
 def run_held_targets(poses: np.ndarray, held: np.ndarray, dt: float, out: np.ndarray) -> None:
