@@ -229,14 +229,10 @@ def allocation_velocity(
             q[i] = prm.q0[i]
     else:
         d0, d1, d2 = pa[0] - pP[0], pa[1] - pP[1], pa[2] - pP[2]
-        gangway_inverse_lane(
-            RP[0, 0] * d0 + RP[1, 0] * d1 + RP[2, 0] * d2,
-            RP[0, 1] * d0 + RP[1, 1] * d1 + RP[2, 1] * d2,
-            RP[0, 2] * d0 + RP[1, 2] * d1 + RP[2, 2] * d2,
-            c.d1,
-            c.a1,
-            q,
-        )
+        gangway_inverse_lane(RP[0, 0] * d0 + RP[1, 0] * d1 + RP[2, 0] * d2,
+                             RP[0, 1] * d0 + RP[1, 1] * d1 + RP[2, 1] * d2,
+                             RP[0, 2] * d0 + RP[1, 2] * d1 + RP[2, 2] * d2,
+                             c.d1, c.a1, q)  # fmt: skip
     used = diag_out.view(HYBRID_DIAGNOSTICS)[0].position_share
     if method == METHOD_DWA:
         share = memory.view(ALLOCATION_MEMORY)[0].share
