@@ -561,9 +561,9 @@ def run_workability(
                 new += len(todo)
             if level == levels:
                 break
-            refined = {}
+            refined, summaries = {}, _summaries_of(keys, found)
             for planner, lookup in lookups.items():
-                prob, _ = _corner_values(lookup, _judge(spec, planner, _summaries_of(keys, found)))
+                prob, _ = _corner_values(lookup, _judge(spec, planner, summaries))
                 if (split := _refine(lookup, prob, spec.refine_spread)) is not None:
                     refined[planner] = split
             if not refined:
