@@ -56,6 +56,23 @@ def test_a_call_over_its_wall_budget_is_killed_naming_it(worker: BoundedWorker) 
     assert worker.call("sleep", 0.0, budget=Budget(wall=10.0), wait=WAIT) == 0.0
 
 
+def test_an_answer_read_after_the_wall_budget_is_over_it(
+    worker: BoundedWorker, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A parent thread descheduled past the budget (a loaded machine) finds the child's answer
+    already waiting: the call is still over its budget, counted from the send, and the child,
+    which answered, serves the next call."""
+    from twin.web import upload_worker
+
+    clock = iter([100.0, 100.6])  # the send, then the answer read 0.6 s later
+    monkeypatch.setattr(upload_worker, "monotonic", lambda: next(clock))
+    with pytest.raises(OverBudget, match=r"wall-clock budget of 0\.5 s") as refused:
+        worker.call("sleep", 0.0, budget=Budget(wall=0.5), wait=WAIT)
+    assert refused.value.limit == "wall"
+    monkeypatch.undo()
+    assert worker.call("sleep", 0.0, budget=Budget(wall=0.5), wait=0.1) == 0.0
+
+
 def test_errors_come_back_by_kind() -> None:
     """A `TwinError` in the child is a `TwinError` here with its message; an unknown
     function a RuntimeError naming it; a closed worker a RuntimeError."""

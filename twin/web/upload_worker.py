@@ -38,6 +38,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, Pipe
 from pathlib import Path
+from time import monotonic
 from typing import Any
 
 from twin.errors import TwinError
@@ -234,12 +235,14 @@ class BoundedWorker:
             raise WorkerBusy(
                 f"every upload worker is busy; retry in a few seconds (waited {wait:g} s)"
             ) from None
-        left = budget.wall
+        over_wall = OverBudget(f"over the wall-clock budget of {budget.wall:g} s", "wall")
         try:
+            sent = monotonic()
             child.conn.send_bytes(pickle.dumps((name, args, budget.cpu)))
-            if not child.conn.poll(left):
-                raise OverBudget(f"over the wall-clock budget of {budget.wall:g} s", "wall")
+            if not child.conn.poll(budget.wall):
+                raise over_wall
             kind, value = pickle.loads(child.conn.recv_bytes())
+            late = monotonic() - sent > budget.wall
         except (EOFError, OSError):
             code = child.process.wait(5.0)
             self._forget(child)
@@ -258,6 +261,10 @@ class BoundedWorker:
             self._replace()
             raise OverBudget(f"over the memory budget of {self.memory // 2**20} MiB", "memory")
         self._idle.put(child)
+        # a parent thread descheduled past the budget finds the answer already there: the
+        # budget still counts from the send, so a call is refused the same on a loaded machine
+        if late:
+            raise over_wall
         if kind == "twin":
             raise TwinError(value)
         if kind == "error":
