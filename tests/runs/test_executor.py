@@ -6,11 +6,13 @@ benchmarks/idle.py.)"""
 from __future__ import annotations
 
 import operator
+from pathlib import Path
 
 import dask
 from dask.utils import parse_timedelta
 
 from twin.runs.executor import IN_PROCESS, QUIET_DASK, Executor
+from twin.vessel.rao import available_raos, load_raos, write_raos
 
 
 def _ms(key: str) -> float:
@@ -41,6 +43,34 @@ def test_quiet_settings_stay_with_the_cluster_not_the_process() -> None:
     before = dask.config.get("distributed.admin.tick.interval")
     with Executor.start(IN_PROCESS, warm=False):
         assert dask.config.get("distributed.admin.tick.interval") == before
+
+
+def _asks_for_a_worker_client() -> bool:
+    """A task that asks for its worker's client, as a workability job does."""
+    from distributed import worker_client
+
+    with worker_client():
+        return True
+
+
+def test_two_overlapping_in_process_clusters_leave_no_scheduler_behind(tmp_path: Path) -> None:
+    """Each in-process worker's client sets Dask's process-wide `scheduler`, and distributed
+    restores it as each closes: two clusters closed in the order they started left
+    "dask.distributed" with no client, and writing an RAO file (xarray) then raised "no Client
+    active" (seen in a loaded CI run, after the workability tests)."""
+    first = Executor.start(IN_PROCESS, warm=False)
+    second = Executor.start(IN_PROCESS, warm=False)
+    try:
+        assert first.submit(_asks_for_a_worker_client).result(timeout=60)
+        assert second.submit(_asks_for_a_worker_client).result(timeout=60)
+        assert dask.config.get("scheduler", None) == "dask.distributed"  # what distributed sets
+    finally:
+        first.close()
+        assert dask.config.get("scheduler", None) == "dask.distributed"  # the second still runs
+        second.close()
+    assert dask.config.get("scheduler", None) is None
+    write_raos(load_raos(available_raos()[0]), tmp_path / "raos.nc")
+    assert (tmp_path / "raos.nc").stat().st_size > 0
 
 
 _NICE_CHILD = """

@@ -538,6 +538,12 @@ class Executor:
         if self.closed:
             return
         self.closed = True
+        try:
+            self._close(timeout)
+        finally:
+            _drop_stale_scheduler()
+
+    def _close(self, timeout: float) -> None:
         busy = True
         if self.cluster is not None:
             try:
@@ -572,6 +578,26 @@ class Executor:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _drop_stale_scheduler() -> None:
+    """Clear Dask's process-wide `scheduler` setting when it names distributed and no client
+    is left.
+
+    An in-process cluster's workers make their `worker_client`s the default, which sets that
+    key for the whole process; distributed restores it as each client closes, so two in-process
+    clusters whose lives overlap (closed in the order they started) leave "dask.distributed"
+    behind with no client. Dask, and xarray's netCDF writer with it (`twin.vessel.rao`), then
+    raise "no Client active" anywhere in the process."""
+    import dask
+    from distributed import default_client
+
+    if dask.config.get("scheduler", None) not in ("dask.distributed", "distributed"):
+        return
+    try:
+        default_client()
+    except ValueError:  # none left
+        dask.config.config.pop("scheduler", None)
 
 
 def map_unordered(
