@@ -30,6 +30,7 @@ from PIL import Image
 from playwright.sync_api import sync_playwright
 
 from tests.figures import record
+from tests.timing import scaled
 from tests.web.support import TOKEN, access, free_port, wait_for
 from tests.web.viser_client import PROTOCOL
 from twin.runs.executor import IN_PROCESS, Executor
@@ -278,6 +279,10 @@ def test_browser_ghost_replay_heatmap_and_a_clean_console_through_switches(
                 page.get_by_text(f"Replaying run {run.id[:8]}", exact=False).first.wait_for(
                     state="detached", timeout=15_000
                 )  # the panel is back to live before its button is pressed
+                # the smallest sweep the sliders allow: the heatmap is what is tested here
+                for name, value in (("sweep_hs_points", 3), ("sweep_seeds", 1),
+                                    ("sweep_duration", 10.0)):  # fmt: skip
+                    panel.settings[name].value = value
                 button = page.get_by_role("button", name="Run sweep")
                 for _ in range(3):
                     # the click event on the button itself: a notification toast over it or a
@@ -291,8 +296,13 @@ def test_browser_ghost_replay_heatmap_and_a_clean_console_through_switches(
                     viewer.gui.last_error, button.count(), tmp_path / "no-sweep.png",
                     page.locator("body").inner_text()[-2000:],
                 )  # fmt: skip
-                page.wait_for_function(HEATMAP_LOADED, timeout=90_000)
-                assert viewer.gui.heatmap is not None
+                # its runs take what a loaded machine gives them: the panel follows the sweep
+                # to its end (done or failed), then the browser loads its image
+                assert wait_for(lambda: viewer.gui.sweep_id is None, timeout=scaled(120.0)), (
+                    viewer.gui.sweep_status.content
+                )
+                assert viewer.gui.heatmap is not None, viewer.gui.sweep_status.content
+                page.wait_for_function(HEATMAP_LOADED, timeout=1000 * scaled(30.0))
                 page.get_by_text("the ring marks the current sea", exact=False).wait_for(
                     timeout=15_000
                 )
