@@ -100,11 +100,6 @@ def _module_file(name: str) -> Path | None:
     return Path(spec.origin)
 
 
-#: held while parsing a module: two threads in `ast.parse` at once raised "SystemError: AST
-#: constructor recursion depth mismatch" (a test and an in-process worker's warm-up, CI)
-_PARSING = threading.Lock()
-
-
 def _imported_modules(name: str) -> set[str]:
     """The `twin` modules module `name` imports names from (`from twin.x import A`): where
     the constants it compiles in are defined."""
@@ -112,9 +107,7 @@ def _imported_modules(name: str) -> set[str]:
     if path is None:
         return set()
     found = set()
-    with _PARSING:  # CPython 3.11's AST constructor is not safe from two threads at once
-        tree = ast.parse(path.read_text(encoding="utf-8"))
-    for node in ast.walk(tree):
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             if _module_file(node.module) is not None:
                 found.add(node.module)
