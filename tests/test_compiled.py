@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import ast
+import gc
 import importlib
 import sys
 import textwrap
+import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -62,3 +66,57 @@ def test_an_edit_in_a_reached_module_changes_the_stamp(package: Path, edited: st
     path = package / edited
     path.write_text(path.read_text().replace("2", "3").replace("1", "4"))
     assert source_stamp([runner]) != before
+
+
+def test_the_stamp_is_read_while_another_thread_parses_python() -> None:
+    """CPython 3.11's `ast.parse` shares a recursion counter between threads (gh-106905): a
+    stamp read by parsing failed, 1 CI run in about 12, while an in-process Dask worker parsed.
+    Here other threads parse in a loop, switched as often as the interpreter allows (a
+    collection's callback at every few allocations yields the GIL inside the parse), while
+    stamps are read: each read succeeds and finds the same modules. (A race, so a chance: the
+    stamp read by `ast.parse` failed this test in 2 of 5 runs, and in 0 of 5 with the fix.)"""
+    from twin.sim.kernels.hybrid_runner import run_hybrid_lanes
+
+    expected = reachable_modules([run_hybrid_lanes])
+    source = Path(compiled.__file__).read_text(encoding="utf-8")
+    read: list[list[str]] = []
+    errors: list[BaseException] = []
+    done = threading.Event()
+
+    def parse() -> None:
+        while not done.is_set():
+            try:
+                ast.parse(source)
+            except SystemError:  # the other parsers' race with each other, not the stamp's
+                pass
+
+    def stamp() -> None:
+        try:
+            for _ in range(10):
+                read.append(reachable_modules([run_hybrid_lanes]))
+        except BaseException as error:  # any failure of the read is the finding
+            errors.append(error)
+
+    def yield_gil(_phase: str, _info: dict) -> None:
+        time.sleep(0)
+
+    interval, thresholds = sys.getswitchinterval(), gc.get_threshold()
+    sys.setswitchinterval(1e-6)
+    gc.set_threshold(50)
+    gc.callbacks.append(yield_gil)
+    parsers = [threading.Thread(target=parse) for _ in range(2)]
+    readers = [threading.Thread(target=stamp) for _ in range(2)]
+    try:
+        for thread in (*parsers, *readers):
+            thread.start()
+        for thread in readers:
+            thread.join()
+    finally:
+        done.set()
+        for thread in parsers:
+            thread.join()
+        gc.callbacks.remove(yield_gil)
+        gc.set_threshold(*thresholds)
+        sys.setswitchinterval(interval)
+    assert errors == []
+    assert read == [expected] * 20

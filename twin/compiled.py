@@ -38,7 +38,7 @@ the cache already holds them (a fraction of a second to load).
 
 from __future__ import annotations
 
-import ast
+import dis
 import hashlib
 import importlib.util
 import threading
@@ -100,26 +100,48 @@ def _module_file(name: str) -> Path | None:
     return Path(spec.origin)
 
 
+def _codes(code: types.CodeType) -> Iterator[types.CodeType]:
+    """A code object and the code nested in it (functions, classes, comprehensions)."""
+    yield code
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            yield from _codes(const)
+
+
 def _imported_modules(name: str) -> set[str]:
-    """The `twin` modules module `name` imports names from (`from twin.x import A`): where
-    the constants it compiles in are defined."""
+    """The `twin` modules module `name` imports names from (`from twin.x import A`, at any
+    depth): where the constants it compiles in are defined.
+
+    Read from the module's bytecode, not its syntax tree: CPython 3.11's `ast.parse` keeps one
+    recursion counter per interpreter while it builds the tree's Python objects, so a parse here
+    and another library's on another thread (e.g. `inspect.signature` of a builtin on an
+    in-process Dask worker) raise "AST constructor recursion depth mismatch" (python/cpython
+    gh-106905). `compile` to bytecode builds no Python tree.
+    """
     path = _module_file(name)
     if path is None:
         return set()
+    module = compile(path.read_text(encoding="utf-8"), str(path), "exec", dont_inherit=True)
     found = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            if _module_file(node.module) is not None:
-                found.add(node.module)
+    for code in _codes(module):
+        instructions = list(dis.get_instructions(code))
+        # `from m import a` compiles to LOAD_CONST level, LOAD_CONST fromlist, IMPORT_NAME m
+        for at in range(2, len(instructions)):
+            level, fromlist, instruction = instructions[at - 2 : at + 1]
+            if (
+                instruction.opname == "IMPORT_NAME"
+                and level.argval == 0
+                and fromlist.argval is not None
+                and _module_file(instruction.argval) is not None
+            ):
+                found.add(instruction.argval)
     return found
 
 
 def _code_names(code: types.CodeType) -> Iterator[str]:
     """The global names a code object and the code nested in it (comprehensions) read."""
-    yield from code.co_names
-    for const in code.co_consts:
-        if isinstance(const, types.CodeType):
-            yield from _code_names(const)
+    for nested in _codes(code):
+        yield from nested.co_names
 
 
 def reachable_modules(functions: Iterable[Callable]) -> list[str]:
@@ -147,8 +169,7 @@ def reachable_modules(functions: Iterable[Callable]) -> list[str]:
     return sorted(modules)
 
 
-#: `ast.parse` is not thread-safe in CPython 3.11 ("AST constructor recursion depth mismatch"
-#: when `simulate_many`'s threads build their first runners at once), nor is a lazy compile
+#: a lazy compile is not thread-safe (`simulate_many`'s threads build their first runners at once)
 _COMPILING = threading.RLock()
 
 
@@ -156,9 +177,7 @@ def source_stamp(functions: Iterable[Callable]) -> str:
     """First 12 hex digits of the SHA-256 of the sources of `reachable_modules(functions)` and
     of this module (which sets the compile options)."""
     digest = hashlib.sha256()
-    with _COMPILING:
-        names = reachable_modules(functions)
-    for name in (*names, __name__):
+    for name in (*reachable_modules(functions), __name__):
         path = _module_file(name)
         if path is not None:
             digest.update(name.encode())

@@ -239,15 +239,19 @@ def test_browser_ghost_replay_heatmap_and_a_clean_console_through_switches(
                                            timeout=30_000)  # fmt: skip
                     fs = read_frame(session)
                     assert fs is not None and fs.scenario.mechanism == mechanism
-                    # the view from the target: the camera was framed at the build's frame, and
-                    # the base has moved with the sea since (by more than the tolerance when the
-                    # machine is slow), carrying camera and look-at point alike
+                    # the browser itself reported the framing (its hold ended on its message,
+                    # not on the server's write)...
+                    assert wait_for(lambda: client.client_id not in viewer.scene.unframed,
+                                    timeout=scaled(15.0)), (mechanism, viewer.scene.unframed)
+                    # ...and it is the view from the target: the camera was framed at the
+                    # build's frame, and the base has moved with the sea since (by more than
+                    # the tolerance when the machine is slow), carrying camera and look-at alike
                     framing, look_at = viewer.scene.camera_pose(FRAMING, viewer.scene.last or fs)
                     near = 0.05 * np.linalg.norm(framing - look_at)
                     assert wait_for(
                         lambda view=framing - look_at, tol=near: np.linalg.norm(
                             client.camera.position - client.camera.look_at - view) < tol,
-                        timeout=15.0,
+                        timeout=scaled(15.0),
                     ), (mechanism, client.camera.position, client.camera.look_at, framing, look_at)
 
                 # a second planner: the ghost in the browser's scene and in the readout

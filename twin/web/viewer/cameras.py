@@ -5,6 +5,7 @@ its camera stands, clear of the control panel.
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Iterable
 from typing import Any, Literal
@@ -24,9 +25,16 @@ View = Literal["overview", "walkway", "close-up"]
 #: it, however small the mechanism is next to its vessel
 FRAMING: View = "close-up"
 #: [s] after a build, a browser whose camera reports another view than the framing is put back
-#: at it: the camera message it sent before the new framing reached it can arrive after it,
-#: and viser then takes that old view for the browser's (seen on a loaded machine)
-FRAMING_SETTLE = 2.0
+#: at it until it has reported the framing once: the camera message it sent before the new
+#: framing reached it can arrive after it, and viser then takes that old view for the
+#: browser's (seen on a loaded machine, 2 s and more after the build). The hold ends at the
+#: browser's first report of the framing (messages from one browser arrive in order, so none
+#: sent before it is still to come), or after this long for a browser that never reports (a
+#: hidden tab draws no frame, so it sends no camera)
+FRAMING_HOLD = 30.0
+#: [s] least time between two re-framings of the browsers still held (one that is slow to
+#: answer is not sent the same view at every frame)
+FRAMING_RESEND = 0.25
 #: [-] a reported view within this share of the framing's distance is the framing
 FRAMING_TOLERANCE = 0.05
 #: [rad] the cameras' vertical field of view (viser's default, set on every camera)
@@ -96,6 +104,14 @@ class Cameras:
     server: viser.ViserServer
     #: [s] monotonic time until which `settle_framing` puts browsers back at the framing
     framing_until: float = 0.0
+    #: client ids of the browsers held at the framing: not yet reported it since the build
+    unframed: frozenset[int] = frozenset()
+    #: [s] monotonic time of the last re-framing (`FRAMING_RESEND`)
+    reframed_at: float = -np.inf
+    #: guards `unframed`, which viser's event loop (`camera_reported`) and the render thread
+    #: (`frame`, `settle_framing`, `set_camera`) both replace: a lost update would hold a
+    #: browser that has reported the framing, and snap its user's camera back
+    _holding = threading.Lock()
 
     def camera_pose(self, view: View, fs: FrameState) -> tuple[np.ndarray, np.ndarray]:
         """(camera position, look-at point) [m] of a preset view at the frame's state."""
@@ -139,35 +155,64 @@ class Cameras:
         raise ValueError(f"unknown view {view!r}; allowed: {VIEWS}")
 
     def frame(self, clients: Iterable[viser.ClientHandle]) -> None:
-        """Point the clients' cameras at the framing of a new build, and keep them there for
-        `FRAMING_SETTLE` (`settle_framing`)."""
+        """Point the clients' cameras at the framing of a new build, and hold them there until
+        each reports it (`settle_framing`, `camera_reported`)."""
+        clients = list(clients)
         self.set_camera(FRAMING, clients)
-        self.framing_until = time.monotonic() + FRAMING_SETTLE
+        with self._holding:
+            self.unframed = frozenset(client.client_id for client in clients)
+            self.framing_until = time.monotonic() + FRAMING_HOLD
 
-    def settle_framing(self, clients: Iterable[viser.ClientHandle]) -> None:
-        """Each frame, within `FRAMING_SETTLE` of a build: a browser whose reported view (from
-        its look-at point to its camera) is not the framing's is put at the framing again."""
-        if self.last is None or time.monotonic() > self.framing_until:
-            return
+    def _shows_framing(self, camera: viser.CameraHandle) -> bool:
+        """Whether the camera's view (from its look-at point to its position) is the
+        framing's, within `FRAMING_TOLERANCE` of its distance."""
+        if self.last is None:
+            return False
         position, look_at = self.camera_pose(FRAMING, self.last)
         view = position - look_at
-        tolerance = FRAMING_TOLERANCE * float(np.linalg.norm(view))
+        reported = camera.position - camera.look_at
+        return bool(
+            np.linalg.norm(reported - view) <= FRAMING_TOLERANCE * float(np.linalg.norm(view))
+        )
+
+    async def camera_reported(self, camera: viser.CameraHandle) -> None:
+        """A browser's camera message (viser awaits this on its event loop right after it
+        took the message in, so `camera` holds what the browser sent): its first report of
+        the framing ends its hold."""
+        client_id = camera.client.client_id
+        if client_id in self.unframed and self._shows_framing(camera):
+            with self._holding:
+                self.unframed = self.unframed - {client_id}
+
+    def settle_framing(self, clients: Iterable[viser.ClientHandle]) -> None:
+        """Each frame: a held browser (`unframed`) whose camera shows another view than the
+        framing is put at the framing again, at most every `FRAMING_RESEND`."""
+        if not self.unframed:
+            return
+        now = time.monotonic()
+        present = {client.client_id: client for client in clients}
+        with self._holding:
+            if now > self.framing_until:
+                self.unframed = frozenset()
+            self.unframed = self.unframed.intersection(present)
+            held = [present[client_id] for client_id in self.unframed]
         off = []
-        for client in clients:
+        for client in held:
             try:
-                reported = client.camera.position - client.camera.look_at
+                if not self._shows_framing(client.camera):
+                    off.append(client)
             except Exception:  # a browser that has not sent its camera yet
                 continue
-            if float(np.linalg.norm(reported - view)) > tolerance:
-                off.append(client)
-        if off:
+        if off and now - self.reframed_at >= FRAMING_RESEND:
+            self.reframed_at = now
             self.set_camera(FRAMING, off)
 
     def set_camera(self, view: View, clients: Iterable[viser.ClientHandle]) -> None:
         """Point the clients' cameras at a preset view of the latest frame (another view than
         the framing ends `settle_framing`'s hold)."""
         if view != FRAMING:
-            self.framing_until = 0.0
+            with self._holding:
+                self.unframed = frozenset()
         if self.last is None:
             return
         position, look_at = self.camera_pose(view, self.last)

@@ -130,8 +130,9 @@ class Viewer:
     def _connected(self, client: viser.ClientHandle) -> None:
         """A browser connected: wake the render loop, and have its page report its WebGL
         renderer (`DETECT_RENDERER_JS`), with a random key of its own: a page cannot report
-        for another browser."""
+        for another browser. Its camera messages end its framing hold (`camera_reported`)."""
         self._wake.set()
+        client.camera.on_update(self.scene.camera_reported)
         key = secrets.token_urlsafe(16)
         with self._keys_lock:
             self._keys[key] = client.client_id
