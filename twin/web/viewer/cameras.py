@@ -180,8 +180,8 @@ class Cameras:
         took the message in, so `camera` holds what the browser sent): its first report of
         the framing ends its hold."""
         client_id = camera.client.client_id
-        if client_id in self.unframed and self._shows_framing(camera):
-            with self._holding:
+        with self._holding:
+            if client_id in self.unframed and self._shows_framing(camera):
                 self.unframed = self.unframed - {client_id}
 
     def settle_framing(self, clients: Iterable[viser.ClientHandle]) -> None:
