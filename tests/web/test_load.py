@@ -35,7 +35,7 @@ import sys
 import threading
 import time
 from collections import Counter
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from datetime import datetime
 from importlib.metadata import version
 from pathlib import Path
@@ -511,21 +511,32 @@ def test_load_and_soak(tmp_path: Path) -> None:
         submitted = httpx.post(f"{server.url}/api/sweeps", json=SWEEP, timeout=PATCH_TIMEOUT)
         assert submitted.status_code == 202, submitted.text
         sweep_id = submitted.json()["id"]
-        jobs = []
+        jobs: list[tuple[str, Future[None]]] = []
         with ThreadPoolExecutor(CLIENTS + PATCH_THREADS + RUN_THREADS + 1) as pool:
             poller = pool.submit(health_poller, load, server.url)
-            jobs += [pool.submit(websocket_client, load, viser_port, WS_ROUNDS)
-                     for _ in range(CLIENTS)]  # fmt: skip
-            jobs += [pool.submit(patcher, load, server.url, 100 + i, PATCHES // PATCH_THREADS)
+            jobs += [(f"viewer {i}", pool.submit(websocket_client, load, viser_port, WS_ROUNDS))
+                     for i in range(CLIENTS)]  # fmt: skip
+            jobs += [(f"patcher {i}", pool.submit(patcher, load, server.url, 100 + i,
+                                                  PATCHES // PATCH_THREADS))
                      for i in range(PATCH_THREADS)]  # fmt: skip
-            jobs += [pool.submit(runner, load, server.url, 200 + i, RUNS_PER_THREAD)
+            jobs += [(f"runner {i}", pool.submit(runner, load, server.url, 200 + i,
+                                                 RUNS_PER_THREAD))
                      for i in range(RUN_THREADS)]  # fmt: skip
             try:
-                for job in jobs:  # a thread's exception (a refused connection, ...) fails here
+                for name, job in jobs:  # a thread's exception (refused connection, ...) fails here
                     # the budget read again under the test's own load: read only at the start,
                     # an idle machine gave the jobs the least time (49.6 s, one plain CI run)
                     budget = max(budget, scaled(BUDGET))
-                    job.result(timeout=max(1.0, began + budget - 25.0 - time.monotonic()))
+                    wait = max(1.0, began + budget - 25.0 - time.monotonic())
+                    try:
+                        job.result(timeout=wait)
+                    except TimeoutError:
+                        late = [n for n, j in jobs if not j.done()]
+                        raise AssertionError(
+                            f"{name} not done {time.monotonic() - load_began:.1f} s into the load"
+                            f" (waited {wait:.1f} s, budget {budget:.1f} s); still running: {late};"
+                            f" {len(load.accepted)} runs accepted, {len(load.failures)} failures"
+                        ) from None
             finally:
                 load.stop.set()
                 poller.result(timeout=HEALTH_LATENCY * load.stretch + 5.0)
