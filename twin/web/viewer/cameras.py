@@ -102,16 +102,18 @@ class Cameras:
     last: FrameState | None
     clip: tuple[float, float]
     server: viser.ViserServer
-    #: [s] monotonic time until which `settle_framing` puts browsers back at the framing
-    framing_until: float = 0.0
-    #: client ids of the browsers held at the framing: not yet reported it since the build
-    unframed: frozenset[int] = frozenset()
-    #: [s] monotonic time of the last re-framing (`FRAMING_RESEND`)
-    reframed_at: float = -np.inf
-    #: guards `unframed`, which viser's event loop (`camera_reported`) and the render thread
-    #: (`frame`, `settle_framing`, `set_camera`) both replace: a lost update would hold a
-    #: browser that has reported the framing, and snap its user's camera back
-    _holding = threading.Lock()
+
+    def __init__(self) -> None:
+        #: [s] monotonic time until which `settle_framing` puts browsers back at the framing
+        self.framing_until = 0.0
+        #: client ids of the browsers held at the framing: not yet reported it since the build
+        self.unframed: frozenset[int] = frozenset()
+        #: [s] monotonic time of the last re-framing (`FRAMING_RESEND`)
+        self.reframed_at = -np.inf
+        #: guards `unframed`, which viser's event loop (`camera_reported`) and the render
+        #: thread (`frame`, `settle_framing`, `set_camera`) both replace: a lost update would
+        #: hold a browser that has reported the framing, and snap its user's camera back
+        self._holding = threading.Lock()
 
     def camera_pose(self, view: View, fs: FrameState) -> tuple[np.ndarray, np.ndarray]:
         """(camera position, look-at point) [m] of a preset view at the frame's state."""
@@ -163,13 +165,20 @@ class Cameras:
             self.unframed = frozenset(client.client_id for client in clients)
             self.framing_until = time.monotonic() + FRAMING_HOLD
 
-    def _shows_framing(self, camera: viser.CameraHandle) -> bool:
-        """Whether the camera's view (from its look-at point to its position) is the
-        framing's, within `FRAMING_TOLERANCE` of its distance."""
+    def _framing_view(self) -> np.ndarray | None:
+        """(3,) [m] the framing's view, from its look-at point to its position, at the latest
+        frame (None before the first)."""
         if self.last is None:
-            return False
+            return None
         position, look_at = self.camera_pose(FRAMING, self.last)
-        view = position - look_at
+        return position - look_at
+
+    @staticmethod
+    def _shows_framing(camera: viser.CameraHandle, view: np.ndarray | None) -> bool:
+        """Whether the camera's view (from its look-at point to its position) is the framing's
+        `view` (`_framing_view`), within `FRAMING_TOLERANCE` of its distance."""
+        if view is None:
+            return False
         reported = camera.position - camera.look_at
         return bool(
             np.linalg.norm(reported - view) <= FRAMING_TOLERANCE * float(np.linalg.norm(view))
@@ -181,7 +190,7 @@ class Cameras:
         the framing ends its hold."""
         client_id = camera.client.client_id
         with self._holding:
-            if client_id in self.unframed and self._shows_framing(camera):
+            if client_id in self.unframed and self._shows_framing(camera, self._framing_view()):
                 self.unframed = self.unframed - {client_id}
 
     def settle_framing(self, clients: Iterable[viser.ClientHandle]) -> None:
@@ -196,10 +205,10 @@ class Cameras:
                 self.unframed = frozenset()
             self.unframed = self.unframed.intersection(present)
             held = [present[client_id] for client_id in self.unframed]
-        off = []
+        off, view = [], self._framing_view()
         for client in held:
             try:
-                if not self._shows_framing(client.camera):
+                if not self._shows_framing(client.camera, view):
                     off.append(client)
             except Exception:  # a browser that has not sent its camera yet
                 continue

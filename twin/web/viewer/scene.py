@@ -162,6 +162,7 @@ class TwinScene(Cameras):
     """
 
     def __init__(self, server: viser.ViserServer) -> None:
+        super().__init__()
         self.server = server
         self.mechanism_name: str | None = None
         self.hull: Hull | None = None
