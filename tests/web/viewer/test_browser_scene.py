@@ -27,6 +27,7 @@ from playwright.sync_api import Page, sync_playwright
 
 from tests.figures import record
 from tests.web.support import free_port, wait_for
+from tests.web.viewer.support import CameraReports
 from tests.web.viewer.test_browser import ARGS, CHROMIUM, HALF_RESOLUTION
 from twin.sim.live import LiveSession
 from twin.web.access import Access
@@ -140,6 +141,7 @@ def test_a_software_renderer_gets_light_graphics_and_every_view_shows_the_mechan
             page.wait_for_function(f"() => !({LIGHTING})().environment", timeout=120_000)
 
             (client,) = viewer.server.get_clients().values()
+            reports = CameraReports(client)
             canvas = page.evaluate(
                 "() => { const c = document.querySelector('canvas').getBoundingClientRect();"
                 " return [c.width, c.height]; }"
@@ -151,33 +153,30 @@ def test_a_software_renderer_gets_light_graphics_and_every_view_shows_the_mechan
                         lambda m=mechanism: viewer.scene.mechanism_name == m, timeout=30.0
                     )
                 for view in VIEWS:
-                    # the browser reports the view it was given (from the latest frame: the
-                    # vessel, and the view with it, has moved a little since); sent again if
-                    # the switch's own camera move reached the browser after it
+                    # the browser's own report of the view it was given, not viser's record
+                    # of what was sent (`CameraReports`); sent again if a report the browser
+                    # sent before it came after it
                     for _ in range(3):
+                        since = reports.mark()
                         viewer.scene.set_camera(view, [client])
                         position, look_at = viewer.scene.camera_pose(view, viewer.scene.last)
-                        if wait_for(
-                            lambda w=position - look_at: np.linalg.norm(
-                                client.camera.position - client.camera.look_at - w
-                            ) < 0.05 * np.linalg.norm(w),
-                            timeout=10.0,
-                        ):
+                        camera = reports.wait_view(since, position, look_at, timeout=10.0)
+                        if camera is not None:
                             break
                     else:
-                        raise AssertionError((mechanism, view, client.camera.position, position))
+                        raise AssertionError((mechanism, view, reports.reports[-3:], position))
                     fs = read_frame(session)
                     assert fs is not None and fs.scenario.mechanism == mechanism
                     if view == "walkway" and mechanism == "hybrid":
                         continue  # a person's eye on the gangway: the mechanism is underfoot
-                    shown = project(mechanism_points(fs), client.camera, *canvas)
+                    shown = project(mechanism_points(fs), camera, *canvas)
                     assert np.all(np.isfinite(shown)), (mechanism, view)
                     size = float(np.ptp(shown, axis=0).max())
                     sizes[f"{mechanism}/{view}"] = round(size, 1)
                     assert size >= MIN_PX, (mechanism, view, size)
                     if view == FRAMING:
                         # the mechanism and its target, inside the window
-                        whole = project(framed_points(fs), client.camera, *canvas)
+                        whole = project(framed_points(fs), camera, *canvas)
                         assert np.all(np.isfinite(whole))
                         assert np.all(whole >= 0) and np.all(whole <= canvas), (mechanism, whole)
             time.sleep(0.5)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import threading
 from types import SimpleNamespace
 from typing import Any
 
@@ -126,9 +127,44 @@ def test_a_held_browser_that_is_slow_to_answer_is_not_sent_the_view_at_every_fra
     browser = Browser()
     scene.frame([browser])
     sent = []
-    scene.set_camera = lambda view, clients: sent.append(clock[0])  # type: ignore[method-assign]
+    scene._send = lambda view, clients: sent.append(clock[0])  # type: ignore[method-assign]
     browser.stale()
     for _ in range(10):  # 10 frames 0.125 s apart, the browser stuck on its stale view
         scene.settle_framing([browser])
         clock[0] += 0.125
     assert sent == [100.0, 100.25, 100.5, 100.75, 101.0]
+
+
+def test_a_view_asked_for_while_a_re_framing_is_decided_is_the_one_kept(scene: Cameras) -> None:
+    """The render thread's re-framing and a view asked for from another thread (the panel, a
+    test) are one step each: a view asked for while `settle_framing` is deciding is sent
+    after its re-framing, and ends the hold. (Before, the re-framing was decided, the lock
+    let go, the view sent and the hold ended, and then the re-framing sent: the browser went
+    back to the close-up, seen in CI as a camera off the mechanism.)"""
+    browser = Browser()
+    scene.frame([browser])
+    browser.stale()
+    views: list[str] = []
+    send = scene._send
+    scene._send = lambda view, clients: (views.append(view), send(view, clients))  # type: ignore[method-assign]
+    asked = threading.Event()
+    other = threading.Thread(target=lambda: (asked.set(), scene.set_camera("overview", [browser])))
+    camera = browser.camera
+
+    class Deciding:
+        """The browser's camera, read by `settle_framing` while it decides: the view is asked
+        for from the other thread right then, which has all the time it needs to get in."""
+
+        def __getattr__(self, name: str) -> Any:
+            if not other.is_alive() and not asked.is_set():
+                other.start()
+                asked.wait()
+                other.join(timeout=0.5)  # blocked on the hold's lock: it cannot get in
+            return getattr(camera, name)
+
+    browser.camera = Deciding()  # type: ignore[assignment]
+    scene.settle_framing([browser])
+    other.join()
+    browser.camera = camera
+    assert views == [FRAMING, "overview"]
+    assert not browser.framed() and scene.unframed == frozenset()

@@ -112,7 +112,8 @@ class Cameras:
         self.reframed_at = -np.inf
         #: guards `unframed`, which viser's event loop (`camera_reported`) and the render
         #: thread (`frame`, `settle_framing`, `set_camera`) both replace: a lost update would
-        #: hold a browser that has reported the framing, and snap its user's camera back
+        #: hold a browser that has reported the framing, and snap its user's camera back. The
+        #: cameras are sent under it too, so a view's message and the hold's change are one step
         self._holding = threading.Lock()
 
     def camera_pose(self, view: View, fs: FrameState) -> tuple[np.ndarray, np.ndarray]:
@@ -160,8 +161,8 @@ class Cameras:
         """Point the clients' cameras at the framing of a new build, and hold them there until
         each reports it (`settle_framing`, `camera_reported`)."""
         clients = list(clients)
-        self.set_camera(FRAMING, clients)
         with self._holding:
+            self._send(FRAMING, clients)
             self.unframed = frozenset(client.client_id for client in clients)
             self.framing_until = time.monotonic() + FRAMING_HOLD
 
@@ -195,33 +196,40 @@ class Cameras:
 
     def settle_framing(self, clients: Iterable[viser.ClientHandle]) -> None:
         """Each frame: a held browser (`unframed`) whose camera shows another view than the
-        framing is put at the framing again, at most every `FRAMING_RESEND`."""
+        framing is put at the framing again, at most every `FRAMING_RESEND`. Decided and sent
+        under the hold's lock: a view asked for meanwhile (`set_camera`) ends the hold, and a
+        re-framing decided before it but sent after would replace the view asked for."""
         if not self.unframed:
             return
         now = time.monotonic()
         present = {client.client_id: client for client in clients}
+        view = self._framing_view()
         with self._holding:
             if now > self.framing_until:
                 self.unframed = frozenset()
             self.unframed = self.unframed.intersection(present)
-            held = [present[client_id] for client_id in self.unframed]
-        off, view = [], self._framing_view()
-        for client in held:
-            try:
-                if not self._shows_framing(client.camera, view):
-                    off.append(client)
-            except Exception:  # a browser that has not sent its camera yet
-                continue
-        if off and now - self.reframed_at >= FRAMING_RESEND:
-            self.reframed_at = now
-            self.set_camera(FRAMING, off)
+            off = []
+            for client_id in self.unframed:
+                try:
+                    if not self._shows_framing(present[client_id].camera, view):
+                        off.append(present[client_id])
+                except Exception:  # a browser that has not sent its camera yet
+                    continue
+            if off and now - self.reframed_at >= FRAMING_RESEND:
+                self.reframed_at = now
+                self._send(FRAMING, off)
 
     def set_camera(self, view: View, clients: Iterable[viser.ClientHandle]) -> None:
         """Point the clients' cameras at a preset view of the latest frame (another view than
         the framing ends `settle_framing`'s hold)."""
-        if view != FRAMING:
-            with self._holding:
+        with self._holding:
+            if view != FRAMING:
                 self.unframed = frozenset()
+            self._send(view, clients)
+
+    def _send(self, view: View, clients: Iterable[viser.ClientHandle]) -> None:
+        """Send the clients' cameras to a preset view of the latest frame (the caller holds
+        `_holding`)."""
         if self.last is None:
             return
         position, look_at = self.camera_pose(view, self.last)
